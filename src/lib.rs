@@ -1,0 +1,9 @@
+//! mapvlm: multi-agent planning with visual language models, and the PG2S and
+//! KAS plan metrics, as a library, a headless command line and a terminal UI.
+//!
+//! Data flows one way: a dataset or scene goes to the agents, the agents make a
+//! plan, the metrics judge the plan, and the views show all of it.
+
+pub mod cli;
+pub mod metrics;
+pub mod nlp;
