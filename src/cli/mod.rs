@@ -1,16 +1,27 @@
-//! The command line: `score`, `embed`, `models` and the other subcommands.
+//! The command line: one subcommand a module, each with `--json` where a
+//! program may read the output.
 
 use std::process::ExitCode;
 
-use clap::Parser;
+use clap::{Parser, Subcommand};
 
 /// mapvlm: multi-agent planning with visual language models, and plan metrics.
 #[derive(Debug, Parser)]
 #[command(name = "mapvlm", version, about)]
-pub struct Cli {}
+pub struct Cli {
+    /// The subcommand to run.
+    #[command(subcommand)]
+    pub command: Option<Command>,
+}
+
+/// The subcommands.
+#[derive(Debug, Subcommand)]
+pub enum Command {}
 
 /// Parses the command line and runs the chosen command.
 pub fn run() -> anyhow::Result<ExitCode> {
-    let _cli = Cli::parse();
-    Ok(ExitCode::SUCCESS)
+    let cli = Cli::parse();
+    match cli.command {
+        None => Ok(ExitCode::SUCCESS),
+    }
 }
