@@ -5,5 +5,7 @@
 //! plan, the metrics judge the plan, and the views show all of it.
 
 pub mod cli;
+pub mod dataset;
 pub mod metrics;
 pub mod nlp;
+pub mod plan;
