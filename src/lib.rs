@@ -6,6 +6,7 @@
 
 pub mod cli;
 pub mod dataset;
+pub mod demo;
 pub mod metrics;
 pub mod nlp;
 pub mod plan;

@@ -23,7 +23,7 @@ pub enum Metric {
     Pg2s,
 }
 
-/// Arguments of `mapvlm score`.
+/// Arguments of `mapvlm score`. With no input, the built-in example is scored.
 #[derive(Debug, Args)]
 pub struct ScoreArgs {
     /// Ground-truth step file (one step a line; numbering and bullets are removed).
@@ -158,7 +158,14 @@ fn read_pairs(args: &ScoreArgs) -> anyhow::Result<(Vec<Pair>, Vec<String>)> {
             };
             Ok((vec![pair], Vec::new()))
         }
-        _ => bail!("give --gt FILE --pred FILE, or --pairs FILE.jsonl"),
+        _ => Ok((
+            vec![Pair {
+                id: format!("built-in example: {}", crate::demo::TASK.trim()),
+                gt: parse_steps(crate::demo::GROUND_TRUTH),
+                pred: parse_steps(crate::demo::PLAN),
+            }],
+            Vec::new(),
+        )),
     }
 }
 
