@@ -6,4 +6,5 @@
 
 pub mod cli;
 pub mod metrics;
+pub mod models;
 pub mod nlp;

@@ -5,6 +5,8 @@ use std::process::ExitCode;
 
 use clap::{Parser, Subcommand};
 
+pub mod models;
+
 /// mapvlm: multi-agent planning with visual language models, and plan metrics.
 #[derive(Debug, Parser)]
 #[command(name = "mapvlm", version, about)]
@@ -16,12 +18,16 @@ pub struct Cli {
 
 /// The subcommands.
 #[derive(Debug, Subcommand)]
-pub enum Command {}
+pub enum Command {
+    /// Fetch, verify or list the default model pack.
+    Models(models::ModelsArgs),
+}
 
 /// Parses the command line and runs the chosen command.
 pub fn run() -> anyhow::Result<ExitCode> {
     let cli = Cli::parse();
     match cli.command {
         None => Ok(ExitCode::SUCCESS),
+        Some(Command::Models(args)) => models::run(args),
     }
 }
