@@ -40,7 +40,7 @@ fn parse_header(bytes: &[u8], path: &Path) -> Result<(usize, usize, usize), Word
             path,
             "line 1",
             format!(
-                "expected the word2vec header `COUNT DIMENSION`, found `{}`",
+                "expected the word2vec header `COUNT DIMENSION` (a GloVe .txt needs this line added first), found `{}`",
                 line.as_deref()
                     .unwrap_or("no line")
                     .chars()
