@@ -44,11 +44,12 @@ pub(super) fn load(dir: &Path) -> Result<WordVectorTable, WordVectorError> {
         };
         (starts, 4)
     };
-    let rows = words
-        .into_iter()
-        .enumerate()
-        .filter_map(|(row, word)| Some((word?.into_boxed_str(), row)))
-        .collect::<HashMap<_, _>>();
+    let mut rows = HashMap::with_capacity(words.len());
+    for (row, word) in words.into_iter().enumerate() {
+        if let Some(word) = word {
+            rows.insert(word.into_boxed_str(), row);
+        }
+    }
     Ok(WordVectorTable {
         rows,
         dim: header.cols,
