@@ -10,3 +10,5 @@ pub mod demo;
 pub mod metrics;
 pub mod nlp;
 pub mod plan;
+pub mod session;
+pub mod tui;

@@ -2,6 +2,7 @@
 //! program may read the output.
 
 mod score;
+mod tui;
 
 use std::path::PathBuf;
 use std::process::ExitCode;
@@ -12,11 +13,19 @@ use crate::metrics::pg2s::{Pg2sScorer, Pg2sSettings};
 
 /// mapvlm: multi-agent planning with visual language models, and plan metrics.
 #[derive(Debug, Parser)]
-#[command(name = "mapvlm", version, about)]
+#[command(
+    name = "mapvlm",
+    version,
+    about,
+    args_conflicts_with_subcommands = true
+)]
 pub struct Cli {
-    /// The subcommand to run.
+    /// The subcommand to run; without one, the terminal workbench opens.
     #[command(subcommand)]
     pub command: Option<Command>,
+    /// The workbench's options, when no subcommand is given.
+    #[command(flatten)]
+    pub tui: tui::TuiArgs,
 }
 
 /// The subcommands.
@@ -24,6 +33,8 @@ pub struct Cli {
 pub enum Command {
     /// Score predicted plans against ground truths with PG2S and KAS.
     Score(score::ScoreArgs),
+    /// The terminal workbench (also what `mapvlm` alone opens).
+    Tui(tui::TuiArgs),
 }
 
 /// Where the models come from, for the commands that need them.
@@ -50,6 +61,7 @@ pub fn run() -> anyhow::Result<ExitCode> {
     let cli = Cli::parse();
     match cli.command {
         Some(Command::Score(args)) => score::run(&args),
-        None => Ok(ExitCode::SUCCESS),
+        Some(Command::Tui(args)) => tui::run(args),
+        None => tui::run(cli.tui),
     }
 }
