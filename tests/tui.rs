@@ -282,3 +282,62 @@ fn scores_of_a_finished_run_are_kept_in_its_record() {
         Some(Pg2sOutcome::Waiting(_))
     ));
 }
+
+#[test]
+fn published_plans_score_as_in_mapvlm_score() {
+    let root = concat!(env!("CARGO_MANIFEST_DIR"), "/../shared/data/alfred30");
+    let (dataset, _) = mapvlm::dataset::Dataset::load(std::path::Path::new(root)).unwrap();
+    let (themes, _) = load_themes(None);
+    let (app, cmds) = App::new(AppInit {
+        dataset: Some(dataset.clone()),
+        themes,
+        theme: None,
+        no_color: false,
+        session: None,
+        notice: None,
+        size: (200, 60),
+        models: ModelStatus::Unavailable("no models in this test".into()),
+    });
+    let mut h = Harness {
+        app,
+        models: unavailable(),
+    };
+    h.run(cmds);
+    let dir = tempfile::tempdir().unwrap();
+    for index in [0usize, 7, 21] {
+        if index > 0 {
+            h.key(KeyCode::Char('g'));
+            for _ in 0..dataset.tasks.len() {
+                h.key(KeyCode::Up);
+            }
+            for _ in 0..index {
+                h.key(KeyCode::Down);
+            }
+            h.key(KeyCode::Enter);
+        }
+        let task = &dataset.tasks[index];
+        assert_eq!(h.app.task.id.as_deref(), Some(task.id.as_str()));
+        let plan = &task.plans["multi_agent_image"];
+        assert_eq!(&h.app.plan, plan);
+        let gt_file = dir.path().join("gt.txt");
+        let pred_file = dir.path().join("pred.txt");
+        std::fs::write(&gt_file, task.ground_truth.join("\n")).unwrap();
+        std::fs::write(&pred_file, plan.join("\n")).unwrap();
+        let out = std::process::Command::new(env!("CARGO_BIN_EXE_mapvlm"))
+            .args(["score", "--metrics", "kas", "--json", "--gt"])
+            .arg(&gt_file)
+            .arg("--pred")
+            .arg(&pred_file)
+            .output()
+            .unwrap();
+        let json: serde_json::Value = serde_json::from_slice(&out.stdout).unwrap();
+        let shown = h.app.scores.as_ref().and_then(|s| s.kas.kas);
+        assert_eq!(json["kas"].as_f64(), shown, "task {}", task.id);
+        let screen = h.screen();
+        let expected = shown.map_or("  –  ".to_string(), |k| format!("KAS {k:.3}"));
+        assert!(
+            screen.contains(&expected),
+            "{expected} not on screen:\n{screen}"
+        );
+    }
+}
