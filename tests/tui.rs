@@ -8,7 +8,7 @@ use mapvlm::metrics::pg2s::{Pg2sScorer, Pg2sSettings};
 use mapvlm::metrics::{ModelError, SentenceEncoder};
 use mapvlm::session::Agent;
 use mapvlm::tui::agents::{recorded_output, AgentEvent};
-use mapvlm::tui::app::{App, AppInit, Cmd, ModelStatus, Msg, Pane};
+use mapvlm::tui::app::{App, AppInit, Cmd, Msg, Pane};
 use mapvlm::tui::scoring::{score_now, ModelSlot, Pg2sOutcome};
 use mapvlm::tui::theme::{load_themes, Theme};
 use mapvlm::tui::{prepare_image, ui};
@@ -49,16 +49,10 @@ struct Harness {
 
 impl Harness {
     fn new(size: (u16, u16), theme: Option<&str>, no_color: bool, models: ModelSlot) -> Harness {
-        let (themes, _) = load_themes(None);
         let (app, cmds) = App::new(AppInit {
-            dataset: None,
-            themes,
             theme: theme.map(str::to_string),
             no_color,
-            session: None,
-            notice: None,
-            size,
-            models: ModelStatus::Unavailable("no models in this test".into()),
+            ..AppInit::demo(size, "no models in this test")
         });
         let mut h = Harness { app, models };
         h.run(cmds);
@@ -287,16 +281,9 @@ fn scores_of_a_finished_run_are_kept_in_its_record() {
 fn published_plans_score_as_in_mapvlm_score() {
     let root = concat!(env!("CARGO_MANIFEST_DIR"), "/../shared/data/alfred30");
     let (dataset, _) = mapvlm::dataset::Dataset::load(std::path::Path::new(root)).unwrap();
-    let (themes, _) = load_themes(None);
     let (app, cmds) = App::new(AppInit {
         dataset: Some(dataset.clone()),
-        themes,
-        theme: None,
-        no_color: false,
-        session: None,
-        notice: None,
-        size: (200, 60),
-        models: ModelStatus::Unavailable("no models in this test".into()),
+        ..AppInit::demo((200, 60), "no models in this test")
     });
     let mut h = Harness {
         app,

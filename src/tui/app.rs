@@ -341,6 +341,23 @@ pub struct AppInit {
     pub models: ModelStatus,
 }
 
+impl AppInit {
+    /// A start on the built-in demo with the built-in themes, no dataset,
+    /// no session and the PG2S models reported missing for `reason`.
+    pub fn demo(size: (u16, u16), reason: &str) -> AppInit {
+        AppInit {
+            dataset: None,
+            themes: super::theme::load_themes(None).0,
+            theme: None,
+            no_color: false,
+            session: None,
+            notice: None,
+            size,
+            models: ModelStatus::Unavailable(reason.to_string()),
+        }
+    }
+}
+
 /// The whole state of the workbench.
 pub struct App {
     /// The terminal's size.
