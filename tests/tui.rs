@@ -328,3 +328,15 @@ fn published_plans_score_as_in_mapvlm_score() {
         );
     }
 }
+
+#[test]
+fn a_start_notice_is_not_hidden_by_the_demo_run() {
+    let (app, _) = App::new(AppInit {
+        notice: Some((
+            "the session file could not be read; it was moved aside".into(),
+            mapvlm::tui::app::Severity::Warn,
+        )),
+        ..AppInit::demo((200, 60), "none")
+    });
+    assert!(app.status.unwrap().0.contains("moved aside"));
+}

@@ -549,6 +549,7 @@ impl App {
             session_dirty: false,
             saved: None,
         };
+        let notice = app.status.clone();
         let mut cmds = Vec::new();
         match init.session {
             Some(session) => cmds.extend(app.restore(session)),
@@ -556,6 +557,9 @@ impl App {
                 Some(task) => cmds.extend(app.switch_task(&task)),
                 None => cmds.extend(app.start_run(false)),
             },
+        }
+        if notice.is_some() {
+            app.status = notice;
         }
         app.load_prompt_editor();
         cmds.push(app.rescore());
