@@ -11,3 +11,5 @@ pub mod metrics;
 pub mod models;
 pub mod nlp;
 pub mod plan;
+pub mod session;
+pub mod tui;

@@ -3,6 +3,7 @@
 
 mod models;
 mod score;
+mod tui;
 
 use std::path::PathBuf;
 use std::process::ExitCode;
@@ -13,11 +14,19 @@ use crate::metrics::pg2s::{Pg2sScorer, Pg2sSettings};
 
 /// mapvlm: multi-agent planning with visual language models, and plan metrics.
 #[derive(Debug, Parser)]
-#[command(name = "mapvlm", version, about)]
+#[command(
+    name = "mapvlm",
+    version,
+    about,
+    args_conflicts_with_subcommands = true
+)]
 pub struct Cli {
-    /// The subcommand to run.
+    /// The subcommand to run; without one, the terminal workbench opens.
     #[command(subcommand)]
     pub command: Option<Command>,
+    /// The workbench's options, when no subcommand is given.
+    #[command(flatten)]
+    pub tui: tui::TuiArgs,
 }
 
 /// The subcommands.
@@ -27,6 +36,8 @@ pub enum Command {
     Score(score::ScoreArgs),
     /// Fetch, verify or list the default model pack.
     Models(models::ModelsArgs),
+    /// The terminal workbench (also what `mapvlm` alone opens).
+    Tui(tui::TuiArgs),
 }
 
 /// Where the models come from, for the commands that need them.
@@ -54,6 +65,7 @@ pub fn run() -> anyhow::Result<ExitCode> {
     match cli.command {
         Some(Command::Score(args)) => score::run(&args),
         Some(Command::Models(args)) => models::run(args),
-        None => Ok(ExitCode::SUCCESS),
+        Some(Command::Tui(args)) => tui::run(args),
+        None => tui::run(cli.tui),
     }
 }

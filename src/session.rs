@@ -1,0 +1,448 @@
+//! The saved state of a workbench session: what the user chose and typed, and
+//! every run with its prompts, outputs, scores, settings, timing and token use.
+//! Saved with atomic writes (temporary file, then rename) so a crash never
+//! leaves half a file; a file that cannot be read is set aside, not fatal.
+
+use std::collections::BTreeMap;
+use std::fmt;
+use std::io::Write as _;
+use std::path::{Path, PathBuf};
+
+use serde::{Deserialize, Serialize};
+
+/// The format version written into every session file.
+pub const SESSION_VERSION: u32 = 1;
+
+/// One of the three agents of the multi-agent pipeline.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, PartialOrd, Ord, Hash, Serialize, Deserialize)]
+#[serde(rename_all = "lowercase")]
+pub enum Agent {
+    /// The semantic-knowledge miner: scene triples.
+    Skm,
+    /// The grounded-knowledge miner: a grounded description.
+    Gkm,
+    /// The planner: atomic steps.
+    Planner,
+}
+
+impl Agent {
+    /// The agents in pipeline order.
+    pub const ALL: [Agent; 3] = [Agent::Skm, Agent::Gkm, Agent::Planner];
+
+    /// The short name shown to users.
+    pub fn label(self) -> &'static str {
+        match self {
+            Agent::Skm => "SKM",
+            Agent::Gkm => "GKM",
+            Agent::Planner => "Planner",
+        }
+    }
+}
+
+impl fmt::Display for Agent {
+    fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
+        f.write_str(self.label())
+    }
+}
+
+/// The four ways of making a plan the paper compares.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Hash, Serialize, Deserialize)]
+#[serde(rename_all = "kebab-case")]
+pub enum Approach {
+    /// SKM and GKM read the image, the planner reads their outputs.
+    MultiImage,
+    /// One VLM call from the image.
+    SingleImage,
+    /// The miners read the G-PlanET table instead of the image.
+    MultiTable,
+    /// One call from the table.
+    SingleTable,
+}
+
+impl Approach {
+    /// The approaches in the order they cycle.
+    pub const ALL: [Approach; 4] = [
+        Approach::MultiImage,
+        Approach::SingleImage,
+        Approach::MultiTable,
+        Approach::SingleTable,
+    ];
+
+    /// The name used on the command line and in the UI.
+    pub fn label(self) -> &'static str {
+        match self {
+            Approach::MultiImage => "multi-image",
+            Approach::SingleImage => "single-image",
+            Approach::MultiTable => "multi-table",
+            Approach::SingleTable => "single-table",
+        }
+    }
+
+    /// The key of this approach's published plans in a dataset task.
+    pub fn dataset_key(self) -> &'static str {
+        match self {
+            Approach::MultiImage => "multi_agent_image",
+            Approach::SingleImage => "single_agent_image",
+            Approach::MultiTable => "multi_agent_table",
+            Approach::SingleTable => "single_agent_table",
+        }
+    }
+
+    /// Whether the approach reads the environment table instead of the image.
+    pub fn needs_table(self) -> bool {
+        matches!(self, Approach::MultiTable | Approach::SingleTable)
+    }
+
+    /// The agents the approach runs, in order.
+    pub fn agents(self) -> &'static [Agent] {
+        match self {
+            Approach::MultiImage | Approach::MultiTable => &Agent::ALL,
+            Approach::SingleImage | Approach::SingleTable => &[Agent::Planner],
+        }
+    }
+}
+
+/// The provider, model and sampling settings of one agent.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+pub struct AgentSettings {
+    /// Provider name, e.g. `replay` or `openai`.
+    pub provider: String,
+    /// Model name at that provider.
+    pub model: String,
+    /// Sampling temperature (the paper used 0).
+    pub temperature: f32,
+    /// The most tokens the agent may write.
+    pub max_tokens: u32,
+}
+
+/// Where the ground truth in use came from.
+#[derive(Debug, Clone, PartialEq, Eq, Serialize, Deserialize)]
+#[serde(tag = "kind", rename_all = "snake_case")]
+pub enum GroundTruthSource {
+    /// One of the built-in demo's ground truths, by index.
+    Demo {
+        /// Index into the demo's ground truths.
+        index: usize,
+    },
+    /// The ground truth of a dataset task.
+    Dataset {
+        /// The task id.
+        task: String,
+    },
+    /// A step file.
+    File {
+        /// The file it was read from.
+        path: PathBuf,
+    },
+    /// Typed in the workbench.
+    Typed,
+}
+
+/// Where the plan in the Plan pane came from.
+#[derive(Debug, Clone, PartialEq, Eq, Serialize, Deserialize)]
+#[serde(tag = "kind", rename_all = "snake_case")]
+pub enum PlanSource {
+    /// No plan yet.
+    None,
+    /// The planner of a run.
+    Run {
+        /// The run's id.
+        run: u64,
+    },
+    /// A plan published with a dataset task.
+    Published {
+        /// The task id.
+        task: String,
+        /// The approach whose plan it is.
+        approach: Approach,
+    },
+}
+
+/// Token use of one agent call.
+#[derive(Debug, Clone, Copy, Default, PartialEq, Eq, Serialize, Deserialize)]
+pub struct Usage {
+    /// Tokens sent.
+    pub input: u64,
+    /// Tokens written.
+    pub output: u64,
+}
+
+/// One agent's part of a run.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+pub struct AgentRecord {
+    /// The agent.
+    pub agent: Agent,
+    /// Its settings for this run.
+    pub settings: AgentSettings,
+    /// The prompt it was given.
+    pub prompt: String,
+    /// What it wrote (possibly partial when the run was cancelled).
+    pub output: String,
+    /// Wall time in milliseconds.
+    pub duration_ms: u64,
+    /// Token use.
+    pub usage: Usage,
+    /// Why it failed, when it did.
+    pub error: Option<String>,
+}
+
+/// The scores of a plan against a ground truth.
+#[derive(Debug, Clone, Copy, Default, PartialEq, Serialize, Deserialize)]
+pub struct ScoreRecord {
+    /// KAS, when applicable.
+    pub kas: Option<f64>,
+    /// S_plan, when the sentence encoder was available.
+    pub s_plan: Option<f64>,
+    /// S_goal, when the goal models were available.
+    pub s_goal: Option<f64>,
+    /// PG2S, when S_goal was available.
+    pub pg2s: Option<f64>,
+}
+
+/// One run of the agents, kept for the history and for comparison.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+pub struct RunRecord {
+    /// The run's id, increasing within a session.
+    pub id: u64,
+    /// When it started, in seconds since the Unix epoch.
+    pub started_unix: u64,
+    /// The approach it used.
+    pub approach: Approach,
+    /// The task text.
+    pub task: String,
+    /// The agents it ran.
+    pub agents: Vec<AgentRecord>,
+    /// The plan it produced.
+    pub plan: Vec<String>,
+    /// The ground truth it was scored against.
+    pub ground_truth: Vec<String>,
+    /// Its scores, once computed.
+    pub scores: Option<ScoreRecord>,
+    /// Whether the user cancelled it.
+    pub cancelled: bool,
+}
+
+impl RunRecord {
+    /// The wall time of all its agents, in milliseconds.
+    pub fn total_ms(&self) -> u64 {
+        self.agents.iter().map(|a| a.duration_ms).sum()
+    }
+
+    /// The tokens all its agents sent and wrote.
+    pub fn total_tokens(&self) -> u64 {
+        self.agents
+            .iter()
+            .map(|a| a.usage.input + a.usage.output)
+            .sum()
+    }
+}
+
+/// Text being edited when the session was saved, so a kill loses nothing typed.
+#[derive(Debug, Clone, PartialEq, Eq, Serialize, Deserialize)]
+pub struct Draft {
+    /// What is being edited: `plan`, `ground_truth`.
+    pub target: String,
+    /// The step index being edited.
+    pub index: usize,
+    /// The text typed so far.
+    pub text: String,
+}
+
+/// Everything a session restores.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+pub struct Session {
+    /// The format version ([`SESSION_VERSION`]).
+    pub version: u32,
+    /// The dataset task in use, if any (else the built-in demo).
+    pub task_id: Option<String>,
+    /// The approach.
+    pub approach: Approach,
+    /// The ground truth's origin.
+    pub ground_truth_source: GroundTruthSource,
+    /// The ground-truth steps, as edited.
+    pub ground_truth: Vec<String>,
+    /// The plan's origin.
+    pub plan_source: PlanSource,
+    /// The plan steps, as edited.
+    pub plan: Vec<String>,
+    /// The prompt of each agent.
+    pub prompts: BTreeMap<Agent, String>,
+    /// The settings of each agent.
+    pub settings: BTreeMap<Agent, AgentSettings>,
+    /// The latest output of each agent.
+    pub outputs: BTreeMap<Agent, String>,
+    /// The prompt and settings each output was made with.
+    pub ran_with: BTreeMap<Agent, (String, AgentSettings)>,
+    /// The theme's name.
+    pub theme: String,
+    /// Whether the scene image is shown.
+    pub image: bool,
+    /// Every run.
+    pub runs: Vec<RunRecord>,
+    /// Text being edited at the time of saving.
+    pub draft: Option<Draft>,
+}
+
+/// Why a session file could not be saved or restored.
+#[derive(Debug, thiserror::Error)]
+pub enum SessionError {
+    /// Reading, writing or renaming failed.
+    #[error("session file {path}: {error}")]
+    Io {
+        /// The file concerned.
+        path: PathBuf,
+        /// The underlying error.
+        error: std::io::Error,
+    },
+    /// The session could not be turned into JSON.
+    #[error("session could not be encoded: {0}")]
+    Encode(#[from] serde_json::Error),
+}
+
+/// The outcome of restoring a session.
+#[derive(Debug)]
+pub enum Restored {
+    /// No session file yet.
+    Fresh,
+    /// The session was read.
+    Loaded(Box<Session>),
+    /// The file could not be read as a session; it was moved aside.
+    SetAside {
+        /// Where the bad file now is.
+        moved_to: PathBuf,
+        /// What was wrong with it.
+        reason: String,
+    },
+}
+
+/// The default session file: `$XDG_STATE_HOME/mapvlm/session.json`, else
+/// `$HOME/.local/state/mapvlm/session.json`.
+pub fn default_path() -> Option<PathBuf> {
+    let base = std::env::var_os("XDG_STATE_HOME")
+        .filter(|v| !v.is_empty())
+        .map(PathBuf::from)
+        .or_else(|| {
+            std::env::var_os("HOME")
+                .filter(|v| !v.is_empty())
+                .map(|h| PathBuf::from(h).join(".local/state"))
+        })?;
+    Some(base.join("mapvlm").join("session.json"))
+}
+
+fn io_error(path: &Path) -> impl FnOnce(std::io::Error) -> SessionError + '_ {
+    move |error| SessionError::Io {
+        path: path.to_path_buf(),
+        error,
+    }
+}
+
+/// Writes `session` to `path` atomically: a temporary file in the same folder
+/// is written, flushed to disk and renamed over the old file.
+pub fn save(path: &Path, session: &Session) -> Result<(), SessionError> {
+    let json = serde_json::to_vec_pretty(session)?;
+    let dir = path
+        .parent()
+        .filter(|p| !p.as_os_str().is_empty())
+        .unwrap_or(Path::new("."));
+    std::fs::create_dir_all(dir).map_err(io_error(dir))?;
+    let mut tmp = tempfile::NamedTempFile::new_in(dir).map_err(io_error(dir))?;
+    tmp.write_all(&json).map_err(io_error(path))?;
+    tmp.as_file().sync_data().map_err(io_error(path))?;
+    tmp.persist(path).map_err(|e| SessionError::Io {
+        path: path.to_path_buf(),
+        error: e.error,
+    })?;
+    Ok(())
+}
+
+/// Reads the session at `path`. A file that is not a session of this
+/// version is renamed to `<name>.corrupt-<unix seconds>` and reported.
+pub fn restore(path: &Path) -> Result<Restored, SessionError> {
+    let bytes = match std::fs::read(path) {
+        Ok(b) => b,
+        Err(e) if e.kind() == std::io::ErrorKind::NotFound => return Ok(Restored::Fresh),
+        Err(e) => return Err(io_error(path)(e)),
+    };
+    let reason = match serde_json::from_slice::<Session>(&bytes) {
+        Ok(s) if s.version == SESSION_VERSION => return Ok(Restored::Loaded(Box::new(s))),
+        Ok(s) => format!(
+            "version {} is not the version {SESSION_VERSION} this build reads",
+            s.version
+        ),
+        Err(e) => format!("not a session file ({e})"),
+    };
+    let stamp = std::time::SystemTime::now()
+        .duration_since(std::time::UNIX_EPOCH)
+        .map_or(0, |d| d.as_secs());
+    let mut moved_to = path.as_os_str().to_owned();
+    moved_to.push(format!(".corrupt-{stamp}"));
+    let moved_to = PathBuf::from(moved_to);
+    std::fs::rename(path, &moved_to).map_err(io_error(path))?;
+    Ok(Restored::SetAside { moved_to, reason })
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    fn sample() -> Session {
+        Session {
+            version: SESSION_VERSION,
+            task_id: None,
+            approach: Approach::MultiImage,
+            ground_truth_source: GroundTruthSource::Demo { index: 1 },
+            ground_truth: vec!["Walk to the sink.".into()],
+            plan_source: PlanSource::Run { run: 3 },
+            plan: vec!["Go to the sink.".into()],
+            prompts: BTreeMap::from([(Agent::Skm, "List triples.".into())]),
+            settings: BTreeMap::new(),
+            outputs: BTreeMap::new(),
+            ran_with: BTreeMap::new(),
+            theme: "dark".into(),
+            image: true,
+            runs: Vec::new(),
+            draft: Some(Draft {
+                target: "plan".into(),
+                index: 0,
+                text: "Go to".into(),
+            }),
+        }
+    }
+
+    #[test]
+    fn saves_and_restores_the_same_session() {
+        let dir = tempfile::tempdir().unwrap();
+        let path = dir.path().join("nested/session.json");
+        save(&path, &sample()).unwrap();
+        match restore(&path).unwrap() {
+            Restored::Loaded(s) => assert_eq!(*s, sample()),
+            other => panic!("{other:?}"),
+        }
+        let left: Vec<_> = std::fs::read_dir(path.parent().unwrap()).unwrap().collect();
+        assert_eq!(left.len(), 1, "no temporary file is left behind");
+    }
+
+    #[test]
+    fn a_missing_file_is_a_fresh_session() {
+        let dir = tempfile::tempdir().unwrap();
+        assert!(matches!(
+            restore(&dir.path().join("none.json")).unwrap(),
+            Restored::Fresh
+        ));
+    }
+
+    #[test]
+    fn a_corrupted_file_is_set_aside() {
+        let dir = tempfile::tempdir().unwrap();
+        let path = dir.path().join("session.json");
+        std::fs::write(&path, b"{\"version\": 1, \"plan\": [").unwrap();
+        match restore(&path).unwrap() {
+            Restored::SetAside { moved_to, reason } => {
+                assert!(!path.exists());
+                assert!(moved_to.exists());
+                assert!(reason.contains("not a session file"), "{reason}");
+            }
+            other => panic!("{other:?}"),
+        }
+    }
+}

@@ -1,0 +1,137 @@
+//! Live scoring: a background worker that takes the latest plan and ground
+//! truth, waits a moment for typing to settle, and computes KAS and (once the
+//! models have loaded in the background) PG2S.
+
+use std::sync::{Arc, RwLock};
+use std::time::{Duration, Instant};
+
+use tokio::sync::{mpsc::UnboundedSender, watch};
+
+use crate::metrics::kas::{kas, KasReport};
+use crate::metrics::pg2s::{Pg2sReport, Pg2sScorer};
+
+/// A plan and ground truth to score; `generation` orders requests so a late
+/// answer to an old request is ignored.
+#[derive(Debug, Clone, PartialEq)]
+pub struct ScoreRequest {
+    /// Increases with every change of plan or ground truth.
+    pub generation: u64,
+    /// The ground-truth steps.
+    pub gt: Vec<String>,
+    /// The predicted steps.
+    pub pred: Vec<String>,
+}
+
+/// The PG2S half of a score.
+#[derive(Debug, Clone, PartialEq)]
+pub enum Pg2sOutcome {
+    /// Computed.
+    Ready(Box<Pg2sReport>),
+    /// Not computed yet: the models are still loading or are missing (the reason).
+    Waiting(String),
+    /// The scorer failed on this input.
+    Failed(String),
+}
+
+/// The scores of one request.
+#[derive(Debug, Clone, PartialEq)]
+pub struct ScoreOutcome {
+    /// The request's generation.
+    pub generation: u64,
+    /// KAS with its per-step scores.
+    pub kas: KasReport,
+    /// PG2S with its matches, or why not.
+    pub pg2s: Pg2sOutcome,
+    /// How long scoring took, in milliseconds.
+    pub millis: f64,
+}
+
+/// Where the PG2S models are.
+#[derive(Clone)]
+pub enum ModelSlot {
+    /// Loading, with the latest progress line.
+    Loading(String),
+    /// Loaded.
+    Ready(Arc<Pg2sScorer>),
+    /// Not available, with the reason and what to do.
+    Unavailable(String),
+}
+
+/// The models slot shared by the loader, the worker and the app.
+pub type SharedModels = Arc<RwLock<ModelSlot>>;
+
+/// Loads the PG2S scorer; called on a blocking thread, reporting progress
+/// lines through the callback.
+pub type ScorerLoader =
+    Box<dyn FnOnce(&dyn Fn(String)) -> Result<Pg2sScorer, String> + Send + 'static>;
+
+/// Scores one request now, with whatever models the slot holds.
+pub fn score_now(models: &ModelSlot, request: &ScoreRequest) -> ScoreOutcome {
+    let started = Instant::now();
+    let kas = kas(&request.gt, &request.pred);
+    let pg2s = match models {
+        ModelSlot::Ready(scorer) => match scorer.score(&request.gt, &request.pred) {
+            Ok(report) => Pg2sOutcome::Ready(Box::new(report)),
+            Err(e) => Pg2sOutcome::Failed(e.to_string()),
+        },
+        ModelSlot::Loading(progress) => Pg2sOutcome::Waiting(format!("models loading: {progress}")),
+        ModelSlot::Unavailable(reason) => Pg2sOutcome::Waiting(reason.clone()),
+    };
+    ScoreOutcome {
+        generation: request.generation,
+        kas,
+        pg2s,
+        millis: started.elapsed().as_secs_f64() * 1000.0,
+    }
+}
+
+/// Runs the scoring worker until the request channel closes: after each
+/// change it waits `debounce`, then scores the latest request on a blocking
+/// thread and sends the outcome.
+pub async fn worker(
+    mut requests: watch::Receiver<Option<ScoreRequest>>,
+    models: SharedModels,
+    debounce: Duration,
+    send: impl Fn(ScoreOutcome) + Send + 'static,
+) {
+    while requests.changed().await.is_ok() {
+        tokio::time::sleep(debounce).await;
+        let Some(request) = requests.borrow_and_update().clone() else {
+            continue;
+        };
+        let slot = models
+            .read()
+            .map(|s| s.clone())
+            .unwrap_or_else(|p| p.into_inner().clone());
+        match tokio::task::spawn_blocking(move || score_now(&slot, &request)).await {
+            Ok(outcome) => send(outcome),
+            Err(_) => continue,
+        }
+    }
+}
+
+/// Loads the models on a blocking thread, keeping the slot's progress line
+/// current, and calls `done` with the final status line.
+pub fn spawn_loader(
+    loader: ScorerLoader,
+    models: SharedModels,
+    done: UnboundedSender<Result<(), String>>,
+) {
+    tokio::task::spawn_blocking(move || {
+        let progress_slot = models.clone();
+        let progress = move |line: String| {
+            if let Ok(mut slot) = progress_slot.write() {
+                *slot = ModelSlot::Loading(line);
+            }
+        };
+        let result = loader(&progress);
+        let status = result.as_ref().map(|_| ()).map_err(Clone::clone);
+        if let Ok(mut slot) = models.write() {
+            *slot = match result {
+                Ok(scorer) => ModelSlot::Ready(Arc::new(scorer)),
+                Err(reason) => ModelSlot::Unavailable(reason),
+            };
+        }
+        let _ = done.send(status);
+    });
+}

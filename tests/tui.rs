@@ -1,0 +1,342 @@
+//! The workbench driven through its update function with commands carried
+//! out synchronously, and rendered on ratatui's TestBackend.
+
+use std::sync::Arc;
+
+use crossterm::event::{KeyCode, KeyEvent, KeyModifiers};
+use mapvlm::metrics::pg2s::{Pg2sScorer, Pg2sSettings};
+use mapvlm::metrics::{ModelError, SentenceEncoder};
+use mapvlm::session::Agent;
+use mapvlm::tui::agents::{recorded_output, AgentEvent};
+use mapvlm::tui::app::{App, AppInit, Cmd, Msg, Pane};
+use mapvlm::tui::scoring::{score_now, ModelSlot, Pg2sOutcome};
+use mapvlm::tui::theme::{load_themes, Theme};
+use mapvlm::tui::{prepare_image, ui};
+use ratatui::backend::TestBackend;
+use ratatui::Terminal;
+use ratatui_image::picker::Picker;
+
+/// A stand-in sentence encoder for tests: hashed bags of lowercase words,
+/// L2-normalised, so that sentences sharing words have a high cosine.
+struct BagOfWords;
+
+impl SentenceEncoder for BagOfWords {
+    fn encode(&self, sentences: &[&str]) -> Result<Vec<Vec<f32>>, ModelError> {
+        Ok(sentences
+            .iter()
+            .map(|s| {
+                let mut v = vec![0f32; 64];
+                for w in s.to_lowercase().split(|c: char| !c.is_alphanumeric()) {
+                    if w.is_empty() {
+                        continue;
+                    }
+                    let h = w
+                        .bytes()
+                        .fold(7u32, |h, b| h.wrapping_mul(31).wrapping_add(u32::from(b)));
+                    v[(h % 64) as usize] += 1.0;
+                }
+                let n = v.iter().map(|x| x * x).sum::<f32>().sqrt().max(1e-6);
+                v.iter().map(|x| x / n).collect()
+            })
+            .collect())
+    }
+}
+
+struct Harness {
+    app: App,
+    models: ModelSlot,
+}
+
+impl Harness {
+    fn new(size: (u16, u16), theme: Option<&str>, no_color: bool, models: ModelSlot) -> Harness {
+        let (app, cmds) = App::new(AppInit {
+            theme: theme.map(str::to_string),
+            no_color,
+            ..AppInit::demo(size, "no models in this test")
+        });
+        let mut h = Harness { app, models };
+        h.run(cmds);
+        h
+    }
+
+    fn run(&mut self, cmds: Vec<Cmd>) {
+        let mut queue = cmds;
+        while !queue.is_empty() {
+            let mut next = Vec::new();
+            for cmd in queue {
+                match cmd {
+                    Cmd::StartRun(req) => {
+                        for agent in req.agents.clone() {
+                            let output = recorded_output(agent).to_string();
+                            let events = [
+                                AgentEvent::Started(agent),
+                                AgentEvent::Token {
+                                    agent,
+                                    text: output.clone(),
+                                },
+                                AgentEvent::Finished {
+                                    agent,
+                                    output,
+                                    usage: Default::default(),
+                                    duration_ms: 100,
+                                },
+                            ];
+                            for e in events {
+                                next.extend(self.app.update(Msg::Agent(req.run, e)));
+                            }
+                        }
+                    }
+                    Cmd::Score(req) => {
+                        let mut outcome = score_now(&self.models, &req);
+                        outcome.millis = 0.0;
+                        next.extend(self.app.update(Msg::Scored(outcome)));
+                    }
+                    Cmd::CancelRun(_) | Cmd::ReadStepFile(_) | Cmd::LoadImage(_) => {}
+                }
+            }
+            queue = next;
+        }
+    }
+
+    fn key(&mut self, code: KeyCode) {
+        let cmds = self
+            .app
+            .update(Msg::Key(KeyEvent::new(code, KeyModifiers::NONE)));
+        self.run(cmds);
+    }
+
+    fn keys(&mut self, text: &str) {
+        for c in text.chars() {
+            self.key(KeyCode::Char(c));
+        }
+    }
+
+    fn terminal(&mut self) -> Terminal<TestBackend> {
+        let (w, h) = self.app.size;
+        prepare_image(&mut self.app, &Picker::halfblocks());
+        let mut terminal = Terminal::new(TestBackend::new(w, h)).unwrap();
+        terminal.draw(|f| ui::render(f, &self.app)).unwrap();
+        terminal
+    }
+
+    fn screen(&mut self) -> String {
+        self.terminal().backend().to_string()
+    }
+}
+
+fn unavailable() -> ModelSlot {
+    ModelSlot::Unavailable("the sentence encoder is not in this test".into())
+}
+
+fn bag_of_words() -> ModelSlot {
+    ModelSlot::Ready(Arc::new(Pg2sScorer::new(
+        Arc::new(BagOfWords),
+        Err("no framing parser in this test".into()),
+        Pg2sSettings::default(),
+    )))
+}
+
+#[test]
+fn demo_fills_every_pane_at_200x60() {
+    let mut h = Harness::new((200, 60), None, false, unavailable());
+    let screen = h.screen();
+    for pane in Pane::ALL {
+        assert!(screen.contains(pane.title()), "missing {}", pane.title());
+    }
+    assert!(screen.contains("KAS 0.720"), "{screen}");
+    assert!(screen.contains("PG2S is waiting for models"));
+    assert!(screen.contains("counter ─right of─▶"));
+    insta::assert_snapshot!("demo_200x60", screen);
+}
+
+#[test]
+fn demo_at_120x40() {
+    let mut h = Harness::new((120, 40), None, false, unavailable());
+    insta::assert_snapshot!("demo_120x40", h.screen());
+}
+
+#[test]
+fn narrow_terminal_shows_one_pane_with_tabs() {
+    let mut h = Harness::new((80, 24), None, false, unavailable());
+    let screen = h.screen();
+    assert!(
+        screen.contains(" Plan run 1 ") && screen.contains(" Graph │ GKM │"),
+        "{screen}"
+    );
+    insta::assert_snapshot!("narrow_80x24", screen);
+}
+
+#[test]
+fn too_small_terminal_gets_a_message() {
+    let mut h = Harness::new((40, 10), None, false, unavailable());
+    let screen = h.screen();
+    assert!(screen.contains("at least"), "{screen}");
+    insta::assert_snapshot!("too_small_40x10", screen);
+}
+
+#[test]
+fn help_lists_every_key() {
+    let mut h = Harness::new((120, 40), None, false, unavailable());
+    h.key(KeyCode::Char('?'));
+    let screen = h.screen();
+    assert!(screen.contains("Keys (any key closes)"));
+    insta::assert_snapshot!("help_120x40", screen);
+    h.key(KeyCode::Char('x'));
+    assert!(!h.screen().contains("Keys (any key closes)"));
+}
+
+#[test]
+fn each_theme_and_no_color() {
+    let (themes, _) = load_themes(None);
+    for theme in themes
+        .iter()
+        .map(|t| t.name.clone())
+        .chain(["no-color".to_string()])
+    {
+        let no_color = theme == "no-color";
+        let mut h = Harness::new((100, 30), Some(&theme), no_color, unavailable());
+        assert_eq!(h.app.theme.name, theme);
+        let terminal = h.terminal();
+        insta::assert_debug_snapshot!(format!("theme_{theme}"), terminal.backend().buffer());
+    }
+    assert_eq!(Theme::no_color().name, "no-color");
+}
+
+#[test]
+fn plan_steps_show_their_matches_and_cosines() {
+    let mut h = Harness::new((200, 60), None, false, bag_of_words());
+    let screen = h.screen();
+    assert!(screen.contains("✓ GT 1 · cos"), "{screen}");
+    assert!(screen.contains("S_goal unavailable: no framing parser in this test"));
+    insta::assert_snapshot!("plan_with_matches", screen);
+}
+
+#[test]
+fn another_ground_truth_and_an_edited_step_change_the_scores() {
+    let mut h = Harness::new((200, 60), None, false, bag_of_words());
+    let kas_of = |h: &Harness| h.app.scores.as_ref().and_then(|s| s.kas.kas);
+    let before = kas_of(&h);
+    h.key(KeyCode::Char('g'));
+    h.key(KeyCode::Down);
+    h.key(KeyCode::Enter);
+    assert_eq!(h.app.ground_truth[1], "Pick up the blue mug.");
+    let with_b = kas_of(&h);
+    assert_ne!(before, with_b);
+    // edit plan step 1 in the Plan pane (focused at start)
+    h.key(KeyCode::Enter);
+    h.keys(" Then wave");
+    h.key(KeyCode::Enter);
+    assert!(h.app.plan[0].ends_with("Then wave"), "{:?}", h.app.plan[0]);
+    assert_ne!(kas_of(&h), with_b);
+    let session = h.app.to_session();
+    assert_eq!(session.plan[0], h.app.plan[0]);
+}
+
+#[test]
+fn a_prompt_edit_reruns_only_what_it_affects_and_the_demo_asks_for_a_provider() {
+    let mut h = Harness::new((200, 60), None, false, unavailable());
+    assert!(h.app.agents_to_run(false).is_empty());
+    while h.app.focus != Pane::Prompt {
+        h.key(KeyCode::Tab);
+    }
+    h.key(KeyCode::Char('2'));
+    h.key(KeyCode::Enter);
+    h.keys(" Be brief.");
+    h.key(KeyCode::Esc);
+    assert_eq!(h.app.agents_to_run(false), [Agent::Gkm, Agent::Planner]);
+    let screen = h.screen();
+    assert!(screen.contains("GKM needs a provider"), "{screen}");
+    let prompt = h.app.to_session().prompts[&Agent::Gkm].clone();
+    assert!(prompt.ends_with("Be brief."), "{prompt}");
+}
+
+#[test]
+fn the_knowledge_graph_is_navigable() {
+    let mut h = Harness::new((200, 60), None, false, unavailable());
+    while h.app.focus != Pane::Graph {
+        h.key(KeyCode::Tab);
+    }
+    let start = h.app.graph_cursor.node;
+    h.key(KeyCode::Enter);
+    let next = h.app.graph_cursor.node;
+    assert_ne!(start, next);
+    assert_eq!(h.app.graph.nodes[next], "counter");
+    h.key(KeyCode::Backspace);
+    assert_eq!(h.app.graph_cursor.node, start);
+}
+
+#[test]
+fn scores_of_a_finished_run_are_kept_in_its_record() {
+    let h = Harness::new((200, 60), None, false, unavailable());
+    assert_eq!(h.app.runs.len(), 1);
+    let scores = h.app.runs[0].scores.expect("scored");
+    assert!((scores.kas.unwrap() - 0.72).abs() < 0.01);
+    assert!(matches!(
+        h.app.scores.as_ref().map(|s| &s.pg2s),
+        Some(Pg2sOutcome::Waiting(_))
+    ));
+}
+
+#[test]
+fn published_plans_score_as_in_mapvlm_score() {
+    let root = concat!(env!("CARGO_MANIFEST_DIR"), "/../shared/data/alfred30");
+    let (dataset, _) = mapvlm::dataset::Dataset::load(std::path::Path::new(root)).unwrap();
+    let (app, cmds) = App::new(AppInit {
+        dataset: Some(dataset.clone()),
+        ..AppInit::demo((200, 60), "no models in this test")
+    });
+    let mut h = Harness {
+        app,
+        models: unavailable(),
+    };
+    h.run(cmds);
+    let dir = tempfile::tempdir().unwrap();
+    for index in [0usize, 7, 21] {
+        if index > 0 {
+            h.key(KeyCode::Char('g'));
+            for _ in 0..dataset.tasks.len() {
+                h.key(KeyCode::Up);
+            }
+            for _ in 0..index {
+                h.key(KeyCode::Down);
+            }
+            h.key(KeyCode::Enter);
+        }
+        let task = &dataset.tasks[index];
+        assert_eq!(h.app.task.id.as_deref(), Some(task.id.as_str()));
+        let plan = &task.plans["multi_agent_image"];
+        assert_eq!(&h.app.plan, plan);
+        let gt_file = dir.path().join("gt.txt");
+        let pred_file = dir.path().join("pred.txt");
+        std::fs::write(&gt_file, task.ground_truth.join("\n")).unwrap();
+        std::fs::write(&pred_file, plan.join("\n")).unwrap();
+        let out = std::process::Command::new(env!("CARGO_BIN_EXE_mapvlm"))
+            .args(["score", "--metrics", "kas", "--json", "--gt"])
+            .arg(&gt_file)
+            .arg("--pred")
+            .arg(&pred_file)
+            .output()
+            .unwrap();
+        let json: serde_json::Value = serde_json::from_slice(&out.stdout).unwrap();
+        let shown = h.app.scores.as_ref().and_then(|s| s.kas.kas);
+        assert_eq!(json["kas"].as_f64(), shown, "task {}", task.id);
+        let screen = h.screen();
+        let expected = shown.map_or("  –  ".to_string(), |k| format!("KAS {k:.3}"));
+        assert!(
+            screen.contains(&expected),
+            "{expected} not on screen:\n{screen}"
+        );
+    }
+}
+
+#[test]
+fn a_start_notice_is_not_hidden_by_the_demo_run() {
+    let (app, _) = App::new(AppInit {
+        notice: Some((
+            "the session file could not be read; it was moved aside".into(),
+            mapvlm::tui::app::Severity::Warn,
+        )),
+        ..AppInit::demo((200, 60), "none")
+    });
+    assert!(app.status.unwrap().0.contains("moved aside"));
+}
