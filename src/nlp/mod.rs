@@ -1,5 +1,7 @@
 //! The language models behind the metrics.
 
+pub mod en;
+
 use serde::{Deserialize, Serialize};
 
 /// One token of a parsed sentence, with the fields spaCy reports.
