@@ -1,6 +1,8 @@
 //! The command line: one subcommand a module, each with `--json` where a
 //! program may read the output.
 
+pub mod parse;
+
 use std::process::ExitCode;
 
 use clap::{Parser, Subcommand};
@@ -16,12 +18,19 @@ pub struct Cli {
 
 /// The subcommands.
 #[derive(Debug, Subcommand)]
-pub enum Command {}
+pub enum Command {
+    /// Tag and parse English sentences from standard input (spaCy en_core_web_sm 3.8.0).
+    Parse(parse::ParseArgs),
+}
 
 /// Parses the command line and runs the chosen command.
 pub fn run() -> anyhow::Result<ExitCode> {
     let cli = Cli::parse();
     match cli.command {
         None => Ok(ExitCode::SUCCESS),
+        Some(Command::Parse(args)) => {
+            parse::run(&args)?;
+            Ok(ExitCode::SUCCESS)
+        }
     }
 }

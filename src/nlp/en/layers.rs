@@ -23,6 +23,34 @@ pub fn dot(a: &[f32], b: &[f32]) -> f32 {
     acc.iter().sum::<f32>() + tail
 }
 
+/// `out = X · Wᵀ` for `X` (n × k) and `W` (m × k), all row-major.
+pub fn matmul_transposed(x: &[f32], w: &[f32], n: usize, k: usize, m: usize, out: &mut [f32]) {
+    assert!(x.len() >= n * k && w.len() >= m * k && out.len() >= n * m);
+    if n == 0 || m == 0 {
+        return;
+    }
+    // SAFETY: the assertion above keeps every index the kernel touches
+    // within the three slices, and `out` does not alias the inputs.
+    unsafe {
+        matrixmultiply::sgemm(
+            n,
+            k,
+            m,
+            1.0,
+            x.as_ptr(),
+            k as isize,
+            1,
+            w.as_ptr(),
+            1,
+            k as isize,
+            0.0,
+            out.as_mut_ptr(),
+            m as isize,
+            1,
+        );
+    }
+}
+
 /// The index of the first largest value (0 when empty).
 pub fn argmax(values: &[f32]) -> usize {
     let mut best = 0;
@@ -54,6 +82,15 @@ impl Linear {
             bias: model.param(node, "b", &[n_out])?.data.clone(),
             n_in,
         })
+    }
+
+    /// Applies the layer to `n` input rows at once, writing `n` output rows.
+    pub fn apply_rows(&self, input: &[f32], n: usize, out: &mut [f32]) {
+        let m = self.bias.len();
+        matmul_transposed(input, &self.weights, n, self.n_in, m, out);
+        for row in out[..n * m].chunks_exact_mut(m) {
+            row.iter_mut().zip(&self.bias).for_each(|(o, b)| *o += b);
+        }
     }
 
     /// Applies the layer to one input vector, writing into `out`.
@@ -103,21 +140,31 @@ impl MaxoutNorm {
         })
     }
 
-    /// Applies maxout then layer norm to one input vector.
-    pub fn apply(&self, input: &[f32], out: &mut [f32]) {
-        let piece_rows = self.weights.chunks_exact(self.n_in);
-        let mut best = f32::NEG_INFINITY;
-        for (k, (row, b)) in piece_rows.zip(&self.bias).enumerate() {
-            let value = dot(row, input) + b;
-            let piece = k % self.n_pieces;
-            if piece == 0 || value > best {
-                best = value;
+    /// Applies maxout then layer norm to `n` input rows, writing `n` rows
+    /// of width `n_out` into `out`.
+    pub fn apply_rows(&self, input: &[f32], n: usize, out: &mut [f32]) {
+        let width = self.n_out * self.n_pieces;
+        let mut pieces = vec![0f32; n * width];
+        matmul_transposed(input, &self.weights, n, self.n_in, width, &mut pieces);
+        for (row, out_row) in pieces
+            .chunks_exact(width)
+            .zip(out.chunks_exact_mut(self.n_out))
+        {
+            for ((o, piece), bias) in out_row
+                .iter_mut()
+                .zip(row.chunks_exact(self.n_pieces))
+                .zip(self.bias.chunks_exact(self.n_pieces))
+            {
+                let mut best = piece[0] + bias[0];
+                for (v, b) in piece.iter().zip(bias).skip(1) {
+                    if v + b > best {
+                        best = v + b;
+                    }
+                }
+                *o = best;
             }
-            if piece == self.n_pieces - 1 {
-                out[k / self.n_pieces] = best;
-            }
+            layer_norm(out_row, &self.gain, &self.shift);
         }
-        layer_norm(&mut out[..self.n_out], &self.gain, &self.shift);
     }
 }
 

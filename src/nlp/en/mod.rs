@@ -75,23 +75,21 @@ impl EnPipeline {
         }
         let features: Vec<[u64; N_FEATURES]> = raw.iter().map(|t| self.features(t)).collect();
         let vectors = self.tok2vec.forward(&features);
-        let mut scores = vec![0f32; self.tags.len()];
+        let mut scores = vec![0f32; raw.len() * self.tags.len()];
+        self.tagger.apply_rows(&vectors, raw.len(), &mut scores);
         let is_space: Vec<bool> = raw.iter().map(|t| py_str_isspace(&t.text)).collect();
         let arcs = self.parser.parse(&vectors, &is_space);
         let mut attrs: Vec<TokenAttrs> = raw
             .iter()
-            .zip(vectors.chunks_exact(WIDTH))
+            .zip(scores.chunks_exact(self.tags.len()))
             .zip(&arcs)
             .zip(&is_space)
-            .map(|(((token, vector), arc), &is_space)| {
-                self.tagger.apply(vector, &mut scores);
-                TokenAttrs {
-                    text: token.text.clone(),
-                    tag: self.tags[argmax(&scores)].clone(),
-                    pos: String::new(),
-                    dep: arc.dep.clone(),
-                    is_space,
-                }
+            .map(|(((token, scores), arc), &is_space)| TokenAttrs {
+                text: token.text.clone(),
+                tag: self.tags[argmax(scores)].clone(),
+                pos: String::new(),
+                dep: arc.dep.clone(),
+                is_space,
             })
             .collect();
         self.ruler.apply(&mut attrs);

@@ -6,7 +6,7 @@ use std::path::Path;
 
 use serde_json::Value as Json;
 
-use super::layers::{argmax, dot, Linear};
+use super::layers::{argmax, matmul_transposed, Linear};
 use super::tok2vec::WIDTH;
 use super::weights::{as_text, get, read_msgpack, ThincModel};
 use super::EnError;
@@ -183,17 +183,11 @@ impl Parser {
     /// The lower layer applied to every token for every feature slot:
     /// n × 8 × (64 × 2).
     fn precompute(&self, tokvecs: &[f32], n: usize) -> Vec<f32> {
-        let width = HIDDEN * PIECES;
-        let mut x = vec![0f32; HIDDEN];
-        let mut cached = vec![0f32; n * N_FEATS * width];
-        for t in 0..n {
-            self.project
-                .apply(&tokvecs[t * WIDTH..(t + 1) * WIDTH], &mut x);
-            let out = &mut cached[t * N_FEATS * width..(t + 1) * N_FEATS * width];
-            for (o, row) in out.iter_mut().zip(self.lower.chunks_exact(HIDDEN)) {
-                *o = dot(row, &x);
-            }
-        }
+        let width = N_FEATS * HIDDEN * PIECES;
+        let mut x = vec![0f32; n * HIDDEN];
+        self.project.apply_rows(tokvecs, n, &mut x);
+        let mut cached = vec![0f32; n * width];
+        matmul_transposed(&x, &self.lower, n, HIDDEN, width, &mut cached);
         cached
     }
 

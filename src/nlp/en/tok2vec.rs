@@ -91,35 +91,37 @@ impl Tok2Vec {
             return Vec::new();
         }
         let padded = n + 2 * PAD;
-        let mut x = vec![0f32; padded * WIDTH];
-        let mut concat = vec![0f32; WIDTH * N_FEATURES];
-        for (t, feats) in features.iter().enumerate() {
-            for (i, (embed, &key)) in self.embeds.iter().zip(feats).enumerate() {
-                let out = &mut concat[i * WIDTH..(i + 1) * WIDTH];
-                out.fill(0.0);
+        let concat_width = WIDTH * N_FEATURES;
+        let mut concat = vec![0f32; n * concat_width];
+        for (feats, row) in features.iter().zip(concat.chunks_exact_mut(concat_width)) {
+            for ((embed, &key), out) in self
+                .embeds
+                .iter()
+                .zip(feats)
+                .zip(row.chunks_exact_mut(WIDTH))
+            {
                 for h in thinc_hash(key, embed.seed) {
-                    let row = (h as usize) % embed.rows;
-                    let src = &embed.table[row * WIDTH..(row + 1) * WIDTH];
+                    let r = (h as usize) % embed.rows;
+                    let src = &embed.table[r * WIDTH..(r + 1) * WIDTH];
                     out.iter_mut().zip(src).for_each(|(o, s)| *o += s);
                 }
             }
-            let row = PAD + t;
-            self.mixer
-                .apply(&concat, &mut x[row * WIDTH..(row + 1) * WIDTH]);
         }
-        let mut window = vec![0f32; WIDTH * 3];
+        let mut x = vec![0f32; padded * WIDTH];
+        self.mixer
+            .apply_rows(&concat, n, &mut x[PAD * WIDTH..(PAD + n) * WIDTH]);
+        let mut windows = vec![0f32; padded * WIDTH * 3];
         let mut y = vec![0f32; padded * WIDTH];
         for encoder in &self.encoders {
-            for r in 0..padded {
-                window.fill(0.0);
-                for (k, src) in [r.wrapping_sub(1), r, r + 1].into_iter().enumerate() {
-                    if src < padded {
-                        window[k * WIDTH..(k + 1) * WIDTH]
-                            .copy_from_slice(&x[src * WIDTH..(src + 1) * WIDTH]);
+            for (r, window) in windows.chunks_exact_mut(WIDTH * 3).enumerate() {
+                for (k, part) in window.chunks_exact_mut(WIDTH).enumerate() {
+                    match (r + k).checked_sub(1).filter(|&src| src < padded) {
+                        Some(src) => part.copy_from_slice(&x[src * WIDTH..(src + 1) * WIDTH]),
+                        None => part.fill(0.0),
                     }
                 }
-                encoder.apply(&window, &mut y[r * WIDTH..(r + 1) * WIDTH]);
             }
+            encoder.apply_rows(&windows, padded, &mut y);
             x.iter_mut().zip(&y).for_each(|(a, b)| *a += b);
         }
         x[PAD * WIDTH..(PAD + n) * WIDTH].to_vec()

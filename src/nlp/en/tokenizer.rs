@@ -4,6 +4,7 @@
 
 use std::collections::HashMap;
 use std::path::Path;
+use std::sync::Mutex;
 
 use fancy_regex::Regex;
 use rmpv::Value;
@@ -41,6 +42,9 @@ impl RawToken {
 /// One special case: the tokens a string becomes.
 type Special = Vec<RawToken>;
 
+/// How many space-separated chunks the tokenizer remembers, as spaCy.
+const MAX_CACHE: usize = 10_000;
+
 /// The tokenizer of the English pipeline.
 pub struct Tokenizer {
     prefix: Option<Regex>,
@@ -52,6 +56,8 @@ pub struct Tokenizer {
     /// Special cases re-applied after tokenization, keyed by their first
     /// token: (the affix tokenization of the string, the string).
     phrase_patterns: HashMap<String, Vec<(Vec<String>, String)>>,
+    /// The tokens of recently seen space-separated chunks.
+    cache: Mutex<HashMap<String, Vec<RawToken>>>,
 }
 
 impl Tokenizer {
@@ -83,6 +89,7 @@ impl Tokenizer {
             url_match: pattern("url_match", true)?,
             specials: HashMap::new(),
             phrase_patterns: HashMap::new(),
+            cache: Mutex::new(HashMap::new()),
         };
         let faster_heuristics = get(&root, "faster_heuristics")
             .and_then(Value::as_bool)
@@ -162,12 +169,31 @@ impl Tokenizer {
     }
 
     fn tokenize_span(&self, span: &str, with_specials: bool, out: &mut Vec<RawToken>) {
-        if with_specials {
-            if let Some(special) = self.specials.get(span) {
-                out.extend(special.iter().cloned());
+        if !with_specials {
+            self.split_span(span, false, out);
+            return;
+        }
+        if let Some(special) = self.specials.get(span) {
+            out.extend(special.iter().cloned());
+            return;
+        }
+        if let Ok(cache) = self.cache.lock() {
+            if let Some(tokens) = cache.get(span) {
+                out.extend(tokens.iter().cloned());
                 return;
             }
         }
+        let start = out.len();
+        self.split_span(span, true, out);
+        if let Ok(mut cache) = self.cache.lock() {
+            if cache.len() >= MAX_CACHE {
+                cache.clear();
+            }
+            cache.insert(span.to_string(), out[start..].to_vec());
+        }
+    }
+
+    fn split_span(&self, span: &str, with_specials: bool, out: &mut Vec<RawToken>) {
         let (prefixes, core, suffixes) = self.split_affixes(span, with_specials);
         out.extend(prefixes.into_iter().map(RawToken::plain));
         if !core.is_empty() {
