@@ -1,10 +1,8 @@
 //! Parity of the English pipeline with spaCy en_core_web_sm 3.8.0 on the
 //! golden parses, and its behaviour on awkward input.
 
-use std::path::PathBuf;
-
 use mapvlm::metrics::FramingParser;
-use mapvlm::nlp::en::{EnPipeline, MODEL_NAME};
+use mapvlm::nlp::en::{default_models_dir, EnPipeline, MODEL_NAME};
 use mapvlm::nlp::Token;
 
 const GOLDEN: &str = concat!(
@@ -12,19 +10,8 @@ const GOLDEN: &str = concat!(
     "/../shared/golden/parse.dev.jsonl"
 );
 
-fn models_dir() -> PathBuf {
-    if let Some(dir) = std::env::var_os("MAPVLM_MODELS") {
-        return PathBuf::from(dir);
-    }
-    let cache = std::env::var_os("XDG_CACHE_HOME")
-        .map(PathBuf::from)
-        .or_else(|| std::env::var_os("HOME").map(|h| PathBuf::from(h).join(".cache")))
-        .unwrap_or_default();
-    cache.join("mapvlm").join("models")
-}
-
 fn pipeline() -> Option<EnPipeline> {
-    let dir = models_dir().join(MODEL_NAME);
+    let dir = default_models_dir().join(MODEL_NAME);
     if !dir.is_dir() {
         eprintln!("skipping: model folder {} is absent", dir.display());
         return None;
@@ -135,4 +122,31 @@ fn a_missing_model_folder_names_the_file() {
     let message = err.to_string();
     assert!(message.contains("/nonexistent/en"), "{message}");
     assert!(message.contains("mapvlm models fetch"), "{message}");
+}
+
+mod arbitrary_text {
+    use std::sync::OnceLock;
+
+    use proptest::prelude::*;
+
+    use super::*;
+
+    fn shared() -> Option<&'static EnPipeline> {
+        static NLP: OnceLock<Option<EnPipeline>> = OnceLock::new();
+        NLP.get_or_init(pipeline).as_ref()
+    }
+
+    proptest! {
+        #![proptest_config(ProptestConfig::with_cases(200))]
+
+        #[test]
+        fn any_text_round_trips(text in "\\PC{0,40}|[ a-zA-Z.,!?'\"()\\-\\n\\t]{0,60}|.{0,30}") {
+            if let Some(nlp) = shared() {
+                let tokens = nlp.parse(&text).expect("parse");
+                let rebuilt: String = tokens.iter().map(|t| format!("{}{}", t.text, t.ws)).collect();
+                prop_assert_eq!(rebuilt, text);
+                prop_assert!(tokens.iter().all(|t| t.head < tokens.len() && !t.text.is_empty()));
+            }
+        }
+    }
 }

@@ -8,7 +8,7 @@ use anyhow::Context;
 use clap::Args;
 use serde::Serialize;
 
-use crate::nlp::en::{EnPipeline, MODEL_NAME};
+use crate::nlp::en::{default_models_dir, EnPipeline, MODEL_NAME};
 use crate::nlp::Token;
 
 /// Options of `mapvlm parse`.
@@ -26,16 +26,6 @@ pub struct ParseArgs {
 struct Analysis<'a> {
     text: &'a str,
     tokens: &'a [Token],
-}
-
-/// The model pack folder when none is given: `$XDG_CACHE_HOME/mapvlm/models`,
-/// else `$HOME/.cache/mapvlm/models`.
-fn default_models_dir() -> PathBuf {
-    let cache = std::env::var_os("XDG_CACHE_HOME")
-        .map(PathBuf::from)
-        .or_else(|| std::env::var_os("HOME").map(|h| PathBuf::from(h).join(".cache")))
-        .unwrap_or_default();
-    cache.join("mapvlm").join("models")
 }
 
 /// Runs `mapvlm parse`.

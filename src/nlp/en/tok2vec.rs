@@ -112,8 +112,15 @@ impl Tok2Vec {
             .apply_rows(&concat, n, &mut x[PAD * WIDTH..(PAD + n) * WIDTH]);
         let mut windows = vec![0f32; padded * WIDTH * 3];
         let mut y = vec![0f32; padded * WIDTH];
-        for encoder in &self.encoders {
-            for (r, window) in windows.chunks_exact_mut(WIDTH * 3).enumerate() {
+        // Layer `l` only needs rows that can still reach a real token in the
+        // layers after it; the other pad rows are skipped (the real tokens'
+        // vectors are the same as over the full padding).
+        for (l, encoder) in self.encoders.iter().enumerate() {
+            let margin = DEPTH - 1 - l;
+            let (lo, hi) = (PAD - margin, PAD + n + margin);
+            let rows = hi - lo;
+            for (i, window) in windows.chunks_exact_mut(WIDTH * 3).take(rows).enumerate() {
+                let r = lo + i;
                 for (k, part) in window.chunks_exact_mut(WIDTH).enumerate() {
                     match (r + k).checked_sub(1).filter(|&src| src < padded) {
                         Some(src) => part.copy_from_slice(&x[src * WIDTH..(src + 1) * WIDTH]),
@@ -121,8 +128,11 @@ impl Tok2Vec {
                     }
                 }
             }
-            encoder.apply_rows(&windows, padded, &mut y);
-            x.iter_mut().zip(&y).for_each(|(a, b)| *a += b);
+            encoder.apply_rows(&windows, rows, &mut y);
+            x[lo * WIDTH..hi * WIDTH]
+                .iter_mut()
+                .zip(&y)
+                .for_each(|(a, b)| *a += b);
         }
         x[PAD * WIDTH..(PAD + n) * WIDTH].to_vec()
     }
