@@ -2,6 +2,7 @@
 //! program may read the output.
 
 mod models;
+mod parse;
 mod score;
 mod tui;
 
@@ -38,6 +39,8 @@ pub enum Command {
     Models(models::ModelsArgs),
     /// The terminal workbench (also what `mapvlm` alone opens).
     Tui(tui::TuiArgs),
+    /// Tag and parse English sentences from standard input (spaCy en_core_web_sm 3.8.0).
+    Parse(parse::ParseArgs),
 }
 
 /// Where the models come from, for the commands that need them.
@@ -66,6 +69,10 @@ pub fn run() -> anyhow::Result<ExitCode> {
         Some(Command::Score(args)) => score::run(&args),
         Some(Command::Models(args)) => models::run(args),
         Some(Command::Tui(args)) => tui::run(args),
+        Some(Command::Parse(args)) => {
+            parse::run(&args)?;
+            Ok(ExitCode::SUCCESS)
+        }
         None => tui::run(cli.tui),
     }
 }

@@ -1,5 +1,6 @@
 //! The language models behind the metrics.
 
+pub mod en;
 pub mod wordvec;
 
 use serde::{Deserialize, Serialize};

@@ -1,0 +1,41 @@
+//! Words per second of the English pipeline on the golden step sentences
+//! and on long prose-like text.
+
+use criterion::{criterion_group, criterion_main, Criterion, Throughput};
+use mapvlm::nlp::en::{default_models_dir, EnPipeline, MODEL_NAME};
+
+const SENTENCES: &str = concat!(
+    env!("CARGO_MANIFEST_DIR"),
+    "/../shared/golden/sentences.dev.txt"
+);
+
+fn bench(c: &mut Criterion) {
+    let dir = default_models_dir().join(MODEL_NAME);
+    let Ok(nlp) = EnPipeline::load(&dir) else {
+        eprintln!("skipping: no model at {}", dir.display());
+        return;
+    };
+    let Ok(text) = std::fs::read_to_string(SENTENCES) else {
+        eprintln!("skipping: no {SENTENCES}");
+        return;
+    };
+    let sentences: Vec<&str> = text.lines().collect();
+    let words: usize = sentences.iter().map(|s| nlp.analyse(s).len()).sum();
+    let mut group = c.benchmark_group("en_parse");
+    group.throughput(Throughput::Elements(words as u64));
+    group.bench_function("golden_steps", |b| {
+        b.iter(|| {
+            sentences
+                .iter()
+                .map(|s| nlp.analyse(s).len())
+                .sum::<usize>()
+        })
+    });
+    let prose = sentences.join(" ");
+    group.throughput(Throughput::Elements(nlp.analyse(&prose).len() as u64));
+    group.bench_function("one_long_text", |b| b.iter(|| nlp.analyse(&prose).len()));
+    group.finish();
+}
+
+criterion_group!(benches, bench);
+criterion_main!(benches);
