@@ -2,7 +2,8 @@
 //! and on long prose-like text.
 
 use criterion::{criterion_group, criterion_main, Criterion, Throughput};
-use mapvlm::nlp::en::{default_models_dir, EnPipeline, MODEL_NAME};
+use mapvlm::models::{models_dir, EN_CORE_WEB_SM};
+use mapvlm::nlp::en::EnPipeline;
 
 const SENTENCES: &str = concat!(
     env!("CARGO_MANIFEST_DIR"),
@@ -10,7 +11,7 @@ const SENTENCES: &str = concat!(
 );
 
 fn bench(c: &mut Criterion) {
-    let dir = default_models_dir().join(MODEL_NAME);
+    let dir = models_dir(None).join(EN_CORE_WEB_SM);
     let Ok(nlp) = EnPipeline::load(&dir) else {
         eprintln!("skipping: no model at {}", dir.display());
         return;

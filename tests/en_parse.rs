@@ -2,7 +2,10 @@
 //! golden parses, and its behaviour on awkward input.
 
 use mapvlm::metrics::FramingParser;
-use mapvlm::nlp::en::{default_models_dir, EnPipeline, MODEL_NAME};
+mod common;
+
+use mapvlm::models::EN_CORE_WEB_SM;
+use mapvlm::nlp::en::EnPipeline;
 use mapvlm::nlp::Token;
 
 const GOLDEN: &str = concat!(
@@ -10,13 +13,8 @@ const GOLDEN: &str = concat!(
     "/../shared/golden/parse.dev.jsonl"
 );
 
-fn pipeline() -> Option<EnPipeline> {
-    let dir = default_models_dir().join(MODEL_NAME);
-    if !dir.is_dir() {
-        eprintln!("skipping: model folder {} is absent", dir.display());
-        return None;
-    }
-    Some(EnPipeline::load(&dir).expect("the model pack loads"))
+fn pipeline() -> EnPipeline {
+    EnPipeline::load(&common::model_dir(EN_CORE_WEB_SM)).expect("the model pack loads")
 }
 
 #[derive(serde::Deserialize)]
@@ -57,7 +55,7 @@ fn frame(tokens: &[Token]) -> Vec<Vec<String>> {
 
 #[test]
 fn golden_parses_agree() {
-    let Some(nlp) = pipeline() else { return };
+    let nlp = pipeline();
     let golden = golden();
     let (mut total, mut tag, mut pos, mut dep, mut head) = (0, 0, 0, 0, 0);
     for g in &golden {
@@ -81,7 +79,7 @@ fn golden_parses_agree() {
 
 #[test]
 fn the_documented_quirk_frames_as_spacy() {
-    let Some(nlp) = pipeline() else { return };
+    let nlp = pipeline();
     let tokens = nlp
         .parse("put on the snug left shoe carefully.")
         .expect("parse");
@@ -90,7 +88,7 @@ fn the_documented_quirk_frames_as_spacy() {
 
 #[test]
 fn awkward_input_does_not_panic() {
-    let Some(nlp) = pipeline() else { return };
+    let nlp = pipeline();
     let long = "walk to the kitchen and pick up the red apple . ".repeat(1000);
     let cases = [
         "",
@@ -131,9 +129,9 @@ mod arbitrary_text {
 
     use super::*;
 
-    fn shared() -> Option<&'static EnPipeline> {
-        static NLP: OnceLock<Option<EnPipeline>> = OnceLock::new();
-        NLP.get_or_init(pipeline).as_ref()
+    fn shared() -> &'static EnPipeline {
+        static NLP: OnceLock<EnPipeline> = OnceLock::new();
+        NLP.get_or_init(pipeline)
     }
 
     proptest! {
@@ -141,12 +139,10 @@ mod arbitrary_text {
 
         #[test]
         fn any_text_round_trips(text in "\\PC{0,40}|[ a-zA-Z.,!?'\"()\\-\\n\\t]{0,60}|.{0,30}") {
-            if let Some(nlp) = shared() {
-                let tokens = nlp.parse(&text).expect("parse");
-                let rebuilt: String = tokens.iter().map(|t| format!("{}{}", t.text, t.ws)).collect();
-                prop_assert_eq!(rebuilt, text);
-                prop_assert!(tokens.iter().all(|t| t.head < tokens.len() && !t.text.is_empty()));
-            }
+            let tokens = shared().parse(&text).expect("parse");
+            let rebuilt: String = tokens.iter().map(|t| format!("{}{}", t.text, t.ws)).collect();
+            prop_assert_eq!(rebuilt, text);
+            prop_assert!(tokens.iter().all(|t| t.head < tokens.len() && !t.text.is_empty()));
         }
     }
 }

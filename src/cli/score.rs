@@ -79,7 +79,12 @@ pub fn run(args: &ScoreArgs) -> anyhow::Result<ExitCode> {
     }
     let (pairs, bad_lines) = read_pairs(args)?;
     let scorer = if args.metrics.contains(&Metric::Pg2s) {
-        Some(super::load_scorer(&args.models, args.settings())?)
+        Some(super::load_scorer(
+            &args.models,
+            args.settings(),
+            &super::say,
+            &crate::models::Progress::stderr(),
+        )?)
     } else {
         None
     };

@@ -42,8 +42,14 @@ pub fn run(args: TuiArgs) -> anyhow::Result<ExitCode> {
         session: args.session,
         theme: args.theme,
         scorer: Box::new(move |progress: &dyn Fn(String)| {
-            progress("loading the sentence encoder".to_string());
-            super::load_scorer(&models, Pg2sSettings::default()).map_err(|e| format!("{e:#}"))
+            progress("loading the models".to_string());
+            super::load_scorer(
+                &models,
+                Pg2sSettings::default(),
+                progress,
+                &crate::models::Progress::hidden(),
+            )
+            .map_err(|e| format!("{e:#}"))
         }),
         pipeline: Arc::new(ReplayPipeline {
             delay: Duration::from_millis(args.replay_delay),

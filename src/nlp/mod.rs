@@ -1,6 +1,7 @@
 //! The language models behind the metrics.
 
 pub mod en;
+pub mod mpnet;
 pub mod wordvec;
 
 use serde::{Deserialize, Serialize};

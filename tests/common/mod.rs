@@ -31,3 +31,15 @@ pub fn strings(value: &serde_json::Value) -> Vec<String> {
         })
         .collect()
 }
+
+/// The folder of model `folder` in the model pack; fails the test with what
+/// to do when the pack is not installed (`./scripts/test` fetches it).
+pub fn model_dir(folder: &str) -> PathBuf {
+    let dir = mapvlm::models::models_dir(None).join(folder);
+    assert!(
+        dir.is_dir(),
+        "no model at {}: run ./scripts/test (it fetches the model pack) or `mapvlm models fetch`",
+        dir.display()
+    );
+    dir
+}

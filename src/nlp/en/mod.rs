@@ -13,7 +13,7 @@ pub mod tokenizer;
 mod weights;
 
 use std::collections::HashMap;
-use std::path::{Path, PathBuf};
+use std::path::Path;
 
 use rmpv::Value;
 
@@ -27,22 +27,6 @@ use strings::string_id;
 use tok2vec::{Tok2Vec, N_FEATURES, WIDTH};
 use tokenizer::{RawToken, Tokenizer};
 use weights::{get, read_msgpack, ThincModel};
-
-/// The folder name of the model inside the model pack.
-pub const MODEL_NAME: &str = "en_core_web_sm-3.8.0";
-
-/// The model pack folder by the project's convention: `$MAPVLM_MODELS`,
-/// else `$XDG_CACHE_HOME/mapvlm/models`, else `$HOME/.cache/mapvlm/models`.
-pub fn default_models_dir() -> PathBuf {
-    if let Some(dir) = std::env::var_os("MAPVLM_MODELS") {
-        return PathBuf::from(dir);
-    }
-    let cache = std::env::var_os("XDG_CACHE_HOME")
-        .map(PathBuf::from)
-        .or_else(|| std::env::var_os("HOME").map(|h| PathBuf::from(h).join(".cache")))
-        .unwrap_or_default();
-    cache.join("mapvlm").join("models")
-}
 
 /// The English pipeline: tokenizer, tok2vec, tagger, parser and attribute
 /// ruler of en_core_web_sm 3.8.0, run as spaCy runs them.
