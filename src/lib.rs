@@ -6,5 +6,8 @@
 
 pub mod agents;
 pub mod cli;
+pub mod dataset;
+pub mod demo;
 pub mod metrics;
 pub mod nlp;
+pub mod plan;

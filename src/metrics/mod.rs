@@ -1,6 +1,9 @@
 //! Plan metrics: PG2S and KAS, pure functions over plans, plus the traits
 //! for the models PG2S needs.
 
+pub mod kas;
+pub mod pg2s;
+
 use crate::nlp::Token;
 
 /// The error a model behind one of the metric traits may report.

@@ -1,0 +1,314 @@
+//! `mapvlm score`: KAS and PG2S of plan pairs, with the explanation of every
+//! point lost, for people and (with `--json`) for programs.
+
+use std::fmt::Write as _;
+use std::path::{Path, PathBuf};
+use std::process::ExitCode;
+
+use anyhow::bail;
+use clap::{Args, ValueEnum};
+use serde_json::{json, Value};
+
+use crate::dataset::{load_pairs, read_text, Pair};
+use crate::metrics::kas::{kas, KasReport};
+use crate::metrics::pg2s::{Pg2sReport, Pg2sScorer, Pg2sSettings};
+use crate::plan::parse_steps;
+
+/// A metric `score` can compute.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, ValueEnum)]
+pub enum Metric {
+    /// The KeyActionScore; needs no model.
+    Kas,
+    /// PG2S with S_plan and S_goal; needs the model pack.
+    Pg2s,
+}
+
+/// Arguments of `mapvlm score`. With no input, the built-in example is scored.
+#[derive(Debug, Args)]
+pub struct ScoreArgs {
+    /// Ground-truth step file (one step a line; numbering and bullets are removed).
+    #[arg(long, requires = "pred", conflicts_with = "pairs")]
+    pub gt: Option<PathBuf>,
+    /// Predicted step file, or raw model output.
+    #[arg(long, requires = "gt")]
+    pub pred: Option<PathBuf>,
+    /// A pairs file: `{"id", "gt", "pred"}` per line.
+    #[arg(long)]
+    pub pairs: Option<PathBuf>,
+    /// Print one JSON object per pair instead of the explanation.
+    #[arg(long)]
+    pub json: bool,
+    /// The metrics to compute.
+    #[arg(long, value_enum, value_delimiter = ',', default_values_t = [Metric::Kas, Metric::Pg2s])]
+    pub metrics: Vec<Metric>,
+    /// Model settings shared with the other model-backed commands.
+    #[command(flatten)]
+    pub models: super::ModelArgs,
+    /// A sentence match needs a cosine strictly above this.
+    #[arg(long, default_value_t = Pg2sSettings::default().sentence_threshold)]
+    pub sentence_threshold: f64,
+    /// A verb match needs a similarity above this; nouns agree at or above it.
+    #[arg(long, default_value_t = Pg2sSettings::default().word_threshold)]
+    pub word_threshold: f64,
+    /// The weight of S_goal in PG2S.
+    #[arg(long, default_value_t = Pg2sSettings::default().alpha)]
+    pub alpha: f64,
+}
+
+impl ScoreArgs {
+    fn settings(&self) -> Pg2sSettings {
+        Pg2sSettings {
+            sentence_threshold: self.sentence_threshold,
+            word_threshold: self.word_threshold,
+            alpha: self.alpha,
+        }
+    }
+}
+
+/// One pair's scores.
+struct Scored<'a> {
+    pair: &'a Pair,
+    kas: Option<KasReport>,
+    pg2s: Option<Pg2sReport>,
+}
+
+/// Runs `mapvlm score`.
+pub fn run(args: &ScoreArgs) -> anyhow::Result<ExitCode> {
+    if !(0.0..=1.0).contains(&args.alpha) {
+        bail!("--alpha {} is outside 0..=1", args.alpha);
+    }
+    let (pairs, bad_lines) = read_pairs(args)?;
+    let scorer = if args.metrics.contains(&Metric::Pg2s) {
+        Some(super::load_scorer(&args.models, args.settings())?)
+    } else {
+        None
+    };
+    if let Some(scorer) = &scorer {
+        warm_up(scorer, &pairs)?;
+    }
+    let mut out = std::io::stdout().lock();
+    for pair in &pairs {
+        let scored = Scored {
+            pair,
+            kas: args
+                .metrics
+                .contains(&Metric::Kas)
+                .then(|| kas(&pair.gt, &pair.pred)),
+            pg2s: match &scorer {
+                Some(s) => Some(
+                    s.score(&pair.gt, &pair.pred)
+                        .map_err(|e| anyhow::anyhow!("scoring {}: {e}", pair.id))?,
+                ),
+                None => None,
+            },
+        };
+        let text = if args.json {
+            format!("{}\n", to_json(&scored))
+        } else {
+            explain(&scored)
+        };
+        use std::io::Write as _;
+        if out.write_all(text.as_bytes()).is_err() {
+            return Ok(ExitCode::FAILURE);
+        }
+    }
+    for line in &bad_lines {
+        eprintln!("mapvlm: {line}; that line was skipped, the others were scored");
+    }
+    Ok(if bad_lines.is_empty() {
+        ExitCode::SUCCESS
+    } else {
+        ExitCode::FAILURE
+    })
+}
+
+/// Embeds every distinct step of every pair in one batched call, so that the
+/// encoder can sort them by length and each pair then hits its cache.
+fn warm_up(scorer: &Pg2sScorer, pairs: &[Pair]) -> anyhow::Result<()> {
+    let mut seen = std::collections::HashSet::new();
+    let steps: Vec<&str> = pairs
+        .iter()
+        .flat_map(|p| p.gt.iter().chain(&p.pred))
+        .map(String::as_str)
+        .filter(|s| seen.insert(*s))
+        .collect();
+    scorer
+        .warm_up(&steps)
+        .map_err(|e| anyhow::anyhow!("embedding the steps: {e}"))
+}
+
+fn read_pairs(args: &ScoreArgs) -> anyhow::Result<(Vec<Pair>, Vec<String>)> {
+    if let Some(path) = &args.pairs {
+        let mut pairs = Vec::new();
+        let mut bad = Vec::new();
+        for line in load_pairs(path)? {
+            match line {
+                Ok(pair) => pairs.push(pair),
+                Err(e) => bad.push(e.to_string()),
+            }
+        }
+        return Ok((pairs, bad));
+    }
+    match (&args.gt, &args.pred) {
+        (Some(gt), Some(pred)) => {
+            let pair = Pair {
+                id: format!("{} vs {}", pred.display(), gt.display()),
+                gt: read_plan(gt)?,
+                pred: read_plan(pred)?,
+            };
+            Ok((vec![pair], Vec::new()))
+        }
+        _ => Ok((
+            vec![Pair {
+                id: format!("built-in example: {}", crate::demo::TASK.trim()),
+                gt: parse_steps(crate::demo::GROUND_TRUTH),
+                pred: parse_steps(crate::demo::PLAN),
+            }],
+            Vec::new(),
+        )),
+    }
+}
+
+/// Reads a step file; a file with no steps is an error.
+fn read_plan(path: &Path) -> anyhow::Result<Vec<String>> {
+    let text = read_text(path)?;
+    let steps = parse_steps(&text);
+    if steps.is_empty() {
+        bail!(
+            "{}: no steps found; a plan file has one step a line",
+            path.display()
+        );
+    }
+    Ok(steps)
+}
+
+/// The JSON object of one pair, with the fields of the golden file and, for
+/// every metric that could not be computed, the reason.
+fn to_json(s: &Scored) -> Value {
+    let mut obj = json!({ "id": s.pair.id, "gt": s.pair.gt, "pred": s.pair.pred });
+    let mut reasons = serde_json::Map::new();
+    if let Some(k) = &s.kas {
+        obj["kas"] = json!(k.kas);
+        obj["kas_chunks"] = json!(k.chunks);
+        if let Some(r) = &k.reason {
+            reasons.insert("kas".into(), json!(r));
+        }
+    }
+    if let Some(p) = &s.pg2s {
+        obj["s_plan"] = json!(p.s_plan);
+        obj["s_goal"] = json!(p.s_goal());
+        obj["pg2s"] = json!(p.pg2s());
+        obj["sentence_matches"] = p
+            .sentence_matches
+            .iter()
+            .map(|m| json!([m.gt, m.pred, m.cosine]))
+            .collect();
+        match &p.goal {
+            Ok(g) => {
+                obj["gt_actions"] = g.gt_actions.iter().map(|a| json!(a.words)).collect();
+                obj["pred_actions"] = g.pred_actions.iter().map(|a| json!(a.words)).collect();
+                obj["action_matches"] = g
+                    .action_matches
+                    .iter()
+                    .map(|m| json!([m.gt, m.pred]))
+                    .collect();
+            }
+            Err(reason) => {
+                reasons.insert("s_goal".into(), json!(reason));
+                reasons.insert("pg2s".into(), json!(reason));
+            }
+        }
+    }
+    if !reasons.is_empty() {
+        obj["reasons"] = Value::Object(reasons);
+    }
+    obj
+}
+
+fn fmt_score(value: Option<f64>) -> String {
+    value.map_or_else(|| "n/a".to_string(), |v| format!("{v:.4}"))
+}
+
+/// The explanation of one pair for a person.
+fn explain(s: &Scored) -> String {
+    let mut out = String::new();
+    let (gt, pred) = (&s.pair.gt, &s.pair.pred);
+    let _ = writeln!(out, "{}", s.pair.id);
+    if let Some(p) = &s.pg2s {
+        let _ = writeln!(
+            out,
+            "  PG2S {}   S_plan {}   S_goal {}",
+            fmt_score(p.pg2s()),
+            fmt_score(Some(p.s_plan)),
+            fmt_score(p.s_goal())
+        );
+    }
+    if let Some(k) = &s.kas {
+        let _ = write!(out, "  KAS  {}", fmt_score(k.kas));
+        match &k.reason {
+            Some(r) => {
+                let _ = writeln!(out, "   ({r})");
+            }
+            None => out.push('\n'),
+        }
+    }
+    if let Some(p) = &s.pg2s {
+        let threshold = p.settings.sentence_threshold;
+        let _ = writeln!(out, "  steps (ground truth → prediction, cosine):");
+        for m in &p.sentence_matches {
+            let _ = match (m.pred, m.cosine, m.closest) {
+                (Some(j), Some(c), _) => {
+                    writeln!(out, "    ✓ {} → {}  {c:.3}  {}", m.gt + 1, j + 1, gt[m.gt])
+                }
+                (_, _, Some((j, c))) => writeln!(
+                    out,
+                    "    ✗ {}  {}\n        closest free step {} at {c:.3}, not above {threshold}",
+                    m.gt + 1,
+                    gt[m.gt],
+                    j + 1
+                ),
+                _ => writeln!(
+                    out,
+                    "    ✗ {}  {}\n        no predicted step left",
+                    m.gt + 1,
+                    gt[m.gt]
+                ),
+            };
+        }
+        match &p.goal {
+            Ok(g) => {
+                let _ = writeln!(out, "  actions (ground truth → prediction):");
+                for m in &g.action_matches {
+                    let a = &g.gt_actions[m.gt].words;
+                    let _ = match m.pred {
+                        Some(j) => writeln!(
+                            out,
+                            "    ✓ {a:?} → {:?}",
+                            g.pred_actions[j].words
+                        ),
+                        None => writeln!(
+                            out,
+                            "    ✗ {a:?}: no free predicted action with a verb above {} and agreeing nouns",
+                            p.settings.word_threshold
+                        ),
+                    };
+                }
+            }
+            Err(reason) => {
+                let _ = writeln!(out, "  S_goal not computed: {reason}");
+            }
+        }
+        let unmatched: Vec<String> = (0..pred.len())
+            .filter(|j| !p.sentence_matches.iter().any(|m| m.pred == Some(*j)))
+            .map(|j| (j + 1).to_string())
+            .collect();
+        if !unmatched.is_empty() {
+            let _ = writeln!(
+                out,
+                "  predicted steps matching no ground truth: {}",
+                unmatched.join(", ")
+            );
+        }
+    }
+    out
+}

@@ -1,0 +1,237 @@
+//! Datasets (`dataset.md`): a folder with `tasks.jsonl`, one task a line, and
+//! the pairs files used for batch scoring.
+
+use std::collections::BTreeMap;
+use std::fmt;
+use std::path::{Path, PathBuf};
+
+use serde::Deserialize;
+use serde_json::{Map, Value};
+
+/// The four approaches whose published plans a task may carry, in the order
+/// of the paper's Table 3.
+pub const APPROACHES: [&str; 4] = [
+    "single_agent_table",
+    "multi_agent_table",
+    "single_agent_image",
+    "multi_agent_image",
+];
+
+/// One task of a dataset.
+#[derive(Debug, Clone, PartialEq)]
+pub struct Task {
+    /// Unique task id, e.g. `trial_T20190907_114323_767231-1`.
+    pub id: String,
+    /// The ALFRED trial (scene) the task belongs to.
+    pub trial: Option<String>,
+    /// The goal in natural language.
+    pub task: String,
+    /// The scene image, resolved against the dataset folder.
+    pub image: Option<PathBuf>,
+    /// The G-PlanET table of the scene, resolved against the dataset folder.
+    pub table: Option<PathBuf>,
+    /// The reference plan.
+    pub ground_truth: Vec<String>,
+    /// Plans produced earlier, by approach (see [`APPROACHES`]).
+    pub plans: BTreeMap<String, Vec<String>>,
+    /// Fields this version does not know, kept as they were.
+    pub extra: Map<String, Value>,
+}
+
+/// A line of `tasks.jsonl` or of a pairs file that could not be used.
+#[derive(Debug, Clone, PartialEq, Eq)]
+pub struct LineError {
+    /// The file the line is in.
+    pub path: PathBuf,
+    /// The 1-based line number.
+    pub line: usize,
+    /// What was wrong with it.
+    pub message: String,
+}
+
+impl fmt::Display for LineError {
+    fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
+        write!(f, "{}:{}: {}", self.path.display(), self.line, self.message)
+    }
+}
+
+/// Why a dataset or pairs file could not be read at all.
+#[derive(Debug, thiserror::Error)]
+pub enum DatasetError {
+    /// The file is missing or unreadable.
+    #[error("cannot read {path}: {error}")]
+    Read {
+        /// The file that failed.
+        path: PathBuf,
+        /// The underlying error.
+        error: std::io::Error,
+    },
+    /// The file is not UTF-8 text.
+    #[error("{path}: not UTF-8 text (byte {offset}); save it as UTF-8")]
+    NotUtf8 {
+        /// The file that failed.
+        path: PathBuf,
+        /// Offset of the first invalid byte.
+        offset: usize,
+    },
+}
+
+/// A loaded dataset: its folder and its tasks.
+#[derive(Debug, Clone, PartialEq)]
+pub struct Dataset {
+    /// The dataset folder.
+    pub root: PathBuf,
+    /// The tasks, in file order.
+    pub tasks: Vec<Task>,
+}
+
+/// Reads a whole text file as UTF-8, with errors naming the file.
+pub fn read_text(path: &Path) -> Result<String, DatasetError> {
+    let bytes = std::fs::read(path).map_err(|error| DatasetError::Read {
+        path: path.to_path_buf(),
+        error,
+    })?;
+    String::from_utf8(bytes).map_err(|e| DatasetError::NotUtf8 {
+        path: path.to_path_buf(),
+        offset: e.utf8_error().valid_up_to(),
+    })
+}
+
+#[derive(Deserialize)]
+struct RawTask {
+    id: String,
+    task: String,
+    ground_truth: Vec<String>,
+    #[serde(default)]
+    trial: Option<String>,
+    #[serde(default)]
+    image: Option<String>,
+    #[serde(default)]
+    table: Option<String>,
+    #[serde(flatten)]
+    rest: Map<String, Value>,
+}
+
+impl Dataset {
+    /// Loads `DIR/tasks.jsonl` (or the given `.jsonl` file, whose folder is
+    /// then the dataset folder). Lines that cannot be used are returned with
+    /// their line numbers; the others load.
+    pub fn load(path: &Path) -> Result<(Dataset, Vec<LineError>), DatasetError> {
+        let (root, file) = if path.is_dir() {
+            (path.to_path_buf(), path.join("tasks.jsonl"))
+        } else {
+            let root = path.parent().map_or_else(PathBuf::new, Path::to_path_buf);
+            (root, path.to_path_buf())
+        };
+        let text = read_text(&file)?;
+        let mut tasks = Vec::new();
+        let mut errors = Vec::new();
+        for (n, line) in text.lines().enumerate() {
+            if line.trim().is_empty() {
+                continue;
+            }
+            let error = |message: String| LineError {
+                path: file.clone(),
+                line: n + 1,
+                message,
+            };
+            match serde_json::from_str::<RawTask>(line) {
+                Ok(raw) => match Task::from_raw(raw, &root) {
+                    Ok(task) => tasks.push(task),
+                    Err(message) => errors.push(error(message)),
+                },
+                Err(e) => errors.push(error(format!("not a task: {e}"))),
+            }
+        }
+        Ok((Dataset { root, tasks }, errors))
+    }
+
+    /// The task with this id.
+    pub fn task(&self, id: &str) -> Option<&Task> {
+        self.tasks.iter().find(|t| t.id == id)
+    }
+}
+
+impl Task {
+    fn from_raw(raw: RawTask, root: &Path) -> Result<Task, String> {
+        let mut plans = BTreeMap::new();
+        let mut extra = Map::new();
+        for (key, value) in raw.rest {
+            if APPROACHES.contains(&key.as_str()) {
+                let steps: Vec<String> = serde_json::from_value(value)
+                    .map_err(|e| format!("field `{key}` is not a list of steps: {e}"))?;
+                plans.insert(key, steps);
+            } else {
+                extra.insert(key, value);
+            }
+        }
+        Ok(Task {
+            id: raw.id,
+            trial: raw.trial,
+            task: raw.task,
+            image: raw.image.map(|p| root.join(p)),
+            table: raw.table.map(|p| root.join(p)),
+            ground_truth: raw.ground_truth,
+            plans,
+            extra,
+        })
+    }
+}
+
+/// One plan pair of a pairs file.
+#[derive(Debug, Clone, PartialEq, Eq, Deserialize)]
+pub struct Pair {
+    /// The pair's id.
+    pub id: String,
+    /// Ground-truth steps.
+    pub gt: Vec<String>,
+    /// Predicted steps.
+    pub pred: Vec<String>,
+}
+
+/// Reads a pairs file (`{"id", "gt", "pred"}` per line). Each line is either
+/// a pair or the reason it could not be read, so the good ones can still be
+/// scored in order.
+pub fn load_pairs(path: &Path) -> Result<Vec<Result<Pair, LineError>>, DatasetError> {
+    let text = read_text(path)?;
+    Ok(text
+        .lines()
+        .enumerate()
+        .filter(|(_, line)| !line.trim().is_empty())
+        .map(|(n, line)| {
+            serde_json::from_str::<Pair>(line).map_err(|e| LineError {
+                path: path.to_path_buf(),
+                line: n + 1,
+                message: format!("not a pair {{\"id\", \"gt\", \"pred\"}}: {e}"),
+            })
+        })
+        .collect())
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn bad_lines_are_reported_and_good_ones_load() {
+        let dir = tempfile::tempdir().unwrap_or_else(|e| panic!("{e}"));
+        let text = concat!(
+            r#"{"id": "a", "task": "T", "ground_truth": ["Walk."], "image": "images/1.jpg", "note": 3, "single_agent_image": ["Go."]}"#,
+            "\n",
+            "{not json\n",
+            r#"{"id": "b", "ground_truth": []}"#,
+            "\n\n",
+            r#"{"id": "c", "task": "U", "ground_truth": ["Stop."]}"#,
+            "\n"
+        );
+        std::fs::write(dir.path().join("tasks.jsonl"), text).unwrap_or_else(|e| panic!("{e}"));
+        let (ds, errors) = Dataset::load(dir.path()).unwrap_or_else(|e| panic!("{e}"));
+        assert_eq!(ds.tasks.len(), 2);
+        assert_eq!(errors.iter().map(|e| e.line).collect::<Vec<_>>(), [2, 3]);
+        assert!(errors[1].message.contains("task"), "{}", errors[1]);
+        let a = &ds.tasks[0];
+        assert_eq!(a.image, Some(dir.path().join("images/1.jpg")));
+        assert_eq!(a.plans["single_agent_image"], ["Go."]);
+        assert_eq!(a.extra["note"], 3);
+    }
+}

@@ -1,0 +1,171 @@
+//! Plans as lists of steps, and the one step parser shared by step files and
+//! raw model output (`dataset.md`, "Step files and raw model output").
+
+/// Turns a step file or a model's raw answer into steps.
+///
+/// Numbering (`1.`, `1)`, `STEP 1:`, `Step 1 -`), bullets (`-`, `*`, `•`),
+/// surrounding whitespace, a trailing `,` after the final period and blank
+/// lines are removed; the rest of each sentence is kept as written. When some
+/// lines carry a list marker, only those lines are steps, so a preamble such as
+/// "Here is the plan:" and closing remarks are left out. When no line carries a
+/// marker, every non-blank line is a step, except a first line ending in `:`.
+pub fn parse_steps(text: &str) -> Vec<String> {
+    let lines: Vec<&str> = text
+        .lines()
+        .map(str::trim)
+        .filter(|l| !l.is_empty())
+        .collect();
+    let marked: Vec<Option<&str>> = lines.iter().map(|l| strip_marker(l)).collect();
+    let steps: Vec<&str> = if marked.iter().any(Option::is_some) {
+        marked.iter().flatten().copied().collect()
+    } else {
+        let skip = usize::from(lines.first().is_some_and(|l| l.ends_with(':')));
+        lines[skip..].to_vec()
+    };
+    steps
+        .into_iter()
+        .map(clean_step)
+        .filter(|s| !s.is_empty())
+        .collect()
+}
+
+/// Removes a trailing `,` after the final period (`... sink.,`) and markdown
+/// emphasis left around the whole step.
+fn clean_step(step: &str) -> String {
+    let mut s = step.trim();
+    if let Some(inner) = s.strip_prefix("**").and_then(|x| x.strip_suffix("**")) {
+        s = inner.trim();
+    }
+    if s.ends_with(".,") {
+        s = &s[..s.len() - 1];
+    }
+    s.trim().to_string()
+}
+
+/// Recognises a list marker at the start of a trimmed line and returns the
+/// text after it.
+fn strip_marker(line: &str) -> Option<&str> {
+    let line = line.strip_prefix("**").map_or(line, |l| l.trim_start());
+    for bullet in ['-', '*', '•'] {
+        if let Some(rest) = line.strip_prefix(bullet) {
+            if rest.starts_with(char::is_whitespace) {
+                return Some(rest.trim_start());
+            }
+        }
+    }
+    strip_step_word(line).or_else(|| strip_number(line))
+}
+
+/// `STEP 1:`, `Step 1 -`, `step 2.`, `Step 3)` (any case), with optional
+/// markdown bold closing after the marker.
+fn strip_step_word(line: &str) -> Option<&str> {
+    let head = line.get(..4)?;
+    if !head.eq_ignore_ascii_case("step") {
+        return None;
+    }
+    let after_word = line[4..].trim_start();
+    let digits = after_word.len()
+        - after_word
+            .trim_start_matches(|c: char| c.is_ascii_digit())
+            .len();
+    if digits == 0 {
+        return None;
+    }
+    let after_num = &after_word[digits..];
+    let trimmed = after_num.trim_start();
+    let rest = if let Some(r) = trimmed.strip_prefix([':', '.', ')', '-', '–']) {
+        r
+    } else if after_num.starts_with(char::is_whitespace) {
+        trimmed
+    } else {
+        return None;
+    };
+    let rest = rest.trim_start();
+    Some(rest.strip_prefix("**").map_or(rest, str::trim_start))
+}
+
+/// `1.` or `1)` followed by whitespace or the end of the line (so `1.5 m` is
+/// not numbering).
+fn strip_number(line: &str) -> Option<&str> {
+    let digits = line.len() - line.trim_start_matches(|c: char| c.is_ascii_digit()).len();
+    if digits == 0 {
+        return None;
+    }
+    let rest = line[digits..].strip_prefix(['.', ')'])?;
+    let rest = rest.strip_prefix("**").unwrap_or(rest);
+    if rest.is_empty() || rest.starts_with(char::is_whitespace) {
+        Some(rest.trim_start())
+    } else {
+        None
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::parse_steps;
+
+    #[test]
+    fn strips_numbering_bullets_and_step_words() {
+        let raw = "1. Walk to the sink.\n2) Pick up the cup.\n- Turn left.\n* Go on.\n• Stop.\nSTEP 6: Open it.\nStep 7 - Close it.\nstep 8. Done.";
+        assert_eq!(
+            parse_steps(raw),
+            [
+                "Walk to the sink.",
+                "Pick up the cup.",
+                "Turn left.",
+                "Go on.",
+                "Stop.",
+                "Open it.",
+                "Close it.",
+                "Done."
+            ]
+        );
+    }
+
+    #[test]
+    fn drops_preamble_postamble_and_blank_lines() {
+        let raw = "Here is the plan:\n\n1. Walk to the sink.,\n\n2. Wash the cup.,\nThis plan completes the task.";
+        assert_eq!(parse_steps(raw), ["Walk to the sink.", "Wash the cup."]);
+    }
+
+    #[test]
+    fn plain_step_file_keeps_every_line() {
+        let raw = "  Walk to the bathtub.  \nPick up the sponge, then turn.\n";
+        assert_eq!(
+            parse_steps(raw),
+            ["Walk to the bathtub.", "Pick up the sponge, then turn."]
+        );
+    }
+
+    #[test]
+    fn plain_list_with_a_heading_drops_the_heading() {
+        assert_eq!(parse_steps("Plan:\nWalk.\nStop."), ["Walk.", "Stop."]);
+    }
+
+    #[test]
+    fn keeps_numbers_inside_sentences() {
+        assert_eq!(
+            parse_steps("1.5 meters ahead is the sink.\nWalk 2 steps."),
+            ["1.5 meters ahead is the sink.", "Walk 2 steps."]
+        );
+    }
+
+    #[test]
+    fn bold_markdown_markers() {
+        assert_eq!(
+            parse_steps("**Step 1:** Walk to the sink.\n**2.** Stop."),
+            ["Walk to the sink.", "Stop."]
+        );
+    }
+
+    #[test]
+    fn only_a_trailing_comma_after_a_period_is_removed() {
+        assert_eq!(parse_steps("1. Walk, then stop,"), ["Walk, then stop,"]);
+    }
+
+    #[test]
+    fn empty_input_has_no_steps() {
+        assert!(parse_steps("").is_empty());
+        assert!(parse_steps("\n \n").is_empty());
+    }
+}

@@ -1,0 +1,144 @@
+//! `mapvlm score` as a user runs it: JSON lines, bad input with one clear
+//! line and a non-zero exit, never a panic.
+
+mod common;
+
+use std::path::Path;
+use std::process::{Command, Output};
+
+fn mapvlm(args: &[&str]) -> Output {
+    Command::new(env!("CARGO_BIN_EXE_mapvlm"))
+        .args(args)
+        .output()
+        .unwrap_or_else(|e| panic!("running mapvlm: {e}"))
+}
+
+fn stderr(out: &Output) -> String {
+    String::from_utf8_lossy(&out.stderr).into_owned()
+}
+
+fn write(dir: &Path, name: &str, bytes: &[u8]) -> String {
+    let path = dir.join(name);
+    std::fs::write(&path, bytes).unwrap_or_else(|e| panic!("{e}"));
+    path.to_string_lossy().into_owned()
+}
+
+fn assert_one_line_failure(out: &Output, needle: &str) {
+    assert!(!out.status.success(), "expected failure");
+    let err = stderr(out);
+    assert!(!err.contains("panicked"), "{err}");
+    assert_eq!(err.trim_end().lines().count(), 1, "one line: {err}");
+    assert!(err.contains(needle), "{needle:?} not in {err}");
+}
+
+#[test]
+fn kas_over_the_golden_pairs_prints_one_line_each() {
+    let pairs = common::shared().join("golden/pairs.dev.jsonl");
+    let out = mapvlm(&[
+        "score",
+        "--pairs",
+        &pairs.to_string_lossy(),
+        "--json",
+        "--metrics",
+        "kas",
+    ]);
+    assert!(out.status.success(), "{}", stderr(&out));
+    let golden = common::golden("pg2s.dev.jsonl");
+    let lines: Vec<serde_json::Value> = String::from_utf8_lossy(&out.stdout)
+        .lines()
+        .map(|l| serde_json::from_str(l).unwrap_or_else(|e| panic!("{e}: {l}")))
+        .collect();
+    assert_eq!(lines.len(), golden.len());
+    for (got, want) in lines.iter().zip(&golden) {
+        assert_eq!(got["id"], want["id"]);
+        assert_eq!(got["kas_chunks"], want["kas_chunks"]);
+        match want["kas"].as_f64() {
+            Some(k) => assert!((got["kas"].as_f64().unwrap_or(f64::NAN) - k).abs() <= 1e-9),
+            None => {
+                assert!(got["kas"].is_null());
+                assert!(got["reasons"]["kas"].is_string());
+            }
+        }
+    }
+}
+
+#[test]
+fn step_files_are_parsed_like_model_output() {
+    let dir = tempfile::tempdir().unwrap_or_else(|e| panic!("{e}"));
+    let gt = write(
+        dir.path(),
+        "gt.txt",
+        b"Walk to the sink.\nPick up the cup.\n",
+    );
+    let pred = write(
+        dir.path(),
+        "pred.txt",
+        b"Here is the plan:\n1. Walk to the sink.,\n2. Pick up the cup.,\n",
+    );
+    let out = mapvlm(&[
+        "score",
+        "--gt",
+        &gt,
+        "--pred",
+        &pred,
+        "--metrics",
+        "kas",
+        "--json",
+    ]);
+    assert!(out.status.success(), "{}", stderr(&out));
+    let v: serde_json::Value = serde_json::from_slice(&out.stdout).unwrap_or_default();
+    assert_eq!(
+        v["pred"],
+        serde_json::json!(["Walk to the sink.", "Pick up the cup."])
+    );
+    assert!((v["kas"].as_f64().unwrap_or_default() - 1.0).abs() < 1e-7);
+}
+
+#[test]
+fn a_missing_file_is_one_line() {
+    let out = mapvlm(&[
+        "score",
+        "--gt",
+        "/nonexistent/gt.txt",
+        "--pred",
+        "/nonexistent/p.txt",
+        "--metrics",
+        "kas",
+    ]);
+    assert_one_line_failure(&out, "/nonexistent/gt.txt");
+}
+
+#[test]
+fn invalid_utf8_is_one_line() {
+    let dir = tempfile::tempdir().unwrap_or_else(|e| panic!("{e}"));
+    let gt = write(dir.path(), "gt.txt", b"Walk to the \xff sink.\n");
+    let pred = write(dir.path(), "pred.txt", b"Walk.\n");
+    let out = mapvlm(&["score", "--gt", &gt, "--pred", &pred, "--metrics", "kas"]);
+    assert_one_line_failure(&out, "UTF-8");
+}
+
+#[test]
+fn an_empty_plan_is_one_line() {
+    let dir = tempfile::tempdir().unwrap_or_else(|e| panic!("{e}"));
+    let gt = write(dir.path(), "gt.txt", b"Walk.\n");
+    let pred = write(dir.path(), "pred.txt", b"\n  \n");
+    let out = mapvlm(&["score", "--gt", &gt, "--pred", &pred, "--metrics", "kas"]);
+    assert_one_line_failure(&out, "no steps");
+}
+
+#[test]
+fn a_malformed_pairs_line_is_reported_and_the_others_scored() {
+    let dir = tempfile::tempdir().unwrap_or_else(|e| panic!("{e}"));
+    let pairs = write(
+        dir.path(),
+        "pairs.jsonl",
+        b"{\"id\": \"a\", \"gt\": [\"Walk.\"], \"pred\": [\"Walk.\"]}\n{\"id\": \"b\", \"gt\": \n{\"id\": \"c\", \"gt\": [\"Go.\"], \"pred\": [\"Go.\"]}\n",
+    );
+    let out = mapvlm(&["score", "--pairs", &pairs, "--json", "--metrics", "kas"]);
+    assert_one_line_failure(&out, "pairs.jsonl:2:");
+    let ids: Vec<String> = String::from_utf8_lossy(&out.stdout)
+        .lines()
+        .map(|l| serde_json::from_str::<serde_json::Value>(l).unwrap_or_default()["id"].to_string())
+        .collect();
+    assert_eq!(ids, ["\"a\"", "\"c\""]);
+}
