@@ -4,7 +4,7 @@ use serde_json::{json, Value};
 use tokio_util::sync::CancellationToken;
 
 use super::provider::{
-    Assembler, BoxFuture, ChatRequest, Completion, HttpEndpoint, HttpSettings, Provider,
+    is_json, Assembler, BoxFuture, ChatRequest, Completion, HttpEndpoint, HttpSettings, Provider,
     TokenSink,
 };
 use super::{AgentError, Secret};
@@ -57,7 +57,7 @@ impl Anthropic {
         };
         let response = self.endpoint.send(build, cancel).await?;
         let mut answer = Assembler::new(on_token);
-        if request.stream {
+        if request.stream && !is_json(&response) {
             let complete = self
                 .endpoint
                 .read_events(response, cancel, |event| {

@@ -1,5 +1,5 @@
 //! The response cache: answers stored on disk under a hash of everything
-//! that decides them (provider, endpoint, model, settings, prompt, image
+//! that decides them (provider, model, settings, prompt, image
 //! hashes), so that re-running an unchanged agent costs nothing. The API key
 //! is never part of the key nor of an entry.
 
@@ -27,14 +27,14 @@ pub struct CachedAnswer {
     pub completion: Completion,
 }
 
-/// The content address of a request: a SHA-256 over the provider, base URL,
-/// model, temperature, token limit, schema, prompts and image hashes.
-pub fn request_key(provider: ProviderKind, base_url: &str, request: &ChatRequest) -> String {
+/// The content address of a request: a SHA-256 over the provider, model,
+/// temperature, token limit, schema, prompts and image hashes. The endpoint
+/// is left out, so that a recording replays whichever server it came from.
+pub fn request_key(provider: ProviderKind, request: &ChatRequest) -> String {
     let images: Vec<&str> = request.images.iter().map(|i| i.sha256.as_str()).collect();
     let canonical = json!({
         "format": FORMAT,
         "provider": provider.name(),
-        "base_url": base_url.trim_end_matches('/'),
         "model": request.model,
         "temperature": request.temperature,
         "max_tokens": request.max_tokens,

@@ -63,7 +63,16 @@ impl AgentLayer {
         macro_rules! take {
             ($($field:ident),*) => { $( if over.$field.is_some() { self.$field = over.$field.clone(); } )* };
         }
-        take!(provider, base_url, model, api_key, temperature, max_tokens, stream, json_output);
+        take!(
+            provider,
+            base_url,
+            model,
+            api_key,
+            temperature,
+            max_tokens,
+            stream,
+            json_output
+        );
         self
     }
 
@@ -141,7 +150,11 @@ impl ConfigFile {
             path: path.to_path_buf(),
             message: err.to_string().trim().replace('\n', " "),
         })?;
-        if let Some(name) = config.agents.keys().find(|n| n.parse::<AgentRole>().is_err()) {
+        if let Some(name) = config
+            .agents
+            .keys()
+            .find(|n| n.parse::<AgentRole>().is_err())
+        {
             return Err(ConfigError::File {
                 path: path.to_path_buf(),
                 message: format!("[agents.{name}]: use skm, gkm, planner or single"),
@@ -234,9 +247,12 @@ impl Settings {
                 .or(file.defaults.provider)
                 .unwrap_or(ProviderKind::Openai);
             let (key_var, url_var, default_url, default_model) = match provider {
-                ProviderKind::Openai => {
-                    ("OPENAI_API_KEY", "OPENAI_BASE_URL", openai::DEFAULT_BASE_URL, "gpt-4o")
-                }
+                ProviderKind::Openai => (
+                    "OPENAI_API_KEY",
+                    "OPENAI_BASE_URL",
+                    openai::DEFAULT_BASE_URL,
+                    "gpt-4o",
+                ),
                 ProviderKind::Anthropic => (
                     "ANTHROPIC_API_KEY",
                     "ANTHROPIC_BASE_URL",

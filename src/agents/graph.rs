@@ -21,7 +21,11 @@ pub struct Triple {
 
 impl Triple {
     fn key(&self) -> (String, String, String) {
-        (normal(&self.subject), normal(&self.relation), normal(&self.object))
+        (
+            normal(&self.subject),
+            normal(&self.relation),
+            normal(&self.object),
+        )
     }
 }
 
@@ -164,7 +168,10 @@ fn strip_marker(line: &str) -> &str {
         .find(|word| lower.starts_with(**word))
         .map_or(0, |word| word.len());
     let after_label = rest[label..].trim_start();
-    let digits = after_label.len() - after_label.trim_start_matches(|c: char| c.is_ascii_digit()).len();
+    let digits = after_label.len()
+        - after_label
+            .trim_start_matches(|c: char| c.is_ascii_digit())
+            .len();
     let after_number = after_label[digits..].trim_start();
     match after_number.chars().next() {
         Some(mark @ ('.' | ')' | ':' | '-')) if label > 0 || digits > 0 => {
@@ -311,7 +318,12 @@ impl KnowledgeGraph {
     pub fn to_lines(&self) -> String {
         self.edges
             .iter()
-            .map(|e| format!("({}, {}, {})", self.nodes[e.from], e.label, self.nodes[e.to]))
+            .map(|e| {
+                format!(
+                    "({}, {}, {})",
+                    self.nodes[e.from], e.label, self.nodes[e.to]
+                )
+            })
             .collect::<Vec<_>>()
             .join("\n")
     }
@@ -349,7 +361,10 @@ mod tests {
             ]
         );
         assert_eq!(parsed.duplicates, 1);
-        assert_eq!(parsed.unparsed, ["Here are the triples:", "(a, b) and nothing else"]);
+        assert_eq!(
+            parsed.unparsed,
+            ["Here are the triples:", "(a, b) and nothing else"]
+        );
         assert!(!parsed.from_json);
     }
 

@@ -261,7 +261,9 @@ pub enum AgentError {
         message: String,
     },
     /// The stream ended before the answer was complete.
-    #[error("{provider} stream ended before the answer was complete ({received} characters received)")]
+    #[error(
+        "{provider} stream ended before the answer was complete ({received} characters received)"
+    )]
     TruncatedStream {
         /// The provider's name.
         provider: &'static str,
@@ -304,7 +306,9 @@ pub enum AgentError {
         reason: String,
     },
     /// A recorded session has no answer for this request.
-    #[error("the recording has no answer for this request to {model} (key {key}): record it again")]
+    #[error(
+        "the recording has no answer for this request to {model} (key {key}): record it again"
+    )]
     NotRecorded {
         /// The model asked.
         model: String,
@@ -314,6 +318,14 @@ pub enum AgentError {
     /// A miner failed, so the agent that needs it did not run.
     #[error("not run: {0} failed")]
     Upstream(AgentRole),
+    /// The approach lacks an input it needs.
+    #[error("{approach} needs {what}")]
+    MissingInput {
+        /// The approach.
+        approach: Approach,
+        /// What to give it.
+        what: &'static str,
+    },
     /// A file could not be read or written.
     #[error("{path}: {message}")]
     Io {

@@ -6,7 +6,7 @@ use serde_json::{json, Value};
 use tokio_util::sync::CancellationToken;
 
 use super::provider::{
-    Assembler, BoxFuture, ChatRequest, Completion, HttpEndpoint, HttpSettings, Provider,
+    is_json, Assembler, BoxFuture, ChatRequest, Completion, HttpEndpoint, HttpSettings, Provider,
     TokenSink,
 };
 use super::{AgentError, Secret, Usage};
@@ -42,7 +42,11 @@ impl OpenAi {
     ) -> Result<Completion, AgentError> {
         if request.json_schema.is_some() {
             match self.attempt(request, true, on_token, cancel).await {
-                Err(AgentError::Http { status: 400 | 422, message, .. }) => {
+                Err(AgentError::Http {
+                    status: 400 | 422,
+                    message,
+                    ..
+                }) => {
                     tracing::info!(%message, "JSON schema output refused; asking for text");
                 }
                 other => return other,
@@ -69,7 +73,7 @@ impl OpenAi {
         };
         let response = self.endpoint.send(build, cancel).await?;
         let mut answer = Assembler::new(on_token);
-        if request.stream {
+        if request.stream && !is_json(&response) {
             let mut finished = false;
             let complete = self
                 .endpoint

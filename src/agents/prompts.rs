@@ -10,14 +10,38 @@ use super::{sha256_hex, AgentError, AgentRole, Approach};
 
 /// The templates shipped with the program, by file stem.
 const BUILT_IN: [(&str, &str); 8] = [
-    ("multi-image-skm", include_str!("../../prompts/multi-image-skm.txt")),
-    ("multi-image-gkm", include_str!("../../prompts/multi-image-gkm.txt")),
-    ("multi-image-planner", include_str!("../../prompts/multi-image-planner.txt")),
-    ("single-image-single", include_str!("../../prompts/single-image-single.txt")),
-    ("multi-table-skm", include_str!("../../prompts/multi-table-skm.txt")),
-    ("multi-table-gkm", include_str!("../../prompts/multi-table-gkm.txt")),
-    ("multi-table-planner", include_str!("../../prompts/multi-table-planner.txt")),
-    ("single-table-single", include_str!("../../prompts/single-table-single.txt")),
+    (
+        "multi-image-skm",
+        include_str!("../../prompts/multi-image-skm.txt"),
+    ),
+    (
+        "multi-image-gkm",
+        include_str!("../../prompts/multi-image-gkm.txt"),
+    ),
+    (
+        "multi-image-planner",
+        include_str!("../../prompts/multi-image-planner.txt"),
+    ),
+    (
+        "single-image-single",
+        include_str!("../../prompts/single-image-single.txt"),
+    ),
+    (
+        "multi-table-skm",
+        include_str!("../../prompts/multi-table-skm.txt"),
+    ),
+    (
+        "multi-table-gkm",
+        include_str!("../../prompts/multi-table-gkm.txt"),
+    ),
+    (
+        "multi-table-planner",
+        include_str!("../../prompts/multi-table-planner.txt"),
+    ),
+    (
+        "single-table-single",
+        include_str!("../../prompts/single-table-single.txt"),
+    ),
 ];
 
 /// The variables a template may use.
@@ -78,7 +102,9 @@ impl Template {
             }
         }
         if !seen_user {
-            return Err(fail("no [user] section: add a line `[user]` before the user prompt".into()));
+            return Err(fail(
+                "no [user] section: add a line `[user]` before the user prompt".into(),
+            ));
         }
         let template = Self {
             name: name.to_string(),
@@ -200,7 +226,8 @@ pub fn render_table(path: &Path) -> Result<String, AgentError> {
         path: path.to_path_buf(),
         reason,
     };
-    let text = std::fs::read_to_string(path).map_err(|err| fail(format!("cannot read it ({err})")))?;
+    let text =
+        std::fs::read_to_string(path).map_err(|err| fail(format!("cannot read it ({err})")))?;
     let mut lines = text.lines().map(|l| l.trim_end_matches('\r'));
     let header: Vec<&str> = lines
         .next()
@@ -225,7 +252,7 @@ pub fn render_table(path: &Path) -> Result<String, AgentError> {
     struct Row {
         id: String,
         kind: String,
-        position: [f64; 3],
+        position: Option<[f64; 3]>,
         yaw: String,
         parent: String,
     }
@@ -239,13 +266,22 @@ pub fn render_table(path: &Path) -> Result<String, AgentError> {
         let cell = |i: usize| cells.get(i).copied().unwrap_or("");
         let coordinate = |i: usize| {
             cell(i).parse::<f64>().map_err(|_| {
-                fail(format!("line {number}: `{}` in column {} is not a number", cell(i), header[i]))
+                fail(format!(
+                    "line {number}: `{}` in column {} is not a number",
+                    cell(i),
+                    header[i]
+                ))
             })
+        };
+        let position = if [x, y, z].iter().all(|&i| cell(i).is_empty()) {
+            None
+        } else {
+            Some([coordinate(x)?, coordinate(y)?, coordinate(z)?])
         };
         rows.push(Row {
             id: cell(id).to_string(),
             kind: cell(kind).to_string(),
-            position: [coordinate(x)?, coordinate(y)?, coordinate(z)?],
+            position,
             yaw: cell(yaw).to_string(),
             parent: cell(parent).to_string(),
         });
@@ -256,8 +292,10 @@ pub fn render_table(path: &Path) -> Result<String, AgentError> {
         .collect();
     let mut out = String::new();
     for row in &rows {
-        let [px, py, pz] = row.position;
-        let _ = write!(out, "{} #{} at ({px:.2}, {py:.2}, {pz:.2})", row.kind, row.id);
+        let _ = write!(out, "{} #{}", row.kind, row.id);
+        if let Some([px, py, pz]) = row.position {
+            let _ = write!(out, " at ({px:.2}, {py:.2}, {pz:.2})");
+        }
         if row.kind == "Agent" {
             let _ = write!(out, ", facing {}°", row.yaw);
         }
@@ -299,14 +337,25 @@ mod tests {
     #[test]
     fn user_folder_overrides_and_unknown_variables_are_refused() {
         let dir = tempfile::tempdir().unwrap();
-        std::fs::write(dir.path().join("single-image-single.txt"), "[user]\nDo {{task}} now").unwrap();
+        std::fs::write(
+            dir.path().join("single-image-single.txt"),
+            "[user]\nDo {{task}} now",
+        )
+        .unwrap();
         let set = PromptSet::load(Some(dir.path())).unwrap();
         let template = set.get(Approach::SingleImage, AgentRole::Single).unwrap();
         assert_eq!(template.user, "Do {{task}} now");
         assert_eq!(template.hash, sha256_hex(b"[user]\nDo {{task}} now")[..16]);
-        std::fs::write(dir.path().join("single-image-single.txt"), "[user]\n{{colour}}").unwrap();
+        std::fs::write(
+            dir.path().join("single-image-single.txt"),
+            "[user]\n{{colour}}",
+        )
+        .unwrap();
         let err = PromptSet::load(Some(dir.path())).unwrap_err().to_string();
-        assert!(err.contains("single-image-single") && err.contains("colour"), "{err}");
+        assert!(
+            err.contains("single-image-single") && err.contains("colour"),
+            "{err}"
+        );
     }
 
     #[test]
@@ -318,7 +367,12 @@ mod tests {
         let rendered = render_table(path).unwrap();
         let first: Vec<&str> = rendered.lines().take(2).collect();
         assert_eq!(first[0], "Agent #0 at (1.25, 0.90, 1.00), facing 270°");
-        assert!(first[1].starts_with("Vase #1 at (1.63, 1.66, -1.71), in/on "), "{}", first[1]);
+        assert!(
+            first[1].starts_with("Vase #1 at (1.63, 1.66, -1.71), in/on "),
+            "{}",
+            first[1]
+        );
         assert_eq!(rendered.lines().count(), 107);
+        assert_eq!(rendered.lines().last(), Some("WestWall #106"));
     }
 }

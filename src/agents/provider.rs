@@ -263,7 +263,10 @@ impl HttpEndpoint {
             .map_err(|err| self.transport_error(&err))?;
         serde_json::from_slice(&body).map_err(|err| AgentError::InvalidResponse {
             provider: self.provider,
-            message: format!("invalid JSON ({err}): {}", shorten(&self.redact(&String::from_utf8_lossy(&body)), 120)),
+            message: format!(
+                "invalid JSON ({err}): {}",
+                shorten(&self.redact(&String::from_utf8_lossy(&body)), 120)
+            ),
         })
     }
 
@@ -352,6 +355,16 @@ impl<'a> Assembler<'a> {
             chunks: self.chunks,
         })
     }
+}
+
+/// Whether a response is a whole JSON document (some servers answer so
+/// even when a stream was asked for).
+pub fn is_json(response: &Response) -> bool {
+    response
+        .headers()
+        .get(reqwest::header::CONTENT_TYPE)
+        .and_then(|v| v.to_str().ok())
+        .is_some_and(|v| v.starts_with("application/json"))
 }
 
 /// Runs `future` unless `cancel` fires first.
@@ -480,9 +493,18 @@ mod tests {
         assert_eq!(
             events,
             vec![
-                SseEvent { event: Some("a".into()), data: "{\"x\":1}".into() },
-                SseEvent { event: None, data: "two\nlines".into() },
-                SseEvent { event: None, data: "[DONE]".into() },
+                SseEvent {
+                    event: Some("a".into()),
+                    data: "{\"x\":1}".into()
+                },
+                SseEvent {
+                    event: None,
+                    data: "two\nlines".into()
+                },
+                SseEvent {
+                    event: None,
+                    data: "[DONE]".into()
+                },
             ]
         );
     }

@@ -81,18 +81,15 @@ pub enum Pace {
 pub struct ReplayProvider {
     recording: Arc<Recording>,
     provider: ProviderKind,
-    base_url: String,
     pace: Pace,
 }
 
 impl ReplayProvider {
-    /// Serves `recording` in place of the provider `provider` at `base_url`
-    /// (both are part of the request key).
-    pub fn new(recording: Arc<Recording>, provider: ProviderKind, base_url: &str, pace: Pace) -> Self {
+    /// Serves `recording` in place of `provider` (part of the request key).
+    pub fn new(recording: Arc<Recording>, provider: ProviderKind, pace: Pace) -> Self {
         Self {
             recording,
             provider,
-            base_url: base_url.to_string(),
             pace,
         }
     }
@@ -103,7 +100,7 @@ impl ReplayProvider {
         on_token: TokenSink<'_>,
         cancel: &CancellationToken,
     ) -> Result<Completion, AgentError> {
-        let key = request_key(self.provider, &self.base_url, request);
+        let key = request_key(self.provider, request);
         let answer = self
             .recording
             .answers

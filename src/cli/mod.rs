@@ -1,6 +1,7 @@
 //! The command line: one subcommand a module, each with `--json` where a
 //! program may read the output.
 
+mod plan;
 mod score;
 
 use std::path::PathBuf;
@@ -24,6 +25,8 @@ pub struct Cli {
 pub enum Command {
     /// Score predicted plans against ground truths with PG2S and KAS.
     Score(score::ScoreArgs),
+    /// Make a plan with the agents of one approach.
+    Plan(plan::PlanArgs),
 }
 
 /// Where the models come from, for the commands that need them.
@@ -50,6 +53,7 @@ pub fn run() -> anyhow::Result<ExitCode> {
     let cli = Cli::parse();
     match cli.command {
         Some(Command::Score(args)) => score::run(&args),
+        Some(Command::Plan(args)) => plan::run(&args),
         None => Ok(ExitCode::SUCCESS),
     }
 }
