@@ -55,8 +55,8 @@ impl Anthropic {
                 None => builder,
             }
         };
-        let response = self.endpoint.send(build, cancel).await?;
         let mut answer = Assembler::new(on_token);
+        let response = self.endpoint.send(build, cancel).await?;
         if request.stream && !is_json(&response) {
             let complete = self
                 .endpoint

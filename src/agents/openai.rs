@@ -71,8 +71,8 @@ impl OpenAi {
                 None => builder,
             }
         };
-        let response = self.endpoint.send(build, cancel).await?;
         let mut answer = Assembler::new(on_token);
+        let response = self.endpoint.send(build, cancel).await?;
         if request.stream && !is_json(&response) {
             let mut finished = false;
             let complete = self

@@ -57,7 +57,7 @@ pub struct ChatRequest {
 /// A piece of a streamed answer and when it arrived.
 #[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
 pub struct Chunk {
-    /// Milliseconds since the request was sent.
+    /// Milliseconds since the request was first sent.
     pub at_ms: u64,
     /// The text.
     pub text: String,
