@@ -1,6 +1,7 @@
 //! The command line: one subcommand a module, each with `--json` where a
 //! program may read the output.
 
+mod eval;
 mod plan;
 mod score;
 
@@ -27,6 +28,8 @@ pub enum Command {
     Score(score::ScoreArgs),
     /// Make a plan with the agents of one approach.
     Plan(plan::PlanArgs),
+    /// Plan and score every task of a dataset; write the paper's Table 3.
+    Eval(eval::EvalArgs),
 }
 
 /// Where the models come from, for the commands that need them.
@@ -54,6 +57,7 @@ pub fn run() -> anyhow::Result<ExitCode> {
     match cli.command {
         Some(Command::Score(args)) => score::run(&args),
         Some(Command::Plan(args)) => plan::run(&args),
+        Some(Command::Eval(args)) => eval::run(&args),
         None => Ok(ExitCode::SUCCESS),
     }
 }
