@@ -361,13 +361,7 @@ fn tables(tasks: &[Task], approaches: &[Approach], results: &[TaskResult]) -> (S
         for approach in approaches {
             let result = find(&task.id, *approach);
             let (pg2s, kas) = (result.and_then(|r| r.pg2s), result.and_then(|r| r.kas));
-            let _ = write!(
-                markdown,
-                " {} | {} |",
-                or_na(cell(pg2s, 3)),
-                or_na(cell(kas, 3))
-            );
-            let _ = write!(csv, ",{},{}", cell(pg2s, 6), cell(kas, 6));
+            push_scores(&mut markdown, &mut csv, pg2s, kas, "");
         }
         markdown.push('\n');
         csv.push('\n');
@@ -378,17 +372,27 @@ fn tables(tasks: &[Task], approaches: &[Approach], results: &[TaskResult]) -> (S
         let of = |r: &&TaskResult| r.approach == *approach;
         let pg2s = mean(results.iter().filter(of).map(|r| r.pg2s));
         let kas = mean(results.iter().filter(of).map(|r| r.kas));
-        let _ = write!(
-            markdown,
-            " **{}** | **{}** |",
-            or_na(cell(pg2s, 3)),
-            or_na(cell(kas, 3))
-        );
-        let _ = write!(csv, ",{},{}", cell(pg2s, 6), cell(kas, 6));
+        push_scores(&mut markdown, &mut csv, pg2s, kas, "**");
     }
     markdown.push('\n');
     csv.push('\n');
     (markdown, csv)
+}
+
+/// Appends one approach's PG2S and KAS cells to both tables.
+fn push_scores(
+    markdown: &mut String,
+    csv: &mut String,
+    pg2s: Option<f64>,
+    kas: Option<f64>,
+    emphasis: &str,
+) {
+    let (p, k) = (or_na(cell(pg2s, 3)), or_na(cell(kas, 3)));
+    let _ = write!(
+        markdown,
+        " {emphasis}{p}{emphasis} | {emphasis}{k}{emphasis} |"
+    );
+    let _ = write!(csv, ",{},{}", cell(pg2s, 6), cell(kas, 6));
 }
 
 fn or_na(text: String) -> String {
