@@ -4,7 +4,7 @@
 //! products beside criterion's timing.
 //!
 //! Needs the model pack (`$MAPVLM_MODELS`, else the user cache folder);
-//! `scripts/bench-embed.sh` runs it together with the Python reference.
+//! `scripts/bench` runs it together with the Python reference.
 
 use std::time::Instant;
 

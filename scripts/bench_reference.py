@@ -2,12 +2,14 @@
 """Times the Python reference (../shared/reference) on the same work as the
 criterion benches, so the two can be reported side by side as ratios.
 
-usage: bench_reference.py MODELS_DIR {embed64,pair,pairs40} [REPEATS]
+usage: bench_reference.py MODELS_DIR {embed64,pair,pairs40,words} [REPEATS]
 
   embed64  sentences/s embedding the 64 lines of golden/sentences.embed.txt
            (batch size 32, as sentence-transformers' default)
   pair     one 6x10 plan pair, cold (empty caches) and warm (one step edited)
   pairs40  40 ALFRED pairs of golden/pairs.dev.jsonl, model loading excluded
+  words    spaCy's words (tokens)/s on golden/sentences.dev.txt, with nlp.pipe
+           and one sentence at a time
 Prints one JSON object.
 """
 import json
@@ -79,6 +81,13 @@ def main():
                 pg2s_ref.pg2s(m, p["gt"], p["pred"])
 
         print(json.dumps({"what": what, "seconds": timed(run, repeats)}))
+    elif what == "words":
+        sents = [l.rstrip("\n") for l in open(os.path.join(SHARED, "golden", "sentences.dev.txt"))]
+        words = sum(len(d) for d in m.nlp.pipe(sents))
+        piped = timed(lambda: list(m.nlp.pipe(sents)), repeats)
+        single = timed(lambda: [m.nlp(s) for s in sents], repeats)
+        print(json.dumps({"what": what, "words": words, "pipe_words_per_s": words / piped,
+                          "one_at_a_time_words_per_s": words / single}))
 
 
 if __name__ == "__main__":

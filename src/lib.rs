@@ -4,6 +4,7 @@
 //! Data flows one way: a dataset or scene goes to the agents, the agents make a
 //! plan, the metrics judge the plan, and the views show all of it.
 
+pub mod agents;
 pub mod cli;
 pub mod dataset;
 pub mod demo;

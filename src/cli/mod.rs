@@ -2,8 +2,10 @@
 //! program may read the output.
 
 mod embed;
+mod eval;
 mod models;
 mod parse;
+mod plan;
 mod score;
 mod tui;
 
@@ -50,6 +52,10 @@ pub enum Command {
     Parse(parse::ParseArgs),
     /// Embed sentences from standard input with all-mpnet-base-v2.
     Embed(embed::EmbedArgs),
+    /// Make a plan with the agents of one approach.
+    Plan(plan::PlanArgs),
+    /// Plan and score every task of a dataset; write the paper's Table 3.
+    Eval(eval::EvalArgs),
 }
 
 /// Where the model pack is, for the commands that need one model of it.
@@ -146,6 +152,8 @@ pub fn run() -> anyhow::Result<ExitCode> {
             Ok(ExitCode::SUCCESS)
         }
         Some(Command::Embed(args)) => embed::run(&args),
+        Some(Command::Plan(args)) => plan::run(&args),
+        Some(Command::Eval(args)) => eval::run(&args),
         None => tui::run(cli.tui),
     }
 }

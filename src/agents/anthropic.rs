@@ -1,0 +1,166 @@
+//! Anthropic's Messages API, images and streaming included.
+
+use serde_json::{json, Value};
+use tokio_util::sync::CancellationToken;
+
+use super::provider::{
+    is_json, Assembler, BoxFuture, ChatRequest, Completion, HttpEndpoint, HttpSettings, Provider,
+    TokenSink,
+};
+use super::{AgentError, Secret};
+
+/// The default base URL.
+pub const DEFAULT_BASE_URL: &str = "https://api.anthropic.com";
+
+/// The API version sent in `anthropic-version`.
+pub const API_VERSION: &str = "2023-06-01";
+
+const NAME: &str = "anthropic";
+
+/// A Messages API endpoint.
+#[derive(Debug, Clone)]
+pub struct Anthropic {
+    endpoint: HttpEndpoint,
+}
+
+impl Anthropic {
+    /// A provider for `base_url` (the part before `/v1/messages`).
+    pub fn new(
+        base_url: &str,
+        key: Option<Secret>,
+        settings: HttpSettings,
+    ) -> Result<Self, AgentError> {
+        Ok(Self {
+            endpoint: HttpEndpoint::new(NAME, base_url, key, settings)?,
+        })
+    }
+
+    async fn run(
+        &self,
+        request: &ChatRequest,
+        on_token: TokenSink<'_>,
+        cancel: &CancellationToken,
+    ) -> Result<Completion, AgentError> {
+        let body = request_body(request);
+        let url = self.endpoint.url("v1/messages");
+        let build = || {
+            let builder = self
+                .endpoint
+                .client
+                .post(&url)
+                .header("anthropic-version", API_VERSION)
+                .json(&body);
+            match &self.endpoint.key {
+                Some(key) => builder.header("x-api-key", key.expose()),
+                None => builder,
+            }
+        };
+        let mut answer = Assembler::new(on_token);
+        let response = self.endpoint.send(build, cancel).await?;
+        if request.stream && !is_json(&response) {
+            let complete = self
+                .endpoint
+                .read_events(response, cancel, |event| {
+                    let value: Value = serde_json::from_str(&event.data).map_err(|err| {
+                        self.endpoint
+                            .invalid(format!("invalid JSON in stream event ({err})"))
+                    })?;
+                    let kind = value.get("type").and_then(Value::as_str).unwrap_or("");
+                    match kind {
+                        "message_start" => {
+                            let usage = value.pointer("/message/usage");
+                            answer.usage.input_tokens = count(usage, "input_tokens");
+                            answer.usage.output_tokens = count(usage, "output_tokens");
+                        }
+                        "content_block_delta" => {
+                            if let Some(text) = value.pointer("/delta/text").and_then(Value::as_str)
+                            {
+                                answer.push(text);
+                            }
+                        }
+                        "message_delta" => {
+                            let output = count(value.get("usage"), "output_tokens");
+                            answer.usage.output_tokens = answer.usage.output_tokens.max(output);
+                        }
+                        "message_stop" => return Ok(true),
+                        "error" => {
+                            let message = value
+                                .pointer("/error/message")
+                                .and_then(Value::as_str)
+                                .unwrap_or("unknown error");
+                            return Err(self
+                                .endpoint
+                                .invalid(format!("error in stream: {message}")));
+                        }
+                        _ => {}
+                    }
+                    Ok(false)
+                })
+                .await?;
+            if !complete {
+                return Err(AgentError::TruncatedStream {
+                    provider: NAME,
+                    received: answer.received(),
+                });
+            }
+        } else {
+            let value = self.endpoint.read_json(response, cancel).await?;
+            let blocks = value
+                .get("content")
+                .and_then(Value::as_array)
+                .ok_or_else(|| self.endpoint.invalid("no `content` in the answer".into()))?;
+            for block in blocks {
+                if let Some(text) = block.get("text").and_then(Value::as_str) {
+                    answer.push(text);
+                }
+            }
+            answer.usage.input_tokens = count(value.get("usage"), "input_tokens");
+            answer.usage.output_tokens = count(value.get("usage"), "output_tokens");
+        }
+        answer.finish(NAME, &request.model)
+    }
+}
+
+impl Provider for Anthropic {
+    fn complete<'a>(
+        &'a self,
+        request: &'a ChatRequest,
+        on_token: TokenSink<'a>,
+        cancel: &'a CancellationToken,
+    ) -> BoxFuture<'a, Result<Completion, AgentError>> {
+        Box::pin(self.run(request, on_token, cancel))
+    }
+}
+
+fn count(usage: Option<&Value>, field: &str) -> u64 {
+    usage
+        .and_then(|usage| usage.get(field))
+        .and_then(Value::as_u64)
+        .unwrap_or(0)
+}
+
+/// The JSON body of a Messages request.
+pub fn request_body(request: &ChatRequest) -> Value {
+    let mut content: Vec<Value> = request
+        .images
+        .iter()
+        .map(|image| {
+            json!({
+                "type": "image",
+                "source": {"type": "base64", "media_type": image.media_type, "data": image.data_base64}
+            })
+        })
+        .collect();
+    content.push(json!({"type": "text", "text": request.user}));
+    let mut body = json!({
+        "model": request.model,
+        "max_tokens": request.max_tokens,
+        "temperature": request.temperature,
+        "messages": [{"role": "user", "content": content}],
+        "stream": request.stream,
+    });
+    if !request.system.is_empty() {
+        body["system"] = json!(request.system);
+    }
+    body
+}

@@ -1,0 +1,374 @@
+//! Provider settings per agent, layered: built-in defaults, then the config
+//! file (`$XDG_CONFIG_HOME/mapvlm/config.toml`), then the environment
+//! (`OPENAI_API_KEY`, `OPENAI_BASE_URL`, `ANTHROPIC_API_KEY`,
+//! `ANTHROPIC_BASE_URL`), then flags; later layers override earlier ones.
+
+use std::collections::BTreeMap;
+use std::path::{Path, PathBuf};
+use std::time::Duration;
+
+use serde::Deserialize;
+
+use super::images::DEFAULT_MAX_EDGE;
+use super::provider::HttpSettings;
+use super::{anthropic, openai, AgentRole, ProviderKind, Secret};
+
+/// A configuration that could not be used.
+#[derive(Debug, thiserror::Error)]
+pub enum ConfigError {
+    /// The config file could not be read or parsed.
+    #[error("config file {path}: {message}")]
+    File {
+        /// The file.
+        path: PathBuf,
+        /// What was wrong (with the line, for syntax errors).
+        message: String,
+    },
+    /// A flag or value is wrong.
+    #[error("{0}")]
+    Invalid(String),
+}
+
+/// One layer of settings for an agent: whatever it sets overrides the
+/// layers before it.
+#[derive(Debug, Clone, Default, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct AgentLayer {
+    /// `openai` or `anthropic`.
+    pub provider: Option<ProviderKind>,
+    /// The endpoint's base URL.
+    pub base_url: Option<String>,
+    /// The model name.
+    pub model: Option<String>,
+    /// The API key (config file or environment only).
+    #[serde(default, deserialize_with = "secret_field")]
+    pub api_key: Option<Secret>,
+    /// Sampling temperature.
+    pub temperature: Option<f32>,
+    /// Most tokens to write.
+    pub max_tokens: Option<u32>,
+    /// Whether to stream the answer.
+    pub stream: Option<bool>,
+    /// Whether to ask for JSON-schema output where the agent has a schema.
+    pub json_output: Option<bool>,
+}
+
+fn secret_field<'de, D: serde::Deserializer<'de>>(d: D) -> Result<Option<Secret>, D::Error> {
+    Ok(Option::<String>::deserialize(d)?.and_then(Secret::new))
+}
+
+impl AgentLayer {
+    /// `self` with every field `over` sets replaced.
+    pub fn then(mut self, over: &AgentLayer) -> AgentLayer {
+        macro_rules! take {
+            ($($field:ident),*) => { $( if over.$field.is_some() { self.$field = over.$field.clone(); } )* };
+        }
+        take!(
+            provider,
+            base_url,
+            model,
+            api_key,
+            temperature,
+            max_tokens,
+            stream,
+            json_output
+        );
+        self
+    }
+
+    /// Sets one field from a `name=value` flag.
+    pub fn set(&mut self, field: &str, value: &str) -> Result<(), ConfigError> {
+        let bad = |what: &str| ConfigError::Invalid(format!("`{field}={value}`: {what}"));
+        match field.replace('-', "_").as_str() {
+            "provider" => self.provider = Some(value.parse().map_err(|e: String| bad(&e))?),
+            "base_url" => self.base_url = Some(value.to_string()),
+            "model" => self.model = Some(value.to_string()),
+            "temperature" => {
+                self.temperature = Some(value.parse().map_err(|_| bad("not a number"))?)
+            }
+            "max_tokens" => {
+                self.max_tokens = Some(value.parse().map_err(|_| bad("not a whole number"))?)
+            }
+            "stream" => self.stream = Some(value.parse().map_err(|_| bad("use true or false"))?),
+            "json_output" => {
+                self.json_output = Some(value.parse().map_err(|_| bad("use true or false"))?)
+            }
+            _ => return Err(bad(
+                "unknown setting: use provider, base_url, model, temperature, max_tokens, stream or json_output (keys come from the environment or the config file)",
+            )),
+        }
+        Ok(())
+    }
+}
+
+/// The config file's contents.
+#[derive(Debug, Clone, Default, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct ConfigFile {
+    /// Settings for every agent.
+    #[serde(default)]
+    pub defaults: AgentLayer,
+    /// Settings for one agent (`skm`, `gkm`, `planner`, `single`).
+    #[serde(default)]
+    pub agents: BTreeMap<String, AgentLayer>,
+    /// Longest image edge sent, in pixels.
+    pub max_image_edge: Option<u32>,
+    /// Longest wait for a whole answer, in seconds.
+    pub timeout_secs: Option<f64>,
+    /// Longest wait for a connection, in seconds.
+    pub connect_timeout_secs: Option<f64>,
+    /// Retries after 429 or 5xx.
+    pub max_retries: Option<u32>,
+}
+
+impl ConfigFile {
+    /// The default location: `$XDG_CONFIG_HOME/mapvlm/config.toml`, else
+    /// `$HOME/.config/mapvlm/config.toml`.
+    pub fn default_path(env: &dyn Fn(&str) -> Option<String>) -> Option<PathBuf> {
+        env("XDG_CONFIG_HOME")
+            .filter(|v| !v.is_empty())
+            .map(PathBuf::from)
+            .or_else(|| env("HOME").map(|home| PathBuf::from(home).join(".config")))
+            .map(|base| base.join("mapvlm").join("config.toml"))
+    }
+
+    /// Reads `path`; a missing file is an empty config unless `required`.
+    pub fn load(path: &Path, required: bool) -> Result<Self, ConfigError> {
+        let text = match std::fs::read_to_string(path) {
+            Ok(text) => text,
+            Err(err) if err.kind() == std::io::ErrorKind::NotFound && !required => {
+                return Ok(Self::default())
+            }
+            Err(err) => {
+                return Err(ConfigError::File {
+                    path: path.to_path_buf(),
+                    message: err.to_string(),
+                })
+            }
+        };
+        let config: Self = toml::from_str(&text).map_err(|err| ConfigError::File {
+            path: path.to_path_buf(),
+            message: err.to_string().trim().replace('\n', " "),
+        })?;
+        if let Some(name) = config
+            .agents
+            .keys()
+            .find(|n| n.parse::<AgentRole>().is_err())
+        {
+            return Err(ConfigError::File {
+                path: path.to_path_buf(),
+                message: format!("[agents.{name}]: use skm, gkm, planner or single"),
+            });
+        }
+        Ok(config)
+    }
+}
+
+/// The settings from flags: for all agents, and per agent.
+#[derive(Debug, Clone, Default)]
+pub struct FlagLayers {
+    /// `--provider`, `--base-url`, `--model` and the like: every agent.
+    pub all: AgentLayer,
+    /// `--agent ROLE.FIELD=VALUE`: one agent.
+    pub per_agent: BTreeMap<AgentRole, AgentLayer>,
+    /// `--max-image-edge`.
+    pub max_image_edge: Option<u32>,
+    /// `--timeout` in seconds.
+    pub timeout_secs: Option<f64>,
+}
+
+impl FlagLayers {
+    /// Applies one `ROLE.FIELD=VALUE` flag.
+    pub fn set_agent(&mut self, spec: &str) -> Result<(), ConfigError> {
+        let bad = || {
+            ConfigError::Invalid(format!(
+                "`--agent {spec}`: write ROLE.FIELD=VALUE, e.g. planner.model=gpt-4"
+            ))
+        };
+        let (target, value) = spec.split_once('=').ok_or_else(bad)?;
+        let (role, field) = target.split_once('.').ok_or_else(bad)?;
+        let role: AgentRole = role.parse().map_err(ConfigError::Invalid)?;
+        self.per_agent.entry(role).or_default().set(field, value)
+    }
+}
+
+/// The resolved settings of one agent.
+#[derive(Debug, Clone, PartialEq)]
+pub struct AgentSettings {
+    /// The wire protocol.
+    pub provider: ProviderKind,
+    /// The endpoint's base URL.
+    pub base_url: String,
+    /// The model name.
+    pub model: String,
+    /// The API key, if any (local servers often need none).
+    pub api_key: Option<Secret>,
+    /// Sampling temperature (the paper used 0).
+    pub temperature: f32,
+    /// Most tokens to write.
+    pub max_tokens: u32,
+    /// Whether to stream the answer.
+    pub stream: bool,
+    /// Whether to ask for JSON-schema output where the agent has a schema.
+    pub json_output: bool,
+}
+
+/// Everything the agents need to reach their models.
+#[derive(Debug, Clone)]
+pub struct Settings {
+    /// Per agent.
+    pub agents: BTreeMap<AgentRole, AgentSettings>,
+    /// Timeouts and retries.
+    pub http: HttpSettings,
+    /// Longest image edge sent, in pixels.
+    pub max_image_edge: u32,
+}
+
+impl Settings {
+    /// The settings of `role`.
+    pub fn agent(&self, role: AgentRole) -> &AgentSettings {
+        &self.agents[&role]
+    }
+
+    /// Layers `file`, the environment `env` and `flags`.
+    pub fn resolve(
+        file: &ConfigFile,
+        env: &dyn Fn(&str) -> Option<String>,
+        flags: &FlagLayers,
+    ) -> Result<Self, ConfigError> {
+        let mut agents = BTreeMap::new();
+        for role in AgentRole::ALL {
+            let from_file = file.agents.get(role.name()).cloned().unwrap_or_default();
+            let from_flags = flags.per_agent.get(&role).cloned().unwrap_or_default();
+            let provider = from_flags
+                .provider
+                .or(flags.all.provider)
+                .or(from_file.provider)
+                .or(file.defaults.provider)
+                .unwrap_or(ProviderKind::Openai);
+            let (key_var, url_var, default_url, default_model) = match provider {
+                ProviderKind::Openai => (
+                    "OPENAI_API_KEY",
+                    "OPENAI_BASE_URL",
+                    openai::DEFAULT_BASE_URL,
+                    "gpt-4o",
+                ),
+                ProviderKind::Anthropic => (
+                    "ANTHROPIC_API_KEY",
+                    "ANTHROPIC_BASE_URL",
+                    anthropic::DEFAULT_BASE_URL,
+                    "claude-sonnet-4-5",
+                ),
+            };
+            let from_env = AgentLayer {
+                api_key: env(key_var).and_then(Secret::new),
+                base_url: env(url_var).filter(|v| !v.trim().is_empty()),
+                ..AgentLayer::default()
+            };
+            let merged = file
+                .defaults
+                .clone()
+                .then(&from_file)
+                .then(&from_env)
+                .then(&flags.all)
+                .then(&from_flags);
+            let temperature = merged.temperature.unwrap_or(0.0);
+            if !(0.0..=2.0).contains(&temperature) {
+                return Err(ConfigError::Invalid(format!(
+                    "{role}: temperature {temperature} is outside 0..=2"
+                )));
+            }
+            agents.insert(
+                role,
+                AgentSettings {
+                    provider,
+                    base_url: merged.base_url.unwrap_or_else(|| default_url.to_string()),
+                    model: merged.model.unwrap_or_else(|| default_model.to_string()),
+                    api_key: merged.api_key,
+                    temperature,
+                    max_tokens: merged.max_tokens.unwrap_or(1024),
+                    stream: merged.stream.unwrap_or(true),
+                    json_output: merged.json_output.unwrap_or(true),
+                },
+            );
+        }
+        let mut http = HttpSettings::default();
+        if let Some(secs) = flags.timeout_secs.or(file.timeout_secs) {
+            http.total_timeout = seconds(secs, "timeout")?;
+        }
+        if let Some(secs) = file.connect_timeout_secs {
+            http.connect_timeout = seconds(secs, "connect_timeout_secs")?;
+        }
+        if let Some(retries) = file.max_retries {
+            http.max_retries = retries;
+        }
+        Ok(Self {
+            agents,
+            http,
+            max_image_edge: flags
+                .max_image_edge
+                .or(file.max_image_edge)
+                .unwrap_or(DEFAULT_MAX_EDGE),
+        })
+    }
+}
+
+fn seconds(value: f64, name: &str) -> Result<Duration, ConfigError> {
+    if value.is_finite() && value > 0.0 {
+        Ok(Duration::from_secs_f64(value))
+    } else {
+        Err(ConfigError::Invalid(format!(
+            "{name} {value} must be a positive number of seconds"
+        )))
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn later_layers_override_earlier_ones() {
+        let file: ConfigFile = toml::from_str(
+            r#"
+            [defaults]
+            base_url = "http://file/v1"
+            model = "file-model"
+            api_key = "sk-file"
+            temperature = 0.5
+            [agents.planner]
+            model = "file-planner"
+            "#,
+        )
+        .unwrap();
+        let env = |name: &str| (name == "OPENAI_API_KEY").then(|| "sk-env".to_string());
+        let mut flags = FlagLayers::default();
+        flags.all.model = Some("flag-model".into());
+        flags.set_agent("gkm.temperature=0.2").unwrap();
+        let settings = Settings::resolve(&file, &env, &flags).unwrap();
+        let skm = settings.agent(AgentRole::Skm);
+        assert_eq!(skm.model, "flag-model");
+        assert_eq!(skm.base_url, "http://file/v1");
+        assert_eq!(skm.api_key, Secret::new("sk-env"));
+        assert_eq!(skm.temperature, 0.5);
+        assert_eq!(settings.agent(AgentRole::Gkm).temperature, 0.2);
+        assert_eq!(settings.agent(AgentRole::Planner).model, "flag-model");
+        assert!(!format!("{settings:?}").contains("sk-env"));
+    }
+
+    #[test]
+    fn provider_flag_picks_that_providers_environment() {
+        let env = |name: &str| match name {
+            "ANTHROPIC_API_KEY" => Some("ak".to_string()),
+            "ANTHROPIC_BASE_URL" => Some("http://local".to_string()),
+            _ => None,
+        };
+        let mut flags = FlagLayers::default();
+        flags.all.provider = Some(ProviderKind::Anthropic);
+        let settings = Settings::resolve(&ConfigFile::default(), &env, &flags).unwrap();
+        let single = settings.agent(AgentRole::Single);
+        assert_eq!(single.base_url, "http://local");
+        assert_eq!(single.api_key, Secret::new("ak"));
+        assert!(flags.clone().set_agent("skm.colour=red").is_err());
+    }
+}

@@ -1,0 +1,92 @@
+//! Scene images: validated, downscaled to an edge limit and encoded before
+//! they are sent, so that a bad file is named before any request is made.
+
+use std::io::Cursor;
+use std::path::Path;
+
+use base64::Engine;
+use image::{ImageFormat, ImageReader};
+
+use super::provider::ImageInput;
+use super::{sha256_hex, AgentError};
+
+/// The default longest edge, in pixels, of an image sent to a model.
+pub const DEFAULT_MAX_EDGE: u32 = 1024;
+
+/// Reads the image at `path`, checks it decodes, and downscales it so that
+/// neither edge exceeds `max_edge` (an image already small enough, in a
+/// format providers accept, is sent as it is).
+pub fn prepare_image(path: &Path, max_edge: u32) -> Result<ImageInput, AgentError> {
+    let fail = |reason: String| AgentError::Image {
+        path: path.to_path_buf(),
+        reason,
+    };
+    let bytes = std::fs::read(path).map_err(|err| fail(format!("cannot read it ({err})")))?;
+    let reader = ImageReader::new(Cursor::new(&bytes))
+        .with_guessed_format()
+        .map_err(|err| fail(format!("cannot read it ({err})")))?;
+    let format = reader.format().ok_or_else(|| {
+        fail("not an image this program reads: use JPEG, PNG, WebP or GIF".into())
+    })?;
+    let decoded = reader
+        .decode()
+        .map_err(|err| fail(format!("not a valid {format:?} image ({err})")))?;
+    if decoded.width() == 0 || decoded.height() == 0 {
+        return Err(fail("the image is empty (0 pixels)".into()));
+    }
+    let fits = decoded.width().max(decoded.height()) <= max_edge.max(1);
+    let sendable = matches!(
+        format,
+        ImageFormat::Jpeg | ImageFormat::Png | ImageFormat::WebP | ImageFormat::Gif
+    );
+    let (bytes, format) = if fits && sendable {
+        (bytes, format)
+    } else {
+        let scaled = if fits {
+            decoded
+        } else {
+            decoded.resize(max_edge, max_edge, image::imageops::FilterType::Triangle)
+        };
+        let mut out = Vec::new();
+        image::DynamicImage::ImageRgb8(scaled.to_rgb8())
+            .write_to(&mut Cursor::new(&mut out), ImageFormat::Jpeg)
+            .map_err(|err| fail(format!("cannot re-encode it ({err})")))?;
+        (out, ImageFormat::Jpeg)
+    };
+    Ok(ImageInput {
+        path: path.to_path_buf(),
+        media_type: format.to_mime_type().to_string(),
+        sha256: sha256_hex(&bytes),
+        data_base64: base64::engine::general_purpose::STANDARD.encode(&bytes),
+    })
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn large_images_are_downscaled_and_bad_ones_named() {
+        let dir = tempfile::tempdir().unwrap();
+        let big = dir.path().join("big.png");
+        image::RgbImage::from_pixel(300, 150, image::Rgb([10, 200, 30]))
+            .save(&big)
+            .unwrap();
+        let sent = prepare_image(&big, 100).unwrap();
+        assert_eq!(sent.media_type, "image/jpeg");
+        let bytes = base64::engine::general_purpose::STANDARD
+            .decode(&sent.data_base64)
+            .unwrap();
+        let back = image::load_from_memory(&bytes).unwrap();
+        assert_eq!((back.width(), back.height()), (100, 50));
+
+        let small = prepare_image(&big, 1000).unwrap();
+        assert_eq!(small.media_type, "image/png");
+        assert_eq!(small.sha256, sha256_hex(&std::fs::read(&big).unwrap()));
+
+        let bad = dir.path().join("scene.jpg");
+        std::fs::write(&bad, b"\xff\xd8\xff\xe0 not really a jpeg").unwrap();
+        let err = prepare_image(&bad, 1000).unwrap_err().to_string();
+        assert!(err.contains("scene.jpg"), "{err}");
+    }
+}

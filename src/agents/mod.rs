@@ -1,0 +1,345 @@
+//! The planning half: providers that speak to language models, the agents
+//! (SKM, GKM, Planner and the single-agent baselines) and the pipelines that
+//! run them, with prompts, a knowledge graph, a response cache and replay.
+
+pub mod anthropic;
+pub mod cache;
+pub mod config;
+pub mod graph;
+pub mod images;
+pub mod openai;
+pub mod pipeline;
+pub mod prompts;
+pub mod provider;
+pub mod replay;
+
+use std::fmt;
+use std::path::PathBuf;
+use std::str::FromStr;
+
+use serde::{Deserialize, Serialize};
+use sha2::{Digest, Sha256};
+
+/// An API key: kept out of `Debug`, `Display` and serialisation so that it
+/// cannot leak into a log line, an error message, a record or a cache file.
+#[derive(Clone, PartialEq, Eq)]
+pub struct Secret(String);
+
+impl Secret {
+    /// Wraps a key; an empty string is no key.
+    pub fn new(key: impl Into<String>) -> Option<Self> {
+        let key = key.into();
+        let key = key.trim();
+        (!key.is_empty()).then(|| Self(key.to_string()))
+    }
+
+    /// The key itself, for the one place that sends it: a request header.
+    pub fn expose(&self) -> &str {
+        &self.0
+    }
+
+    /// Removes every occurrence of the key from `text`.
+    pub fn redact(&self, text: &str) -> String {
+        text.replace(&self.0, "[redacted]")
+    }
+}
+
+impl fmt::Debug for Secret {
+    fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
+        f.write_str("Secret([redacted])")
+    }
+}
+
+/// Which wire protocol an agent's provider speaks.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Hash, Serialize, Deserialize)]
+#[serde(rename_all = "lowercase")]
+pub enum ProviderKind {
+    /// The OpenAI-compatible Chat Completions API (OpenAI, vLLM, llama.cpp,
+    /// Ollama, LM Studio, OpenRouter…).
+    Openai,
+    /// Anthropic's Messages API.
+    Anthropic,
+}
+
+impl ProviderKind {
+    /// The name used in flags, config files and records.
+    pub fn name(self) -> &'static str {
+        match self {
+            Self::Openai => "openai",
+            Self::Anthropic => "anthropic",
+        }
+    }
+}
+
+impl FromStr for ProviderKind {
+    type Err = String;
+    fn from_str(s: &str) -> Result<Self, Self::Err> {
+        match s.trim().to_ascii_lowercase().as_str() {
+            "openai" => Ok(Self::Openai),
+            "anthropic" => Ok(Self::Anthropic),
+            other => Err(format!(
+                "unknown provider `{other}`: use `openai` or `anthropic`"
+            )),
+        }
+    }
+}
+
+/// One of the agents of the method.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Hash, PartialOrd, Ord, Serialize, Deserialize)]
+#[serde(rename_all = "lowercase")]
+pub enum AgentRole {
+    /// The semantic-knowledge miner: objects and relations as triples.
+    Skm,
+    /// The grounded-knowledge miner: a grounded description of the scene.
+    Gkm,
+    /// The planner: steps from the task and the miners' outputs.
+    Planner,
+    /// The single agent of the baselines: steps straight from image or table.
+    Single,
+}
+
+impl AgentRole {
+    /// Every role, in the order a view lists them.
+    pub const ALL: [AgentRole; 4] = [Self::Skm, Self::Gkm, Self::Planner, Self::Single];
+
+    /// The name used in flags, config sections, prompts and records.
+    pub fn name(self) -> &'static str {
+        match self {
+            Self::Skm => "skm",
+            Self::Gkm => "gkm",
+            Self::Planner => "planner",
+            Self::Single => "single",
+        }
+    }
+}
+
+impl fmt::Display for AgentRole {
+    fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
+        f.write_str(self.name())
+    }
+}
+
+impl FromStr for AgentRole {
+    type Err = String;
+    fn from_str(s: &str) -> Result<Self, Self::Err> {
+        Self::ALL
+            .into_iter()
+            .find(|role| role.name() == s.trim().to_ascii_lowercase())
+            .ok_or_else(|| format!("unknown agent `{s}`: use skm, gkm, planner or single"))
+    }
+}
+
+/// The four ways of making a plan compared in the paper.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Hash, PartialOrd, Ord, Serialize, Deserialize)]
+#[serde(rename_all = "kebab-case")]
+pub enum Approach {
+    /// SKM and GKM on the image, then the Planner.
+    MultiImage,
+    /// One agent from the image.
+    SingleImage,
+    /// SKM and GKM on the G-PlanET table, then the Planner.
+    MultiTable,
+    /// One agent from the G-PlanET table.
+    SingleTable,
+}
+
+impl Approach {
+    /// Every approach, in the column order of the paper's Table 3.
+    pub const ALL: [Approach; 4] = [
+        Self::SingleTable,
+        Self::MultiTable,
+        Self::SingleImage,
+        Self::MultiImage,
+    ];
+
+    /// The name used on the command line.
+    pub fn name(self) -> &'static str {
+        match self {
+            Self::MultiImage => "multi-image",
+            Self::SingleImage => "single-image",
+            Self::MultiTable => "multi-table",
+            Self::SingleTable => "single-table",
+        }
+    }
+
+    /// The dataset field holding the published plan of this approach.
+    pub fn dataset_field(self) -> &'static str {
+        match self {
+            Self::MultiImage => "multi_agent_image",
+            Self::SingleImage => "single_agent_image",
+            Self::MultiTable => "multi_agent_table",
+            Self::SingleTable => "single_agent_table",
+        }
+    }
+
+    /// Whether the approach runs the two miners and the Planner.
+    pub fn is_multi_agent(self) -> bool {
+        matches!(self, Self::MultiImage | Self::MultiTable)
+    }
+
+    /// Whether the approach reads the scene image (else the table).
+    pub fn uses_image(self) -> bool {
+        matches!(self, Self::MultiImage | Self::SingleImage)
+    }
+}
+
+impl fmt::Display for Approach {
+    fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
+        f.write_str(self.name())
+    }
+}
+
+impl FromStr for Approach {
+    type Err = String;
+    fn from_str(s: &str) -> Result<Self, Self::Err> {
+        let wanted = s.trim().to_ascii_lowercase().replace('_', "-");
+        Self::ALL
+            .into_iter()
+            .find(|a| a.name() == wanted || a.dataset_field().replace('_', "-") == wanted)
+            .ok_or_else(|| {
+                format!(
+                    "unknown approach `{s}`: use multi-image, single-image, multi-table or single-table"
+                )
+            })
+    }
+}
+
+/// Token counts a provider reported for one answer.
+#[derive(Debug, Clone, Copy, Default, PartialEq, Eq, Serialize, Deserialize)]
+pub struct Usage {
+    /// Tokens read (prompt and images).
+    pub input_tokens: u64,
+    /// Tokens written.
+    pub output_tokens: u64,
+}
+
+/// Everything that can end an agent's run.
+#[derive(Debug, thiserror::Error)]
+pub enum AgentError {
+    /// The provider refused the API key (401 or 403).
+    #[error("{provider} refused the API key (HTTP {status}): check the key for {provider}")]
+    KeyRefused {
+        /// The provider's name.
+        provider: &'static str,
+        /// The HTTP status.
+        status: u16,
+    },
+    /// A non-retryable or exhausted HTTP error.
+    #[error("{provider} answered HTTP {status}: {message}")]
+    Http {
+        /// The provider's name.
+        provider: &'static str,
+        /// The HTTP status.
+        status: u16,
+        /// What the server said, shortened and with the key removed.
+        message: String,
+    },
+    /// No answer in time.
+    #[error("{provider} timed out after {seconds:.1} s: raise --timeout or try again")]
+    Timeout {
+        /// The provider's name.
+        provider: &'static str,
+        /// The limit that ran out.
+        seconds: f64,
+    },
+    /// The connection failed.
+    #[error("{provider} could not be reached at {url}: {message}")]
+    Connect {
+        /// The provider's name.
+        provider: &'static str,
+        /// The endpoint.
+        url: String,
+        /// Why.
+        message: String,
+    },
+    /// The answer could not be read.
+    #[error("{provider} sent an answer that could not be read: {message}")]
+    InvalidResponse {
+        /// The provider's name.
+        provider: &'static str,
+        /// What was wrong.
+        message: String,
+    },
+    /// The stream ended before the answer was complete.
+    #[error(
+        "{provider} stream ended before the answer was complete ({received} characters received)"
+    )]
+    TruncatedStream {
+        /// The provider's name.
+        provider: &'static str,
+        /// How much text had arrived.
+        received: usize,
+    },
+    /// The model answered nothing.
+    #[error("{provider} returned an empty answer (model {model})")]
+    EmptyAnswer {
+        /// The provider's name.
+        provider: &'static str,
+        /// The model asked.
+        model: String,
+    },
+    /// The run was cancelled.
+    #[error("cancelled")]
+    Cancelled,
+    /// An image could not be used.
+    #[error("image {path}: {reason}")]
+    Image {
+        /// The file.
+        path: PathBuf,
+        /// What was wrong and what to do.
+        reason: String,
+    },
+    /// A table could not be read.
+    #[error("table {path}: {reason}")]
+    Table {
+        /// The file.
+        path: PathBuf,
+        /// What was wrong, with the line.
+        reason: String,
+    },
+    /// A prompt template is wrong.
+    #[error("prompt {name}: {reason}")]
+    Prompt {
+        /// The template's name.
+        name: String,
+        /// What was wrong.
+        reason: String,
+    },
+    /// A recorded session has no answer for this request.
+    #[error(
+        "the recording has no answer for this request to {model} (key {key}): record it again"
+    )]
+    NotRecorded {
+        /// The model asked.
+        model: String,
+        /// The request's cache key.
+        key: String,
+    },
+    /// A miner failed, so the agent that needs it did not run.
+    #[error("not run: {0} failed")]
+    Upstream(AgentRole),
+    /// The approach lacks an input it needs.
+    #[error("{approach} needs {what}")]
+    MissingInput {
+        /// The approach.
+        approach: Approach,
+        /// What to give it.
+        what: &'static str,
+    },
+    /// A file could not be read or written.
+    #[error("{path}: {message}")]
+    Io {
+        /// The file.
+        path: PathBuf,
+        /// What went wrong.
+        message: String,
+    },
+}
+
+/// The SHA-256 of `bytes`, as lowercase hex.
+pub fn sha256_hex(bytes: &[u8]) -> String {
+    Sha256::digest(bytes)
+        .iter()
+        .map(|b| format!("{b:02x}"))
+        .collect()
+}

@@ -1,0 +1,182 @@
+//! The OpenAI-compatible Chat Completions API: OpenAI itself and the servers
+//! that copy it (vLLM, llama.cpp's server, Ollama's `/v1`, LM Studio,
+//! OpenRouter…). Images go as base64 data URLs; answers may stream.
+
+use serde_json::{json, Value};
+use tokio_util::sync::CancellationToken;
+
+use super::provider::{
+    is_json, Assembler, BoxFuture, ChatRequest, Completion, HttpEndpoint, HttpSettings, Provider,
+    TokenSink,
+};
+use super::{AgentError, Secret, Usage};
+
+/// The default base URL.
+pub const DEFAULT_BASE_URL: &str = "https://api.openai.com/v1";
+
+const NAME: &str = "openai";
+
+/// A Chat Completions endpoint.
+#[derive(Debug, Clone)]
+pub struct OpenAi {
+    endpoint: HttpEndpoint,
+}
+
+impl OpenAi {
+    /// A provider for `base_url` (e.g. `http://localhost:8000/v1`).
+    pub fn new(
+        base_url: &str,
+        key: Option<Secret>,
+        settings: HttpSettings,
+    ) -> Result<Self, AgentError> {
+        Ok(Self {
+            endpoint: HttpEndpoint::new(NAME, base_url, key, settings)?,
+        })
+    }
+
+    async fn run(
+        &self,
+        request: &ChatRequest,
+        on_token: TokenSink<'_>,
+        cancel: &CancellationToken,
+    ) -> Result<Completion, AgentError> {
+        if request.json_schema.is_some() {
+            match self.attempt(request, true, on_token, cancel).await {
+                Err(AgentError::Http {
+                    status: 400 | 422,
+                    message,
+                    ..
+                }) => {
+                    tracing::info!(%message, "JSON schema output refused; asking for text");
+                }
+                other => return other,
+            }
+        }
+        self.attempt(request, false, on_token, cancel).await
+    }
+
+    async fn attempt(
+        &self,
+        request: &ChatRequest,
+        with_schema: bool,
+        on_token: TokenSink<'_>,
+        cancel: &CancellationToken,
+    ) -> Result<Completion, AgentError> {
+        let body = request_body(request, with_schema);
+        let url = self.endpoint.url("chat/completions");
+        let build = || {
+            let builder = self.endpoint.client.post(&url).json(&body);
+            match &self.endpoint.key {
+                Some(key) => builder.bearer_auth(key.expose()),
+                None => builder,
+            }
+        };
+        let mut answer = Assembler::new(on_token);
+        let response = self.endpoint.send(build, cancel).await?;
+        if request.stream && !is_json(&response) {
+            let mut finished = false;
+            let complete = self
+                .endpoint
+                .read_events(response, cancel, |event| {
+                    if event.data.trim() == "[DONE]" {
+                        return Ok(true);
+                    }
+                    let value: Value = serde_json::from_str(&event.data).map_err(|err| {
+                        self.endpoint
+                            .invalid(format!("invalid JSON in stream event ({err})"))
+                    })?;
+                    if let Some(message) = value.pointer("/error/message").and_then(Value::as_str) {
+                        return Err(self.endpoint.invalid(format!("error in stream: {message}")));
+                    }
+                    if let Some(piece) = value
+                        .pointer("/choices/0/delta/content")
+                        .and_then(Value::as_str)
+                    {
+                        answer.push(piece);
+                    }
+                    if value
+                        .pointer("/choices/0/finish_reason")
+                        .is_some_and(|reason| !reason.is_null())
+                    {
+                        finished = true;
+                    }
+                    if let Some(usage) = value.get("usage").and_then(usage_of) {
+                        answer.usage = usage;
+                    }
+                    Ok(false)
+                })
+                .await?;
+            if !complete && !finished {
+                return Err(AgentError::TruncatedStream {
+                    provider: NAME,
+                    received: answer.received(),
+                });
+            }
+        } else {
+            let value = self.endpoint.read_json(response, cancel).await?;
+            let message = value.pointer("/choices/0/message").ok_or_else(|| {
+                self.endpoint
+                    .invalid("no choices[0].message in the answer".into())
+            })?;
+            answer.push(message.get("content").and_then(Value::as_str).unwrap_or(""));
+            answer.usage = value.get("usage").and_then(usage_of).unwrap_or_default();
+        }
+        answer.finish(NAME, &request.model)
+    }
+}
+
+impl Provider for OpenAi {
+    fn complete<'a>(
+        &'a self,
+        request: &'a ChatRequest,
+        on_token: TokenSink<'a>,
+        cancel: &'a CancellationToken,
+    ) -> BoxFuture<'a, Result<Completion, AgentError>> {
+        Box::pin(self.run(request, on_token, cancel))
+    }
+}
+
+fn usage_of(usage: &Value) -> Option<Usage> {
+    Some(Usage {
+        input_tokens: usage.get("prompt_tokens")?.as_u64()?,
+        output_tokens: usage.get("completion_tokens")?.as_u64()?,
+    })
+}
+
+/// The JSON body of a Chat Completions request.
+pub fn request_body(request: &ChatRequest, with_schema: bool) -> Value {
+    let mut messages = Vec::new();
+    if !request.system.is_empty() {
+        messages.push(json!({"role": "system", "content": request.system}));
+    }
+    let content = if request.images.is_empty() {
+        json!(request.user)
+    } else {
+        let mut parts = vec![json!({"type": "text", "text": request.user})];
+        parts.extend(request.images.iter().map(|image| {
+            json!({
+                "type": "image_url",
+                "image_url": {"url": format!("data:{};base64,{}", image.media_type, image.data_base64)}
+            })
+        }));
+        Value::Array(parts)
+    };
+    messages.push(json!({"role": "user", "content": content}));
+    let mut body = json!({
+        "model": request.model,
+        "messages": messages,
+        "temperature": request.temperature,
+        "max_tokens": request.max_tokens,
+        "stream": request.stream,
+    });
+    if request.stream {
+        body["stream_options"] = json!({"include_usage": true});
+    }
+    if let (true, Some(schema)) = (with_schema, &request.json_schema) {
+        body["response_format"] = json!({
+            "type": "json_schema",
+            "json_schema": {"name": "answer", "schema": schema, "strict": true}
+        });
+    }
+    body
+}

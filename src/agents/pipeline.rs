@@ -1,0 +1,507 @@
+//! Running an approach: the agents it needs, in the order it needs them (SKM
+//! and GKM concurrently, the Planner after both), each streaming its output
+//! as events, answers taken from the cache when unchanged, and everything
+//! gathered in one record.
+
+use std::collections::BTreeMap;
+use std::path::PathBuf;
+use std::sync::{Arc, Mutex};
+use std::time::Instant;
+
+use serde::{Deserialize, Serialize};
+use tokio::sync::mpsc::UnboundedSender;
+use tokio_util::sync::CancellationToken;
+
+use super::anthropic::Anthropic;
+use super::cache::{request_key, CachedAnswer, ResponseCache};
+use super::config::{AgentSettings, Settings};
+use super::graph::{parse_triples, triples_schema, KnowledgeGraph, ParsedTriples};
+use super::images::prepare_image;
+use super::openai::OpenAi;
+use super::prompts::{render_table, PromptSet};
+use super::provider::{elapsed_ms, ChatRequest, Completion, ImageInput, SharedProvider};
+use super::replay::{Pace, Recording, ReplayProvider};
+use super::{AgentError, AgentRole, Approach, ProviderKind, Usage};
+use crate::plan::parse_steps;
+
+/// What happened to an agent, for a front end to show live.
+#[derive(Debug, Clone, PartialEq, Serialize)]
+#[serde(tag = "event", rename_all = "snake_case")]
+pub enum AgentEvent {
+    /// The agent sent its request.
+    Started {
+        /// Which agent.
+        role: AgentRole,
+    },
+    /// A piece of the answer arrived.
+    Token {
+        /// Which agent.
+        role: AgentRole,
+        /// The text.
+        text: String,
+    },
+    /// The answer is complete.
+    Finished {
+        /// Which agent.
+        role: AgentRole,
+        /// Token counts.
+        usage: Usage,
+        /// Milliseconds from start to finish.
+        elapsed_ms: u64,
+        /// Whether it came from the cache.
+        cached: bool,
+    },
+    /// The agent ended with an error.
+    Failed {
+        /// Which agent.
+        role: AgentRole,
+        /// What went wrong, in one line.
+        error: String,
+    },
+}
+
+/// Where agents' events go.
+pub type EventSender = UnboundedSender<AgentEvent>;
+
+/// What a plan is made from.
+#[derive(Debug, Clone, Default)]
+pub struct PlanInput {
+    /// The goal in natural language.
+    pub task: String,
+    /// The scene image (image approaches).
+    pub image: Option<PathBuf>,
+    /// The G-PlanET table (table approaches).
+    pub table: Option<PathBuf>,
+}
+
+/// One agent's part of a run.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+pub struct AgentRecord {
+    /// Which agent.
+    pub role: AgentRole,
+    /// The provider it used.
+    pub provider: ProviderKind,
+    /// The model it used.
+    pub model: String,
+    /// Its temperature.
+    pub temperature: f32,
+    /// Its token limit.
+    pub max_tokens: u32,
+    /// The prompt template's name.
+    pub prompt: String,
+    /// The template's content hash: which version of the prompt ran.
+    pub prompt_hash: String,
+    /// The request's cache key.
+    pub request_key: String,
+    /// The raw answer, when it succeeded.
+    pub output: Option<String>,
+    /// Why it failed, when it did.
+    pub error: Option<String>,
+    /// Token counts.
+    pub usage: Usage,
+    /// Milliseconds from start to finish.
+    pub elapsed_ms: u64,
+    /// Whether the answer came from the cache.
+    pub cached: bool,
+}
+
+/// Everything a run produced.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+pub struct PlanRecord {
+    /// The approach.
+    pub approach: Approach,
+    /// The task.
+    pub task: String,
+    /// The image, if the approach used one.
+    pub image: Option<PathBuf>,
+    /// SHA-256 of the image bytes sent.
+    pub image_sha256: Option<String>,
+    /// The table, if the approach used one.
+    pub table: Option<PathBuf>,
+    /// Each agent, in the order they started.
+    pub agents: Vec<AgentRecord>,
+    /// SKM's triples (multi-agent approaches).
+    pub triples: Option<ParsedTriples>,
+    /// The knowledge graph of the triples.
+    pub graph: Option<KnowledgeGraph>,
+    /// The plan's steps (empty when the planning agent failed).
+    pub steps: Vec<String>,
+    /// Token counts over all agents.
+    pub usage: Usage,
+    /// Milliseconds for the whole run.
+    pub elapsed_ms: u64,
+}
+
+impl PlanRecord {
+    /// The first agent error, if any agent failed.
+    pub fn first_error(&self) -> Option<(AgentRole, &str)> {
+        self.agents
+            .iter()
+            .find_map(|a| a.error.as_deref().map(|e| (a.role, e)))
+    }
+}
+
+/// Where answers come from.
+#[derive(Debug, Clone)]
+pub enum Source {
+    /// The providers the settings name.
+    Live,
+    /// A recording, at the given pace.
+    Replay(Arc<Recording>, Pace),
+}
+
+/// Runs approaches with one set of settings and prompts.
+#[derive(Debug, Clone)]
+pub struct Runner {
+    settings: Settings,
+    prompts: PromptSet,
+    source: Source,
+    cache: Option<ResponseCache>,
+    recorder: Option<Arc<Mutex<Recording>>>,
+}
+
+struct Prepared<'a> {
+    approach: Approach,
+    values: BTreeMap<&'a str, String>,
+    images: Vec<ImageInput>,
+}
+
+impl Runner {
+    /// A runner with no cache and no recorder.
+    pub fn new(settings: Settings, prompts: PromptSet, source: Source) -> Self {
+        Self {
+            settings,
+            prompts,
+            source,
+            cache: None,
+            recorder: None,
+        }
+    }
+
+    /// Reads and writes answers in `cache` (ignored when replaying).
+    pub fn with_cache(mut self, cache: ResponseCache) -> Self {
+        self.cache = Some(cache);
+        self
+    }
+
+    /// Adds every answer received to `recording`.
+    pub fn with_recorder(mut self, recording: Arc<Mutex<Recording>>) -> Self {
+        self.recorder = Some(recording);
+        self
+    }
+
+    /// The settings.
+    pub fn settings(&self) -> &Settings {
+        &self.settings
+    }
+
+    /// Makes a plan for `input` with `approach`. Bad input (image, table,
+    /// prompt) is an error before any request; an agent's failure is kept in
+    /// its record, the other agents' results stay intact.
+    pub async fn plan(
+        &self,
+        approach: Approach,
+        input: &PlanInput,
+        events: &EventSender,
+        cancel: &CancellationToken,
+    ) -> Result<PlanRecord, AgentError> {
+        let start = Instant::now();
+        let prepared = self.prepare(approach, input)?;
+        let mut record = PlanRecord {
+            approach,
+            task: input.task.clone(),
+            image: input.image.clone().filter(|_| approach.uses_image()),
+            image_sha256: prepared.images.first().map(|i| i.sha256.clone()),
+            table: input.table.clone().filter(|_| !approach.uses_image()),
+            agents: Vec::new(),
+            triples: None,
+            graph: None,
+            steps: Vec::new(),
+            usage: Usage::default(),
+            elapsed_ms: 0,
+        };
+        let planner = if approach.is_multi_agent() {
+            let (skm, gkm) = tokio::join!(
+                self.run_agent(&prepared, AgentRole::Skm, events, cancel),
+                self.run_agent(&prepared, AgentRole::Gkm, events, cancel),
+            );
+            let mut values = prepared.values.clone();
+            if let Some(text) = &skm.output {
+                let parsed = parse_triples(text);
+                let graph = KnowledgeGraph::from_triples(&parsed.triples);
+                let triples = if graph.edges.is_empty() {
+                    text.clone()
+                } else {
+                    graph.to_lines()
+                };
+                values.insert("skm", text.clone());
+                values.insert("triples", triples);
+                record.triples = Some(parsed);
+                record.graph = Some(graph);
+            }
+            if let Some(text) = &gkm.output {
+                values.insert("gkm", text.clone());
+            }
+            let failed = [&skm, &gkm]
+                .into_iter()
+                .find(|a| a.output.is_none())
+                .map(|a| a.role);
+            record.agents.extend([skm, gkm]);
+            match failed {
+                Some(role) => self.skipped(AgentRole::Planner, approach, role, events)?,
+                None => {
+                    let planner = Prepared { values, ..prepared };
+                    self.run_agent(&planner, AgentRole::Planner, events, cancel)
+                        .await
+                }
+            }
+        } else {
+            self.run_agent(&prepared, AgentRole::Single, events, cancel)
+                .await
+        };
+        if let Some(text) = &planner.output {
+            record.steps = parse_steps(text);
+        }
+        record.agents.push(planner);
+        record.usage = record.agents.iter().fold(Usage::default(), |sum, a| Usage {
+            input_tokens: sum.input_tokens + a.usage.input_tokens,
+            output_tokens: sum.output_tokens + a.usage.output_tokens,
+        });
+        record.elapsed_ms = elapsed_ms(start);
+        Ok(record)
+    }
+
+    fn prepare<'a>(
+        &self,
+        approach: Approach,
+        input: &PlanInput,
+    ) -> Result<Prepared<'a>, AgentError> {
+        let mut values = BTreeMap::from([("task", input.task.trim().to_string())]);
+        let mut images = Vec::new();
+        if approach.uses_image() {
+            let path = input
+                .image
+                .as_deref()
+                .ok_or_else(|| missing(approach, "an image (--image FILE)"))?;
+            images.push(prepare_image(path, self.settings.max_image_edge)?);
+        } else {
+            let path = input
+                .table
+                .as_deref()
+                .ok_or_else(|| missing(approach, "a table (--table FILE)"))?;
+            values.insert("table", render_table(path)?);
+        }
+        let roles: &[AgentRole] = if approach.is_multi_agent() {
+            &[AgentRole::Skm, AgentRole::Gkm, AgentRole::Planner]
+        } else {
+            &[AgentRole::Single]
+        };
+        for role in roles {
+            self.prompts.get(approach, *role)?;
+        }
+        Ok(Prepared {
+            approach,
+            values,
+            images,
+        })
+    }
+
+    fn request(
+        &self,
+        prepared: &Prepared<'_>,
+        role: AgentRole,
+    ) -> Result<(ChatRequest, String, String), AgentError> {
+        let settings = self.settings.agent(role);
+        let template = self.prompts.get(prepared.approach, role)?;
+        let (system, user) = template.render(&prepared.values);
+        let uses_image = role != AgentRole::Planner;
+        let request = ChatRequest {
+            model: settings.model.clone(),
+            system,
+            user,
+            images: if uses_image {
+                prepared.images.clone()
+            } else {
+                Vec::new()
+            },
+            temperature: settings.temperature,
+            max_tokens: settings.max_tokens,
+            stream: settings.stream,
+            json_schema: (role == AgentRole::Skm
+                && settings.json_output
+                && settings.provider == ProviderKind::Openai)
+                .then(triples_schema),
+        };
+        Ok((request, template.name.clone(), template.hash.clone()))
+    }
+
+    fn skipped(
+        &self,
+        role: AgentRole,
+        approach: Approach,
+        upstream: AgentRole,
+        events: &EventSender,
+    ) -> Result<AgentRecord, AgentError> {
+        let settings = self.settings.agent(role);
+        let template = self.prompts.get(approach, role)?;
+        let error = AgentError::Upstream(upstream).to_string();
+        let _ = events.send(AgentEvent::Failed {
+            role,
+            error: error.clone(),
+        });
+        Ok(blank_record(
+            role,
+            settings,
+            &template.name,
+            &template.hash,
+            String::new(),
+            Some(error),
+        ))
+    }
+
+    async fn run_agent(
+        &self,
+        prepared: &Prepared<'_>,
+        role: AgentRole,
+        events: &EventSender,
+        cancel: &CancellationToken,
+    ) -> AgentRecord {
+        let settings = self.settings.agent(role);
+        let (request, prompt, prompt_hash) = match self.request(prepared, role) {
+            Ok(parts) => parts,
+            Err(err) => {
+                let error = err.to_string();
+                let _ = events.send(AgentEvent::Failed {
+                    role,
+                    error: error.clone(),
+                });
+                return blank_record(role, settings, "", "", String::new(), Some(error));
+            }
+        };
+        let key = request_key(settings.provider, &request);
+        let mut record = blank_record(role, settings, &prompt, &prompt_hash, key.clone(), None);
+        let start = Instant::now();
+        let _ = events.send(AgentEvent::Started { role });
+        let sink = |text: &str| {
+            let _ = events.send(AgentEvent::Token {
+                role,
+                text: text.to_string(),
+            });
+        };
+        let cache = self
+            .cache
+            .as_ref()
+            .filter(|_| matches!(self.source, Source::Live));
+        let hit = cache.and_then(|c| c.get(&key));
+        let result = match hit {
+            Some(answer) => {
+                record.cached = true;
+                for chunk in &answer.completion.chunks {
+                    sink(&chunk.text);
+                }
+                Ok(answer.completion)
+            }
+            None => match self.provider(settings) {
+                Ok(provider) => provider.complete(&request, &sink, cancel).await,
+                Err(err) => Err(err),
+            },
+        };
+        record.elapsed_ms = elapsed_ms(start);
+        match result {
+            Ok(completion) => {
+                if !record.cached {
+                    self.keep(&key, settings, &completion);
+                }
+                record.usage = completion.usage;
+                record.output = Some(completion.text);
+                let _ = events.send(AgentEvent::Finished {
+                    role,
+                    usage: record.usage,
+                    elapsed_ms: record.elapsed_ms,
+                    cached: record.cached,
+                });
+            }
+            Err(err) => {
+                let mut error = err.to_string();
+                if let Some(secret) = &settings.api_key {
+                    error = secret.redact(&error);
+                }
+                tracing::warn!(agent = role.name(), %error, "agent failed");
+                let _ = events.send(AgentEvent::Failed {
+                    role,
+                    error: error.clone(),
+                });
+                record.error = Some(error);
+            }
+        }
+        record
+    }
+
+    fn provider(&self, settings: &AgentSettings) -> Result<SharedProvider, AgentError> {
+        let http = self.settings.http.clone();
+        let key = settings.api_key.clone();
+        Ok(match (&self.source, settings.provider) {
+            (Source::Replay(recording, pace), kind) => {
+                Arc::new(ReplayProvider::new(recording.clone(), kind, *pace))
+            }
+            (Source::Live, ProviderKind::Openai) => {
+                Arc::new(OpenAi::new(&settings.base_url, key, http)?)
+            }
+            (Source::Live, ProviderKind::Anthropic) => {
+                Arc::new(Anthropic::new(&settings.base_url, key, http)?)
+            }
+        })
+    }
+
+    fn keep(&self, key: &str, settings: &AgentSettings, completion: &Completion) {
+        let answer = CachedAnswer {
+            key: key.to_string(),
+            provider: settings.provider,
+            model: settings.model.clone(),
+            completion: completion.clone(),
+        };
+        if let Some(cache) = self
+            .cache
+            .as_ref()
+            .filter(|_| matches!(self.source, Source::Live))
+        {
+            if let Err(err) = cache.put(&answer) {
+                tracing::warn!(%err, "could not write the response cache");
+            }
+        }
+        if let Some(recorder) = &self.recorder {
+            if let Ok(mut recording) = recorder.lock() {
+                recording.answers.insert(key.to_string(), answer);
+            }
+        }
+    }
+}
+
+fn blank_record(
+    role: AgentRole,
+    settings: &AgentSettings,
+    prompt: &str,
+    prompt_hash: &str,
+    request_key: String,
+    error: Option<String>,
+) -> AgentRecord {
+    AgentRecord {
+        role,
+        provider: settings.provider,
+        model: settings.model.clone(),
+        temperature: settings.temperature,
+        max_tokens: settings.max_tokens,
+        prompt: prompt.to_string(),
+        prompt_hash: prompt_hash.to_string(),
+        request_key,
+        output: None,
+        error,
+        usage: Usage::default(),
+        elapsed_ms: 0,
+        cached: false,
+    }
+}
+
+fn missing(approach: Approach, what: &'static str) -> AgentError {
+    AgentError::MissingInput { approach, what }
+}

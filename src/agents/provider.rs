@@ -1,0 +1,525 @@
+//! What every provider shares: the request an agent makes, the answer it
+//! gets, the `Provider` trait, and the HTTP plumbing (timeouts, retries with
+//! backoff honouring `Retry-After`, cancellation, server-sent events).
+
+use std::future::Future;
+use std::path::PathBuf;
+use std::pin::Pin;
+use std::sync::Arc;
+use std::time::{Duration, Instant};
+
+use reqwest::{RequestBuilder, Response, StatusCode};
+use serde::{Deserialize, Serialize};
+use tokio_util::sync::CancellationToken;
+
+use super::{AgentError, Secret, Usage};
+
+/// A boxed future, so that providers can be trait objects.
+pub type BoxFuture<'a, T> = Pin<Box<dyn Future<Output = T> + Send + 'a>>;
+
+/// Receives each piece of text as it arrives.
+pub type TokenSink<'a> = &'a (dyn Fn(&str) + Send + Sync);
+
+/// An image ready to send: validated, downscaled and encoded.
+#[derive(Debug, Clone)]
+pub struct ImageInput {
+    /// The file it came from, for messages.
+    pub path: PathBuf,
+    /// Its MIME type (`image/jpeg`, `image/png`…).
+    pub media_type: String,
+    /// The bytes sent, base64-encoded.
+    pub data_base64: String,
+    /// SHA-256 of the bytes sent: the image's part of the cache key.
+    pub sha256: String,
+}
+
+/// One call to a model.
+#[derive(Debug, Clone)]
+pub struct ChatRequest {
+    /// The model name.
+    pub model: String,
+    /// The system prompt (may be empty).
+    pub system: String,
+    /// The user message.
+    pub user: String,
+    /// Images sent with the user message.
+    pub images: Vec<ImageInput>,
+    /// Sampling temperature.
+    pub temperature: f32,
+    /// Most tokens to write.
+    pub max_tokens: u32,
+    /// Whether to ask for a streamed answer.
+    pub stream: bool,
+    /// A JSON schema the answer should follow, when the provider supports it.
+    pub json_schema: Option<serde_json::Value>,
+}
+
+/// A piece of a streamed answer and when it arrived.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+pub struct Chunk {
+    /// Milliseconds since the request was first sent.
+    pub at_ms: u64,
+    /// The text.
+    pub text: String,
+}
+
+/// A finished answer.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+pub struct Completion {
+    /// The whole text.
+    pub text: String,
+    /// Token counts, as the provider reported them.
+    pub usage: Usage,
+    /// The pieces as they were received (one piece for a non-streamed answer).
+    pub chunks: Vec<Chunk>,
+}
+
+/// A model behind an API.
+pub trait Provider: Send + Sync {
+    /// Sends `request`, passing each piece of text to `on_token` as it
+    /// arrives, and returns the whole answer.
+    fn complete<'a>(
+        &'a self,
+        request: &'a ChatRequest,
+        on_token: TokenSink<'a>,
+        cancel: &'a CancellationToken,
+    ) -> BoxFuture<'a, Result<Completion, AgentError>>;
+}
+
+/// A shared provider.
+pub type SharedProvider = Arc<dyn Provider>;
+
+/// Timeouts and retry policy of the HTTP providers.
+#[derive(Debug, Clone)]
+pub struct HttpSettings {
+    /// Longest wait for a connection.
+    pub connect_timeout: Duration,
+    /// Longest wait for one whole answer.
+    pub total_timeout: Duration,
+    /// Retries after a 429 or 5xx answer.
+    pub max_retries: u32,
+    /// The first backoff delay; it doubles each retry.
+    pub backoff: Duration,
+    /// The longest `Retry-After` honoured.
+    pub max_retry_after: Duration,
+}
+
+impl Default for HttpSettings {
+    fn default() -> Self {
+        Self {
+            connect_timeout: Duration::from_secs(10),
+            total_timeout: Duration::from_secs(180),
+            max_retries: 4,
+            backoff: Duration::from_millis(500),
+            max_retry_after: Duration::from_secs(60),
+        }
+    }
+}
+
+/// The HTTP side of a provider: a client, its endpoint, key and policy.
+#[derive(Debug, Clone)]
+pub struct HttpEndpoint {
+    /// The provider's name for messages.
+    pub provider: &'static str,
+    /// The client (rustls, timeouts set).
+    pub client: reqwest::Client,
+    /// The base URL, without a trailing slash.
+    pub base_url: String,
+    /// The API key, if any.
+    pub key: Option<Secret>,
+    /// Timeouts and retries.
+    pub settings: HttpSettings,
+}
+
+impl HttpEndpoint {
+    /// Builds the client for `base_url`.
+    pub fn new(
+        provider: &'static str,
+        base_url: &str,
+        key: Option<Secret>,
+        settings: HttpSettings,
+    ) -> Result<Self, AgentError> {
+        let client = reqwest::Client::builder()
+            .connect_timeout(settings.connect_timeout)
+            .timeout(settings.total_timeout)
+            .build()
+            .map_err(|err| AgentError::Connect {
+                provider,
+                url: base_url.to_string(),
+                message: err.to_string(),
+            })?;
+        Ok(Self {
+            provider,
+            client,
+            base_url: base_url.trim_end_matches('/').to_string(),
+            key,
+            settings,
+        })
+    }
+
+    /// The full URL of `path` under the base URL.
+    pub fn url(&self, path: &str) -> String {
+        format!("{}/{}", self.base_url, path.trim_start_matches('/'))
+    }
+
+    /// An unreadable-answer error for this provider, the key removed.
+    pub fn invalid(&self, message: String) -> AgentError {
+        AgentError::InvalidResponse {
+            provider: self.provider,
+            message: self.redact(&message),
+        }
+    }
+
+    /// Removes the key from a message.
+    pub fn redact(&self, text: &str) -> String {
+        match &self.key {
+            Some(key) => key.redact(text),
+            None => text.to_string(),
+        }
+    }
+
+    /// Sends the request `build` makes, retrying 429 and 5xx answers with
+    /// exponential backoff (or the server's `Retry-After`), and returns the
+    /// first successful response. 401 and 403 end at once.
+    pub async fn send(
+        &self,
+        build: impl Fn() -> RequestBuilder,
+        cancel: &CancellationToken,
+    ) -> Result<Response, AgentError> {
+        let mut attempt = 0;
+        loop {
+            let response = cancellable(cancel, build().send())
+                .await?
+                .map_err(|err| self.transport_error(&err))?;
+            let status = response.status();
+            if status.is_success() {
+                return Ok(response);
+            }
+            if status == StatusCode::UNAUTHORIZED || status == StatusCode::FORBIDDEN {
+                return Err(AgentError::KeyRefused {
+                    provider: self.provider,
+                    status: status.as_u16(),
+                });
+            }
+            let retryable = status == StatusCode::TOO_MANY_REQUESTS || status.is_server_error();
+            if !retryable || attempt >= self.settings.max_retries {
+                return Err(self.status_error(response).await);
+            }
+            let wait = retry_after(&response)
+                .map(|wait| wait.min(self.settings.max_retry_after))
+                .unwrap_or_else(|| self.settings.backoff * 2u32.saturating_pow(attempt));
+            tracing::warn!(
+                provider = self.provider,
+                status = status.as_u16(),
+                wait_ms = wait.as_millis() as u64,
+                "retrying"
+            );
+            cancellable(cancel, tokio::time::sleep(wait)).await?;
+            attempt += 1;
+        }
+    }
+
+    /// Turns an unsuccessful response into an error carrying the server's
+    /// message, shortened and with the key removed.
+    pub async fn status_error(&self, response: Response) -> AgentError {
+        let status = response.status().as_u16();
+        let body = response.text().await.unwrap_or_default();
+        let message = serde_json::from_str::<serde_json::Value>(&body)
+            .ok()
+            .and_then(|v| {
+                v.pointer("/error/message")
+                    .and_then(|m| m.as_str())
+                    .map(str::to_string)
+            })
+            .unwrap_or(body);
+        AgentError::Http {
+            provider: self.provider,
+            status,
+            message: shorten(&self.redact(message.trim()), 300),
+        }
+    }
+
+    /// Maps a reqwest error to the agent error a user understands.
+    pub fn transport_error(&self, err: &reqwest::Error) -> AgentError {
+        if err.is_timeout() {
+            AgentError::Timeout {
+                provider: self.provider,
+                seconds: self.settings.total_timeout.as_secs_f64(),
+            }
+        } else if err.is_connect() {
+            AgentError::Connect {
+                provider: self.provider,
+                url: self.base_url.clone(),
+                message: self.redact(&root_cause(err)),
+            }
+        } else {
+            AgentError::InvalidResponse {
+                provider: self.provider,
+                message: self.redact(&root_cause(err)),
+            }
+        }
+    }
+
+    /// Reads a whole JSON body.
+    pub async fn read_json(
+        &self,
+        response: Response,
+        cancel: &CancellationToken,
+    ) -> Result<serde_json::Value, AgentError> {
+        let body = cancellable(cancel, response.bytes())
+            .await?
+            .map_err(|err| self.transport_error(&err))?;
+        serde_json::from_slice(&body).map_err(|err| AgentError::InvalidResponse {
+            provider: self.provider,
+            message: format!(
+                "invalid JSON ({err}): {}",
+                shorten(&self.redact(&String::from_utf8_lossy(&body)), 120)
+            ),
+        })
+    }
+
+    /// Reads a server-sent-event stream, handing each event to `on_event`
+    /// until it returns `Ok(true)` (the answer is complete) or the stream
+    /// ends; returns whether the answer was complete.
+    pub async fn read_events(
+        &self,
+        mut response: Response,
+        cancel: &CancellationToken,
+        mut on_event: impl FnMut(SseEvent) -> Result<bool, AgentError>,
+    ) -> Result<bool, AgentError> {
+        let mut parser = SseParser::default();
+        loop {
+            let chunk = cancellable(cancel, response.chunk())
+                .await?
+                .map_err(|err| self.transport_error(&err))?;
+            let (events, ended) = match chunk {
+                Some(bytes) => (parser.feed(&bytes), false),
+                None => (parser.finish(), true),
+            };
+            for event in events {
+                if on_event(event)? {
+                    return Ok(true);
+                }
+            }
+            if ended {
+                return Ok(false);
+            }
+        }
+    }
+}
+
+/// Gathers a streamed answer: the text so far, its pieces with their arrival
+/// times, and the usage once reported.
+pub struct Assembler<'a> {
+    start: Instant,
+    on_token: TokenSink<'a>,
+    text: String,
+    chunks: Vec<Chunk>,
+    /// The usage reported so far.
+    pub usage: Usage,
+}
+
+impl<'a> Assembler<'a> {
+    /// Starts gathering; times count from now.
+    pub fn new(on_token: TokenSink<'a>) -> Self {
+        Self {
+            start: Instant::now(),
+            on_token,
+            text: String::new(),
+            chunks: Vec::new(),
+            usage: Usage::default(),
+        }
+    }
+
+    /// Adds a piece of text and passes it on.
+    pub fn push(&mut self, piece: &str) {
+        if piece.is_empty() {
+            return;
+        }
+        (self.on_token)(piece);
+        self.text.push_str(piece);
+        self.chunks.push(Chunk {
+            at_ms: elapsed_ms(self.start),
+            text: piece.to_string(),
+        });
+    }
+
+    /// How many characters have arrived.
+    pub fn received(&self) -> usize {
+        self.text.chars().count()
+    }
+
+    /// The finished answer; an empty or blank one is an error.
+    pub fn finish(self, provider: &'static str, model: &str) -> Result<Completion, AgentError> {
+        if self.text.trim().is_empty() {
+            return Err(AgentError::EmptyAnswer {
+                provider,
+                model: model.to_string(),
+            });
+        }
+        Ok(Completion {
+            text: self.text,
+            usage: self.usage,
+            chunks: self.chunks,
+        })
+    }
+}
+
+/// Whether a response is a whole JSON document (some servers answer so
+/// even when a stream was asked for).
+pub fn is_json(response: &Response) -> bool {
+    response
+        .headers()
+        .get(reqwest::header::CONTENT_TYPE)
+        .and_then(|v| v.to_str().ok())
+        .is_some_and(|v| v.starts_with("application/json"))
+}
+
+/// Runs `future` unless `cancel` fires first.
+pub async fn cancellable<T>(
+    cancel: &CancellationToken,
+    future: impl Future<Output = T>,
+) -> Result<T, AgentError> {
+    tokio::select! {
+        biased;
+        _ = cancel.cancelled() => Err(AgentError::Cancelled),
+        value = future => Ok(value),
+    }
+}
+
+/// The `Retry-After` header as a delay (seconds; an HTTP date is ignored).
+fn retry_after(response: &Response) -> Option<Duration> {
+    let value = response.headers().get(reqwest::header::RETRY_AFTER)?;
+    let seconds: f64 = value.to_str().ok()?.trim().parse().ok()?;
+    (seconds.is_finite() && seconds >= 0.0).then(|| Duration::from_secs_f64(seconds))
+}
+
+fn root_cause(err: &(dyn std::error::Error + 'static)) -> String {
+    let mut cause = err;
+    while let Some(next) = cause.source() {
+        cause = next;
+    }
+    cause.to_string()
+}
+
+/// At most `limit` characters of `text`, with `…` when cut.
+pub fn shorten(text: &str, limit: usize) -> String {
+    match text.char_indices().nth(limit) {
+        Some((cut, _)) => format!("{}…", &text[..cut]),
+        None => text.to_string(),
+    }
+}
+
+/// Milliseconds since `start`.
+pub fn elapsed_ms(start: Instant) -> u64 {
+    start.elapsed().as_millis() as u64
+}
+
+/// One server-sent event.
+#[derive(Debug, Clone, PartialEq, Eq)]
+pub struct SseEvent {
+    /// The `event:` field, if any.
+    pub event: Option<String>,
+    /// The `data:` lines, joined with newlines.
+    pub data: String,
+}
+
+/// An incremental parser of `text/event-stream` bodies.
+#[derive(Debug, Default)]
+pub struct SseParser {
+    pending: Vec<u8>,
+    event: Option<String>,
+    data: Option<String>,
+}
+
+impl SseParser {
+    /// Feeds bytes; returns the events they complete.
+    pub fn feed(&mut self, bytes: &[u8]) -> Vec<SseEvent> {
+        self.pending.extend_from_slice(bytes);
+        let mut events = Vec::new();
+        while let Some(end) = self.pending.iter().position(|&b| b == b'\n') {
+            let line: Vec<u8> = self.pending.drain(..=end).collect();
+            let line = String::from_utf8_lossy(&line[..end]);
+            let line = line.strip_suffix('\r').unwrap_or(&line).to_string();
+            self.line(&line, &mut events);
+        }
+        events
+    }
+
+    /// Ends the stream; returns the last event if it lacked a blank line.
+    pub fn finish(&mut self) -> Vec<SseEvent> {
+        let mut events = Vec::new();
+        if !self.pending.is_empty() {
+            let line = String::from_utf8_lossy(&std::mem::take(&mut self.pending)).to_string();
+            self.line(line.trim_end_matches('\r'), &mut events);
+        }
+        self.line("", &mut events);
+        events
+    }
+
+    fn line(&mut self, line: &str, events: &mut Vec<SseEvent>) {
+        if line.is_empty() {
+            if let Some(data) = self.data.take() {
+                events.push(SseEvent {
+                    event: self.event.take(),
+                    data,
+                });
+            }
+            self.event = None;
+            return;
+        }
+        if line.starts_with(':') {
+            return;
+        }
+        let (field, value) = line.split_once(':').unwrap_or((line, ""));
+        let value = value.strip_prefix(' ').unwrap_or(value);
+        match field {
+            "event" => self.event = Some(value.to_string()),
+            "data" => match &mut self.data {
+                Some(data) => {
+                    data.push('\n');
+                    data.push_str(value);
+                }
+                None => self.data = Some(value.to_string()),
+            },
+            _ => {}
+        }
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn sse_events_split_across_chunks_and_crlf() {
+        let mut parser = SseParser::default();
+        let mut events = parser.feed(b"event: a\r\ndata: {\"x\":");
+        assert!(events.is_empty());
+        events.extend(parser.feed(b"1}\r\n\r\n: comment\ndata: two\ndata: lines\n\ndata: [DONE]"));
+        events.extend(parser.finish());
+        assert_eq!(
+            events,
+            vec![
+                SseEvent {
+                    event: Some("a".into()),
+                    data: "{\"x\":1}".into()
+                },
+                SseEvent {
+                    event: None,
+                    data: "two\nlines".into()
+                },
+                SseEvent {
+                    event: None,
+                    data: "[DONE]".into()
+                },
+            ]
+        );
+    }
+
+    #[test]
+    fn shorten_cuts_on_characters() {
+        assert_eq!(shorten("héllo", 2), "hé…");
+        assert_eq!(shorten("hi", 5), "hi");
+    }
+}

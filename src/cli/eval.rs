@@ -1,0 +1,417 @@
+//! `mapvlm eval`: every task of a dataset through the chosen approaches, with
+//! bounded concurrency and a progress bar, resumable; each plan scored with
+//! KAS and PG2S against the ground truth; per-task JSON and the paper's
+//! Table 3 layout as Markdown and CSV.
+
+use std::fmt::Write as _;
+use std::path::{Path, PathBuf};
+use std::process::ExitCode;
+use std::sync::Arc;
+
+use anyhow::Context;
+use clap::Args;
+use indicatif::{ProgressBar, ProgressStyle};
+use serde::{Deserialize, Serialize};
+use tokio::sync::Semaphore;
+use tokio_util::sync::CancellationToken;
+
+use super::plan::{runtime, AgentArgs};
+use super::score::Metric;
+use crate::agents::cache::write_atomic;
+use crate::agents::pipeline::{PlanInput, PlanRecord, Runner};
+use crate::agents::Approach;
+use crate::dataset::{Dataset, Task};
+use crate::metrics::kas::kas;
+use crate::metrics::pg2s::{Pg2sScorer, Pg2sSettings};
+
+/// Options of `mapvlm eval`.
+#[derive(Debug, Args)]
+pub struct EvalArgs {
+    /// The dataset folder (with tasks.jsonl).
+    #[arg(long, value_name = "DIR")]
+    pub dataset: PathBuf,
+    /// The approaches, comma-separated (default: all four, in Table 3 order).
+    #[arg(long, value_delimiter = ',', value_name = "LIST")]
+    pub approaches: Vec<Approach>,
+    /// Where the per-task JSON files and the tables go.
+    #[arg(long, value_name = "DIR")]
+    pub out: PathBuf,
+    /// Score the plans already in the dataset instead of calling any model.
+    #[arg(long)]
+    pub from_dataset_plans: bool,
+    /// The metrics (default: KAS, and PG2S when the model pack can be loaded).
+    #[arg(long, value_enum, value_delimiter = ',')]
+    pub metrics: Vec<Metric>,
+    /// How many plans are made at once.
+    #[arg(long, default_value_t = 4, value_name = "N")]
+    pub concurrency: usize,
+    /// Model settings for PG2S.
+    #[command(flatten)]
+    pub models: super::ModelArgs,
+    /// Provider, prompt and cache options.
+    #[command(flatten)]
+    pub agents: AgentArgs,
+}
+
+/// One task through one approach: the plan, where it came from, its scores.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+pub struct TaskResult {
+    /// The task's id.
+    pub id: String,
+    /// The approach.
+    pub approach: Approach,
+    /// The task.
+    pub task: String,
+    /// `dataset` (published plan) or `model` (made now).
+    pub source: String,
+    /// The reference plan.
+    pub ground_truth: Vec<String>,
+    /// The plan's steps.
+    pub steps: Vec<String>,
+    /// KAS, when applicable.
+    pub kas: Option<f64>,
+    /// Why KAS is not applicable.
+    pub kas_reason: Option<String>,
+    /// Whether PG2S was computed.
+    pub pg2s_scored: bool,
+    /// S_plan.
+    pub s_plan: Option<f64>,
+    /// S_goal.
+    pub s_goal: Option<f64>,
+    /// PG2S.
+    pub pg2s: Option<f64>,
+    /// The whole run, when a model made the plan.
+    pub record: Option<PlanRecord>,
+}
+
+struct Job<'a> {
+    task: &'a Task,
+    approach: Approach,
+    file: PathBuf,
+}
+
+/// Runs `mapvlm eval`.
+pub fn run(args: &EvalArgs) -> anyhow::Result<ExitCode> {
+    let (dataset, bad_lines) = Dataset::load(&args.dataset)?;
+    for line in &bad_lines {
+        eprintln!("mapvlm: {line}; that task was skipped");
+    }
+    let approaches = if args.approaches.is_empty() {
+        Approach::ALL.to_vec()
+    } else {
+        args.approaches.clone()
+    };
+    let scorer = pg2s_scorer(args)?;
+    let tasks_dir = args.out.join("tasks");
+    let mut results: Vec<TaskResult> = Vec::new();
+    let mut to_make = Vec::new();
+    let mut skipped = 0;
+    for task in &dataset.tasks {
+        for &approach in &approaches {
+            let file = tasks_dir.join(format!("{}.{}.json", safe_name(&task.id), approach));
+            match read_result(&file) {
+                Some(done) if done.pg2s_scored || scorer.is_none() => results.push(done),
+                Some(mut planned) => {
+                    score(&mut planned, scorer.as_deref())?;
+                    write_result(&file, &planned)?;
+                    results.push(planned);
+                }
+                None if args.from_dataset_plans => match task.plans.get(approach.dataset_field()) {
+                    Some(steps) => {
+                        let mut result = new_result(task, approach, "dataset", steps.clone(), None);
+                        score(&mut result, scorer.as_deref())?;
+                        write_result(&file, &result)?;
+                        results.push(result);
+                    }
+                    None => skipped += 1,
+                },
+                None if has_input(task, approach) => to_make.push(Job {
+                    task,
+                    approach,
+                    file,
+                }),
+                None => skipped += 1,
+            }
+        }
+    }
+    let mut failures = 0;
+    if !to_make.is_empty() {
+        let made = make_plans(args, to_make)?;
+        for (job, record) in made {
+            match record.first_error() {
+                Some((role, error)) => {
+                    eprintln!(
+                        "mapvlm: {} {}: {role} failed: {error}",
+                        job.task.id, job.approach
+                    );
+                    failures += 1;
+                }
+                None => {
+                    let steps = record.steps.clone();
+                    let mut result =
+                        new_result(job.task, job.approach, "model", steps, Some(record));
+                    score(&mut result, scorer.as_deref())?;
+                    write_result(&job.file, &result)?;
+                    results.push(result);
+                }
+            }
+        }
+    }
+    let order = |r: &TaskResult| {
+        let task = dataset.tasks.iter().position(|t| t.id == r.id);
+        let approach = approaches.iter().position(|a| *a == r.approach);
+        (task, approach)
+    };
+    results.sort_by_key(order);
+    let (markdown, csv) = tables(&dataset.tasks, &approaches, &results);
+    write_atomic(&args.out.join("table3.md"), markdown.as_bytes())?;
+    write_atomic(&args.out.join("table3.csv"), csv.as_bytes())?;
+    eprintln!(
+        "mapvlm: {} plans scored, {skipped} without input or plan, {failures} failed; tables in {}",
+        results.len(),
+        args.out.display()
+    );
+    Ok(if failures == 0 && bad_lines.is_empty() {
+        ExitCode::SUCCESS
+    } else {
+        ExitCode::FAILURE
+    })
+}
+
+fn pg2s_scorer(args: &EvalArgs) -> anyhow::Result<Option<Arc<Pg2sScorer>>> {
+    let explicit = !args.metrics.is_empty();
+    if explicit && !args.metrics.contains(&Metric::Pg2s) {
+        return Ok(None);
+    }
+    match super::load_scorer(
+        &args.models,
+        Pg2sSettings::default(),
+        &super::say,
+        &crate::models::Progress::stderr(),
+    ) {
+        Ok(scorer) => Ok(Some(Arc::new(scorer))),
+        Err(err) if !explicit => {
+            eprintln!("mapvlm: PG2S left out ({err:#}); KAS only");
+            Ok(None)
+        }
+        Err(err) => Err(err),
+    }
+}
+
+fn has_input(task: &Task, approach: Approach) -> bool {
+    if approach.uses_image() {
+        task.image.is_some()
+    } else {
+        task.table.is_some()
+    }
+}
+
+fn new_result(
+    task: &Task,
+    approach: Approach,
+    source: &str,
+    steps: Vec<String>,
+    record: Option<PlanRecord>,
+) -> TaskResult {
+    TaskResult {
+        id: task.id.clone(),
+        approach,
+        task: task.task.clone(),
+        source: source.to_string(),
+        ground_truth: task.ground_truth.clone(),
+        steps,
+        kas: None,
+        kas_reason: None,
+        pg2s_scored: false,
+        s_plan: None,
+        s_goal: None,
+        pg2s: None,
+        record,
+    }
+}
+
+fn score(result: &mut TaskResult, scorer: Option<&Pg2sScorer>) -> anyhow::Result<()> {
+    let report = kas(&result.ground_truth, &result.steps);
+    result.kas = report.kas;
+    result.kas_reason = report.reason;
+    if let Some(scorer) = scorer {
+        let report = scorer
+            .score(&result.ground_truth, &result.steps)
+            .map_err(|err| anyhow::anyhow!("scoring {} {}: {err}", result.id, result.approach))?;
+        result.s_plan = Some(report.s_plan);
+        result.s_goal = report.s_goal();
+        result.pg2s = report.pg2s();
+        result.pg2s_scored = true;
+    }
+    Ok(())
+}
+
+/// Makes the plans of `jobs`, at most `--concurrency` at once.
+fn make_plans<'a>(
+    args: &EvalArgs,
+    jobs: Vec<Job<'a>>,
+) -> anyhow::Result<Vec<(Job<'a>, PlanRecord)>> {
+    let (runner, recording) = args.agents.runner()?;
+    let runner = Arc::new(runner);
+    let cancel = CancellationToken::new();
+    let runtime = runtime(&cancel)?;
+    let progress = ProgressBar::new(jobs.len() as u64);
+    progress.set_style(
+        ProgressStyle::with_template("{bar:30} {pos}/{len} plans  {elapsed_precise}  {msg}")
+            .unwrap_or_else(|_| ProgressStyle::default_bar()),
+    );
+    let limit = Arc::new(Semaphore::new(args.concurrency.max(1)));
+    let mut handles = Vec::new();
+    for job in &jobs {
+        let runner: Arc<Runner> = runner.clone();
+        let limit = limit.clone();
+        let cancel = cancel.clone();
+        let progress = progress.clone();
+        let approach = job.approach;
+        let input = PlanInput {
+            task: job.task.task.clone(),
+            image: job.task.image.clone(),
+            table: job.task.table.clone(),
+        };
+        let label = format!("{} {approach}", job.task.id);
+        handles.push(runtime.spawn(async move {
+            let _permit = limit.acquire_owned().await;
+            let (events, mut drained) = tokio::sync::mpsc::unbounded_channel();
+            let drain = tokio::spawn(async move { while drained.recv().await.is_some() {} });
+            let record = runner.plan(approach, &input, &events, &cancel).await;
+            drop(events);
+            let _ = drain.await;
+            progress.set_message(label);
+            progress.inc(1);
+            record
+        }));
+    }
+    let mut made = Vec::new();
+    for (job, handle) in jobs.into_iter().zip(handles) {
+        let record = runtime
+            .block_on(handle)
+            .context("a planning task stopped")?
+            .with_context(|| format!("{} {}", job.task.id, job.approach))?;
+        made.push((job, record));
+    }
+    progress.finish_and_clear();
+    args.agents.save_recording(recording)?;
+    Ok(made)
+}
+
+fn safe_name(id: &str) -> String {
+    id.chars()
+        .map(|c| {
+            if c.is_ascii_alphanumeric() || matches!(c, '-' | '_' | '.') {
+                c
+            } else {
+                '_'
+            }
+        })
+        .collect()
+}
+
+fn read_result(file: &Path) -> Option<TaskResult> {
+    let text = std::fs::read_to_string(file).ok()?;
+    serde_json::from_str(&text).ok()
+}
+
+fn write_result(file: &Path, result: &TaskResult) -> anyhow::Result<()> {
+    let text = serde_json::to_string_pretty(result)?;
+    write_atomic(file, text.as_bytes())?;
+    Ok(())
+}
+
+fn cell(value: Option<f64>, digits: usize) -> String {
+    value.map_or_else(String::new, |v| format!("{v:.digits$}"))
+}
+
+fn mean(values: impl Iterator<Item = Option<f64>>) -> Option<f64> {
+    let present: Vec<f64> = values.flatten().collect();
+    (!present.is_empty()).then(|| present.iter().sum::<f64>() / present.len() as f64)
+}
+
+/// The paper's Table 3: a row per task, PG2S and KAS for each approach, and
+/// the means; as Markdown and as CSV.
+fn tables(tasks: &[Task], approaches: &[Approach], results: &[TaskResult]) -> (String, String) {
+    if results.is_empty() {
+        return (String::from("No plans were scored.\n"), String::new());
+    }
+    let find = |id: &str, approach: Approach| {
+        results
+            .iter()
+            .find(|r| r.id == id && r.approach == approach)
+    };
+    let mut markdown = String::from("| Task | Instruction |");
+    let mut rule = String::from("| --- | --- |");
+    let mut csv = String::from("id,task");
+    for approach in approaches {
+        let _ = write!(markdown, " {approach} PG2S | {approach} KAS |");
+        rule.push_str(" ---: | ---: |");
+        let _ = write!(csv, ",{approach}_pg2s,{approach}_kas");
+    }
+    let _ = writeln!(markdown, "\n{rule}");
+    csv.push('\n');
+    for task in tasks {
+        if approaches.iter().all(|a| find(&task.id, *a).is_none()) {
+            continue;
+        }
+        let _ = write!(
+            markdown,
+            "| {} | {} |",
+            task.id,
+            task.task.replace('|', "\\|")
+        );
+        let _ = write!(csv, "{},{}", csv_field(&task.id), csv_field(&task.task));
+        for approach in approaches {
+            let result = find(&task.id, *approach);
+            let (pg2s, kas) = (result.and_then(|r| r.pg2s), result.and_then(|r| r.kas));
+            push_scores(&mut markdown, &mut csv, pg2s, kas, "");
+        }
+        markdown.push('\n');
+        csv.push('\n');
+    }
+    let _ = write!(markdown, "| **Mean** | |");
+    csv.push_str("mean,");
+    for approach in approaches {
+        let of = |r: &&TaskResult| r.approach == *approach;
+        let pg2s = mean(results.iter().filter(of).map(|r| r.pg2s));
+        let kas = mean(results.iter().filter(of).map(|r| r.kas));
+        push_scores(&mut markdown, &mut csv, pg2s, kas, "**");
+    }
+    markdown.push('\n');
+    csv.push('\n');
+    (markdown, csv)
+}
+
+/// Appends one approach's PG2S and KAS cells to both tables.
+fn push_scores(
+    markdown: &mut String,
+    csv: &mut String,
+    pg2s: Option<f64>,
+    kas: Option<f64>,
+    emphasis: &str,
+) {
+    let (p, k) = (or_na(cell(pg2s, 3)), or_na(cell(kas, 3)));
+    let _ = write!(
+        markdown,
+        " {emphasis}{p}{emphasis} | {emphasis}{k}{emphasis} |"
+    );
+    let _ = write!(csv, ",{},{}", cell(pg2s, 6), cell(kas, 6));
+}
+
+fn or_na(text: String) -> String {
+    if text.is_empty() {
+        "n/a".into()
+    } else {
+        text
+    }
+}
+
+fn csv_field(text: &str) -> String {
+    if text.contains([',', '"', '\n']) {
+        format!("\"{}\"", text.replace('"', "\"\""))
+    } else {
+        text.to_string()
+    }
+}

@@ -1,0 +1,243 @@
+//! `mapvlm plan`: one plan from a task and an image or a table, with the
+//! agents of the chosen approach; `--json` prints every agent's raw output,
+//! the triples, the steps, usage and timings.
+
+use std::io::Write;
+use std::path::PathBuf;
+use std::process::ExitCode;
+use std::sync::{Arc, Mutex};
+
+use anyhow::Context;
+use clap::Args;
+use tokio::sync::mpsc::unbounded_channel;
+use tokio_util::sync::CancellationToken;
+
+use crate::agents::cache::ResponseCache;
+use crate::agents::config::{ConfigFile, FlagLayers, Settings};
+use crate::agents::pipeline::{AgentEvent, PlanInput, Runner, Source};
+use crate::agents::prompts::PromptSet;
+use crate::agents::replay::{Pace, Recording};
+use crate::agents::{Approach, ProviderKind};
+
+/// Provider, prompt, cache and recording options shared by `plan` and `eval`.
+#[derive(Debug, Args)]
+pub struct AgentArgs {
+    /// The config file (default: $XDG_CONFIG_HOME/mapvlm/config.toml).
+    #[arg(long, value_name = "FILE")]
+    pub config: Option<PathBuf>,
+    /// The provider of every agent: openai (any Chat Completions server) or anthropic.
+    #[arg(long, value_name = "NAME")]
+    pub provider: Option<ProviderKind>,
+    /// The base URL of every agent (e.g. http://localhost:8000/v1).
+    #[arg(long, value_name = "URL")]
+    pub base_url: Option<String>,
+    /// The model of every agent.
+    #[arg(long, value_name = "NAME")]
+    pub model: Option<String>,
+    /// The temperature of every agent (default 0, as in the paper).
+    #[arg(long, value_name = "T")]
+    pub temperature: Option<f32>,
+    /// The token limit of every agent.
+    #[arg(long, value_name = "N")]
+    pub max_tokens: Option<u32>,
+    /// One agent's setting, ROLE.FIELD=VALUE (roles: skm, gkm, planner, single;
+    /// fields: provider, base_url, model, temperature, max_tokens, stream, json_output).
+    #[arg(long = "agent", value_name = "ROLE.FIELD=VALUE")]
+    pub agent: Vec<String>,
+    /// Ask for whole answers instead of streams.
+    #[arg(long)]
+    pub no_stream: bool,
+    /// Longest image edge sent, in pixels (default 1024).
+    #[arg(long, value_name = "PIXELS")]
+    pub max_image_edge: Option<u32>,
+    /// Longest wait for one answer, in seconds (default 180).
+    #[arg(long, value_name = "SECS")]
+    pub timeout: Option<f64>,
+    /// A folder of prompt templates overriding the shipped ones
+    /// (default: $XDG_CONFIG_HOME/mapvlm/prompts).
+    #[arg(long, value_name = "DIR")]
+    pub prompts: Option<PathBuf>,
+    /// The response cache folder (default: $XDG_CACHE_HOME/mapvlm/responses).
+    #[arg(long, value_name = "DIR")]
+    pub cache_dir: Option<PathBuf>,
+    /// Always ask the models, and store nothing.
+    #[arg(long)]
+    pub no_cache: bool,
+    /// Write every answer received to FILE, for --replay.
+    #[arg(long, value_name = "FILE")]
+    pub record: Option<PathBuf>,
+    /// Answer from a recording made with --record, with no network.
+    #[arg(long, value_name = "FILE", conflicts_with = "record")]
+    pub replay: Option<PathBuf>,
+    /// With --replay, send everything at once instead of at the recorded pace.
+    #[arg(long, requires = "replay")]
+    pub instant: bool,
+}
+
+impl AgentArgs {
+    /// The runner these options describe, and the recording being made.
+    pub fn runner(&self) -> anyhow::Result<(Runner, Option<Arc<Mutex<Recording>>>)> {
+        let env = |name: &str| std::env::var(name).ok();
+        let file = match &self.config {
+            Some(path) => ConfigFile::load(path, true)?,
+            None => match ConfigFile::default_path(&env) {
+                Some(path) => ConfigFile::load(&path, false)?,
+                None => ConfigFile::default(),
+            },
+        };
+        let mut flags = FlagLayers {
+            max_image_edge: self.max_image_edge,
+            timeout_secs: self.timeout,
+            ..FlagLayers::default()
+        };
+        flags.all.provider = self.provider;
+        flags.all.base_url = self.base_url.clone();
+        flags.all.model = self.model.clone();
+        flags.all.temperature = self.temperature;
+        flags.all.max_tokens = self.max_tokens;
+        flags.all.stream = self.no_stream.then_some(false);
+        for spec in &self.agent {
+            flags.set_agent(spec)?;
+        }
+        let settings = Settings::resolve(&file, &env, &flags)?;
+        let prompt_dir = self.prompts.clone().or_else(PromptSet::default_dir);
+        let prompts = PromptSet::load(prompt_dir.as_deref())?;
+        let source = match &self.replay {
+            Some(path) => {
+                let pace = if self.instant {
+                    Pace::Instant
+                } else {
+                    Pace::AsRecorded
+                };
+                Source::Replay(Arc::new(Recording::load(path)?), pace)
+            }
+            None => Source::Live,
+        };
+        let mut runner = Runner::new(settings, prompts, source);
+        if !self.no_cache {
+            if let Some(dir) = self.cache_dir.clone().or_else(ResponseCache::default_dir) {
+                runner = runner.with_cache(ResponseCache::new(dir));
+            }
+        }
+        let recording = self
+            .record
+            .as_ref()
+            .map(|_| Arc::new(Mutex::new(Recording::new("recorded by mapvlm"))));
+        if let Some(recording) = &recording {
+            runner = runner.with_recorder(recording.clone());
+        }
+        Ok((runner, recording))
+    }
+
+    /// Writes the recording, if one was asked for.
+    pub fn save_recording(&self, recording: Option<Arc<Mutex<Recording>>>) -> anyhow::Result<()> {
+        if let (Some(path), Some(recording)) = (&self.record, recording) {
+            let recording = recording
+                .lock()
+                .map_err(|_| anyhow::anyhow!("the recording was lost"))?
+                .clone();
+            recording.save(path)?;
+        }
+        Ok(())
+    }
+}
+
+/// Options of `mapvlm plan`.
+#[derive(Debug, Args)]
+pub struct PlanArgs {
+    /// The task, in natural language.
+    #[arg(long)]
+    pub task: String,
+    /// The scene image (image approaches).
+    #[arg(long, value_name = "FILE")]
+    pub image: Option<PathBuf>,
+    /// The G-PlanET table of the scene (table approaches).
+    #[arg(long, value_name = "FILE")]
+    pub table: Option<PathBuf>,
+    /// multi-image, single-image, multi-table or single-table.
+    #[arg(long, default_value = "multi-image")]
+    pub approach: Approach,
+    /// Print the whole run as JSON.
+    #[arg(long)]
+    pub json: bool,
+    /// Provider, prompt and cache options.
+    #[command(flatten)]
+    pub agents: AgentArgs,
+}
+
+/// Builds the async runtime the commands run on, with Ctrl-C cancelling `cancel`.
+pub fn runtime(cancel: &CancellationToken) -> anyhow::Result<tokio::runtime::Runtime> {
+    let runtime = tokio::runtime::Builder::new_multi_thread()
+        .enable_all()
+        .build()
+        .context("cannot start the async runtime")?;
+    let on_interrupt = cancel.clone();
+    runtime.spawn(async move {
+        if tokio::signal::ctrl_c().await.is_ok() {
+            on_interrupt.cancel();
+        }
+    });
+    Ok(runtime)
+}
+
+/// Runs `mapvlm plan`.
+pub fn run(args: &PlanArgs) -> anyhow::Result<ExitCode> {
+    let (runner, recording) = args.agents.runner()?;
+    let input = PlanInput {
+        task: args.task.clone(),
+        image: args.image.clone(),
+        table: args.table.clone(),
+    };
+    let cancel = CancellationToken::new();
+    let runtime = runtime(&cancel)?;
+    let (events, mut received) = unbounded_channel();
+    let quiet = args.json;
+    let printer = runtime.spawn(async move {
+        while let Some(event) = received.recv().await {
+            if !quiet {
+                print_event(&event);
+            }
+        }
+    });
+    let record = runtime.block_on(runner.plan(args.approach, &input, &events, &cancel));
+    drop(events);
+    let _ = runtime.block_on(printer);
+    args.agents.save_recording(recording)?;
+    let record = record?;
+    let mut out = std::io::stdout().lock();
+    if args.json {
+        serde_json::to_writer_pretty(&mut out, &record)?;
+        writeln!(out)?;
+    } else {
+        for (number, step) in record.steps.iter().enumerate() {
+            writeln!(out, "{}. {step}", number + 1)?;
+        }
+    }
+    match record.first_error() {
+        Some((role, error)) => {
+            eprintln!("mapvlm: {role} failed: {error}");
+            Ok(ExitCode::FAILURE)
+        }
+        None => Ok(ExitCode::SUCCESS),
+    }
+}
+
+fn print_event(event: &AgentEvent) {
+    match event {
+        AgentEvent::Started { role } => eprintln!("{role}: started"),
+        AgentEvent::Token { .. } => {}
+        AgentEvent::Finished {
+            role,
+            usage,
+            elapsed_ms,
+            cached,
+        } => eprintln!(
+            "{role}: finished in {:.1} s, {} tokens in, {} out{}",
+            *elapsed_ms as f64 / 1000.0,
+            usage.input_tokens,
+            usage.output_tokens,
+            if *cached { " (cached)" } else { "" }
+        ),
+        AgentEvent::Failed { role, error } => eprintln!("{role}: failed: {error}"),
+    }
+}
