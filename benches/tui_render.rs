@@ -3,8 +3,8 @@
 
 use criterion::{criterion_group, criterion_main, Criterion};
 use crossterm::event::{KeyCode, KeyEvent, KeyModifiers};
-use mapvlm::session::Agent;
-use mapvlm::tui::agents::{recorded_output, AgentEvent};
+use mapvlm::agents::replay::Pace;
+use mapvlm::tui::agents::{run_blocking, AgentsPipeline};
 use mapvlm::tui::app::{App, AppInit, Cmd, Msg};
 use mapvlm::tui::scoring::{score_now, ModelSlot};
 use mapvlm::tui::{prepare_image, ui};
@@ -15,22 +15,15 @@ use ratatui_image::picker::Picker;
 fn demo_app() -> App {
     let (mut app, cmds) = App::new(AppInit::demo((200, 60), "bench"));
     let models = ModelSlot::Unavailable("bench".into());
+    let pipeline = AgentsPipeline::offline(Pace::Instant).unwrap_or_else(|e| panic!("{e}"));
     let mut queue = cmds;
     while let Some(cmd) = queue.pop() {
         match cmd {
             Cmd::StartRun(req) => {
-                for agent in [Agent::Skm, Agent::Gkm, Agent::Planner] {
-                    let output = recorded_output(agent).to_string();
-                    queue.extend(app.update(Msg::Agent(req.run, AgentEvent::Started(agent))));
-                    queue.extend(app.update(Msg::Agent(
-                        req.run,
-                        AgentEvent::Finished {
-                            agent,
-                            output,
-                            usage: Default::default(),
-                            duration_ms: 1,
-                        },
-                    )));
+                let run = req.run;
+                let events = run_blocking(&pipeline, req).unwrap_or_else(|e| panic!("{e}"));
+                for event in events {
+                    queue.extend(app.update(Msg::Agent(run, event)));
                 }
             }
             Cmd::Score(req) => queue.extend(app.update(Msg::Scored(score_now(&models, &req)))),

@@ -12,20 +12,11 @@ pub const PLAN: &str = include_str!("demo/plan.txt");
 
 mod scene;
 
-pub use scene::scene_image;
+pub use scene::{scene_image, scene_png};
 
 /// A second ground truth for the built-in example, as another annotator
 /// wrote it, so a user can switch ground truths and watch the scores move.
 pub const GROUND_TRUTH_B: &str = include_str!("demo/ground_truth_b.txt");
-
-/// The prompt of the semantic-knowledge miner the demo was recorded with.
-pub const SKM_PROMPT: &str = include_str!("demo/skm_prompt.txt");
-
-/// The prompt of the grounded-knowledge miner (`{task}` is replaced).
-pub const GKM_PROMPT: &str = include_str!("demo/gkm_prompt.txt");
-
-/// The planner's prompt (`{task}`, `{skm}` and `{gkm}` are replaced).
-pub const PLANNER_PROMPT: &str = include_str!("demo/planner_prompt.txt");
 
 /// The recorded output of the semantic-knowledge miner: scene triples.
 pub const SKM_OUTPUT: &str = include_str!("demo/skm.txt");
@@ -35,3 +26,8 @@ pub const GKM_OUTPUT: &str = include_str!("demo/gkm.txt");
 
 /// The recorded raw output of the planner, preamble and closing remark included.
 pub const PLANNER_OUTPUT: &str = include_str!("demo/planner.txt");
+
+/// The demo's recording (a [`crate::agents::replay::Recording`] as JSON):
+/// the answers above, hand-written, keyed by the requests the built-in
+/// `prompts/` templates make for the demo task and scene.
+pub const RECORDING: &str = include_str!("demo/recording.json");

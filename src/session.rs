@@ -4,103 +4,15 @@
 //! leaves half a file; a file that cannot be read is set aside, not fatal.
 
 use std::collections::BTreeMap;
-use std::fmt;
 use std::io::Write as _;
 use std::path::{Path, PathBuf};
 
 use serde::{Deserialize, Serialize};
 
+use crate::agents::{AgentRole, Approach};
+
 /// The format version written into every session file.
 pub const SESSION_VERSION: u32 = 1;
-
-/// One of the three agents of the multi-agent pipeline.
-#[derive(Debug, Clone, Copy, PartialEq, Eq, PartialOrd, Ord, Hash, Serialize, Deserialize)]
-#[serde(rename_all = "lowercase")]
-pub enum Agent {
-    /// The semantic-knowledge miner: scene triples.
-    Skm,
-    /// The grounded-knowledge miner: a grounded description.
-    Gkm,
-    /// The planner: atomic steps.
-    Planner,
-}
-
-impl Agent {
-    /// The agents in pipeline order.
-    pub const ALL: [Agent; 3] = [Agent::Skm, Agent::Gkm, Agent::Planner];
-
-    /// The short name shown to users.
-    pub fn label(self) -> &'static str {
-        match self {
-            Agent::Skm => "SKM",
-            Agent::Gkm => "GKM",
-            Agent::Planner => "Planner",
-        }
-    }
-}
-
-impl fmt::Display for Agent {
-    fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
-        f.write_str(self.label())
-    }
-}
-
-/// The four ways of making a plan the paper compares.
-#[derive(Debug, Clone, Copy, PartialEq, Eq, Hash, Serialize, Deserialize)]
-#[serde(rename_all = "kebab-case")]
-pub enum Approach {
-    /// SKM and GKM read the image, the planner reads their outputs.
-    MultiImage,
-    /// One VLM call from the image.
-    SingleImage,
-    /// The miners read the G-PlanET table instead of the image.
-    MultiTable,
-    /// One call from the table.
-    SingleTable,
-}
-
-impl Approach {
-    /// The approaches in the order they cycle.
-    pub const ALL: [Approach; 4] = [
-        Approach::MultiImage,
-        Approach::SingleImage,
-        Approach::MultiTable,
-        Approach::SingleTable,
-    ];
-
-    /// The name used on the command line and in the UI.
-    pub fn label(self) -> &'static str {
-        match self {
-            Approach::MultiImage => "multi-image",
-            Approach::SingleImage => "single-image",
-            Approach::MultiTable => "multi-table",
-            Approach::SingleTable => "single-table",
-        }
-    }
-
-    /// The key of this approach's published plans in a dataset task.
-    pub fn dataset_key(self) -> &'static str {
-        match self {
-            Approach::MultiImage => "multi_agent_image",
-            Approach::SingleImage => "single_agent_image",
-            Approach::MultiTable => "multi_agent_table",
-            Approach::SingleTable => "single_agent_table",
-        }
-    }
-
-    /// Whether the approach reads the environment table instead of the image.
-    pub fn needs_table(self) -> bool {
-        matches!(self, Approach::MultiTable | Approach::SingleTable)
-    }
-
-    /// The agents the approach runs, in order.
-    pub fn agents(self) -> &'static [Agent] {
-        match self {
-            Approach::MultiImage | Approach::MultiTable => &Agent::ALL,
-            Approach::SingleImage | Approach::SingleTable => &[Agent::Planner],
-        }
-    }
-}
 
 /// The provider, model and sampling settings of one agent.
 #[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
@@ -171,10 +83,10 @@ pub struct Usage {
 #[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
 pub struct AgentRecord {
     /// The agent.
-    pub agent: Agent,
+    pub agent: AgentRole,
     /// Its settings for this run.
     pub settings: AgentSettings,
-    /// The prompt it was given.
+    /// The prompt template it was given.
     pub prompt: String,
     /// What it wrote (possibly partial when the run was cancelled).
     pub output: String,
@@ -265,14 +177,15 @@ pub struct Session {
     pub plan_source: PlanSource,
     /// The plan steps, as edited.
     pub plan: Vec<String>,
-    /// The prompt of each agent.
-    pub prompts: BTreeMap<Agent, String>,
+    /// The prompt templates edited in the workbench, by template name (e.g.
+    /// `multi-image-planner`); the others are the built-in or user ones.
+    pub prompts: BTreeMap<String, String>,
     /// The settings of each agent.
-    pub settings: BTreeMap<Agent, AgentSettings>,
+    pub settings: BTreeMap<AgentRole, AgentSettings>,
     /// The latest output of each agent.
-    pub outputs: BTreeMap<Agent, String>,
+    pub outputs: BTreeMap<AgentRole, String>,
     /// The prompt and settings each output was made with.
-    pub ran_with: BTreeMap<Agent, (String, AgentSettings)>,
+    pub ran_with: BTreeMap<AgentRole, (String, AgentSettings)>,
     /// The theme's name.
     pub theme: String,
     /// Whether the scene image is shown.
@@ -394,7 +307,7 @@ mod tests {
             ground_truth: vec!["Walk to the sink.".into()],
             plan_source: PlanSource::Run { run: 3 },
             plan: vec!["Go to the sink.".into()],
-            prompts: BTreeMap::from([(Agent::Skm, "List triples.".into())]),
+            prompts: BTreeMap::from([("multi-image-skm".into(), "[user]\nList triples.".into())]),
             settings: BTreeMap::new(),
             outputs: BTreeMap::new(),
             ran_with: BTreeMap::new(),

@@ -4,10 +4,11 @@
 use std::sync::Arc;
 
 use crossterm::event::{KeyCode, KeyEvent, KeyModifiers};
+use mapvlm::agents::replay::Pace;
+use mapvlm::agents::AgentRole;
 use mapvlm::metrics::pg2s::{Pg2sScorer, Pg2sSettings};
 use mapvlm::metrics::{ModelError, SentenceEncoder};
-use mapvlm::session::Agent;
-use mapvlm::tui::agents::{recorded_output, AgentEvent};
+use mapvlm::tui::agents::{run_blocking, AgentEvent, AgentsPipeline};
 use mapvlm::tui::app::{App, AppInit, Cmd, Msg, Pane};
 use mapvlm::tui::scoring::{score_now, ModelSlot, Pg2sOutcome};
 use mapvlm::tui::theme::{load_themes, Theme};
@@ -45,6 +46,7 @@ impl SentenceEncoder for BagOfWords {
 struct Harness {
     app: App,
     models: ModelSlot,
+    pipeline: AgentsPipeline,
 }
 
 impl Harness {
@@ -54,7 +56,12 @@ impl Harness {
             no_color,
             ..AppInit::demo(size, "no models in this test")
         });
-        let mut h = Harness { app, models };
+        let pipeline = AgentsPipeline::offline(Pace::Instant).unwrap();
+        let mut h = Harness {
+            app,
+            models,
+            pipeline,
+        };
         h.run(cmds);
         h
     }
@@ -66,24 +73,17 @@ impl Harness {
             for cmd in queue {
                 match cmd {
                     Cmd::StartRun(req) => {
-                        for agent in req.agents.clone() {
-                            let output = recorded_output(agent).to_string();
-                            let events = [
-                                AgentEvent::Started(agent),
-                                AgentEvent::Token {
-                                    agent,
-                                    text: output.clone(),
-                                },
-                                AgentEvent::Finished {
-                                    agent,
-                                    output,
-                                    usage: Default::default(),
-                                    duration_ms: 100,
-                                },
-                            ];
-                            for e in events {
-                                next.extend(self.app.update(Msg::Agent(req.run, e)));
+                        let run = req.run;
+                        match run_blocking(&self.pipeline, req) {
+                            Ok(events) => {
+                                for mut e in events {
+                                    if let AgentEvent::Finished { duration_ms, .. } = &mut e {
+                                        *duration_ms = 100;
+                                    }
+                                    next.extend(self.app.update(Msg::Agent(run, e)));
+                                }
                             }
+                            Err(reason) => self.app.run_refused(run, reason),
                         }
                     }
                     Cmd::Score(req) => {
@@ -243,10 +243,13 @@ fn a_prompt_edit_reruns_only_what_it_affects_and_the_demo_asks_for_a_provider() 
     h.key(KeyCode::Enter);
     h.keys(" Be brief.");
     h.key(KeyCode::Esc);
-    assert_eq!(h.app.agents_to_run(false), [Agent::Gkm, Agent::Planner]);
+    assert_eq!(
+        h.app.agents_to_run(false),
+        [AgentRole::Gkm, AgentRole::Planner]
+    );
     let screen = h.screen();
     assert!(screen.contains("GKM needs a provider"), "{screen}");
-    let prompt = h.app.to_session().prompts[&Agent::Gkm].clone();
+    let prompt = h.app.to_session().prompts["multi-image-gkm"].clone();
     assert!(prompt.ends_with("Be brief."), "{prompt}");
 }
 
@@ -288,6 +291,7 @@ fn published_plans_score_as_in_mapvlm_score() {
     let mut h = Harness {
         app,
         models: unavailable(),
+        pipeline: AgentsPipeline::offline(Pace::Instant).unwrap(),
     };
     h.run(cmds);
     let dir = tempfile::tempdir().unwrap();

@@ -19,7 +19,7 @@ use super::graph::{parse_triples, triples_schema, KnowledgeGraph, ParsedTriples}
 use super::images::prepare_image;
 use super::openai::OpenAi;
 use super::prompts::{render_table, PromptSet};
-use super::provider::{elapsed_ms, ChatRequest, Completion, ImageInput, SharedProvider};
+use super::provider::{elapsed_ms, ChatRequest, Completion, ImageInput, Provider, SharedProvider};
 use super::replay::{Pace, Recording, ReplayProvider};
 use super::{AgentError, AgentRole, Approach, ProviderKind, Usage};
 use crate::plan::parse_steps;
@@ -158,6 +158,7 @@ pub struct Runner {
     source: Source,
     cache: Option<ResponseCache>,
     recorder: Option<Arc<Mutex<Recording>>>,
+    answers: Option<(Arc<Recording>, Pace)>,
 }
 
 struct Prepared<'a> {
@@ -175,12 +176,21 @@ impl Runner {
             source,
             cache: None,
             recorder: None,
+            answers: None,
         }
     }
 
     /// Reads and writes answers in `cache` (ignored when replaying).
     pub fn with_cache(mut self, cache: ResponseCache) -> Self {
         self.cache = Some(cache);
+        self
+    }
+
+    /// Serves the requests `recording` has answers for from it, at `pace`,
+    /// before asking a provider (the answers are not cached): a demo's
+    /// recorded agents can run beside live ones.
+    pub fn with_answers(mut self, recording: Arc<Recording>, pace: Pace) -> Self {
+        self.answers = Some((recording, pace));
         self
     }
 
@@ -393,6 +403,10 @@ impl Runner {
             .as_ref()
             .filter(|_| matches!(self.source, Source::Live));
         let hit = cache.and_then(|c| c.get(&key));
+        let recorded = self
+            .answers
+            .as_ref()
+            .filter(|(recording, _)| hit.is_none() && recording.answers.contains_key(&key));
         let result = match hit {
             Some(answer) => {
                 record.cached = true;
@@ -401,15 +415,22 @@ impl Runner {
                 }
                 Ok(answer.completion)
             }
-            None => match self.provider(settings) {
-                Ok(provider) => provider.complete(&request, &sink, cancel).await,
-                Err(err) => Err(err),
+            None => match recorded {
+                Some((recording, pace)) => {
+                    ReplayProvider::new(recording.clone(), settings.provider, *pace)
+                        .complete(&request, &sink, cancel)
+                        .await
+                }
+                None => match self.provider(settings) {
+                    Ok(provider) => provider.complete(&request, &sink, cancel).await,
+                    Err(err) => Err(err),
+                },
             },
         };
         record.elapsed_ms = elapsed_ms(start);
         match result {
             Ok(completion) => {
-                if !record.cached {
+                if !record.cached && recorded.is_none() {
                     self.keep(&key, settings, &completion);
                 }
                 record.usage = completion.usage;

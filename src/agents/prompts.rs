@@ -126,6 +126,17 @@ impl Template {
         Ok(template)
     }
 
+    /// The template as a file's text: a `[system]` section (when there is a
+    /// system prompt) and a `[user]` section; [`Template::parse`] reads it
+    /// back to the same prompts.
+    pub fn text(&self) -> String {
+        if self.system.is_empty() {
+            format!("[user]\n{}", self.user)
+        } else {
+            format!("[system]\n{}\n\n[user]\n{}", self.system, self.user)
+        }
+    }
+
     /// The system and user prompts with `values` filled in (a variable
     /// without a value becomes empty).
     pub fn render(&self, values: &BTreeMap<&str, String>) -> (String, String) {
@@ -210,6 +221,12 @@ impl PromptSet {
             name,
             reason: "this agent does not take part in this approach".into(),
         })
+    }
+
+    /// The set with `template` in place of the one of the same name.
+    pub fn with(mut self, template: Template) -> Self {
+        self.templates.insert(template.name.clone(), template);
+        self
     }
 
     /// Every template.
@@ -332,6 +349,13 @@ mod tests {
         assert!(user.contains("(mug, on, table)"));
         assert!(!user.contains("{{"));
         assert!(set.get(Approach::SingleImage, AgentRole::Skm).is_err());
+        for template in set.iter() {
+            let back = Template::parse(&template.name, "text", &template.text()).unwrap();
+            assert_eq!(
+                (&back.system, &back.user),
+                (&template.system, &template.user)
+            );
+        }
     }
 
     #[test]

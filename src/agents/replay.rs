@@ -74,6 +74,8 @@ pub enum Pace {
     AsRecorded,
     /// Everything at once.
     Instant,
+    /// Each piece this long after the one before.
+    Every(Duration),
 }
 
 /// A provider that answers from a recording.
@@ -111,9 +113,13 @@ impl ReplayProvider {
             })?;
         let start = Instant::now();
         for chunk in &answer.completion.chunks {
-            if self.pace == Pace::AsRecorded {
-                let due = start + Duration::from_millis(chunk.at_ms);
-                cancellable(cancel, tokio::time::sleep_until(due.into())).await?;
+            match self.pace {
+                Pace::AsRecorded => {
+                    let due = start + Duration::from_millis(chunk.at_ms);
+                    cancellable(cancel, tokio::time::sleep_until(due.into())).await?;
+                }
+                Pace::Every(delay) => cancellable(cancel, tokio::time::sleep(delay)).await?,
+                Pace::Instant => {}
             }
             on_token(&chunk.text);
         }

@@ -5,10 +5,16 @@ use std::process::ExitCode;
 use std::sync::Arc;
 use std::time::Duration;
 
+use anyhow::Context;
 use clap::Args;
 
+use crate::agents::cache::ResponseCache;
+use crate::agents::config::ConfigFile;
+use crate::agents::prompts::PromptSet;
+use crate::agents::replay::Pace;
 use crate::metrics::pg2s::Pg2sSettings;
-use crate::tui::{self, agents::ReplayPipeline, Options};
+use crate::tui::agents::{prompt_texts, AgentsPipeline, ProviderConfig};
+use crate::tui::{self, Options};
 
 /// Arguments of the workbench.
 #[derive(Debug, Args)]
@@ -29,6 +35,14 @@ pub struct TuiArgs {
     /// Milliseconds between two words of a replayed recording.
     #[arg(long, default_value_t = 12, value_name = "MS")]
     pub replay_delay: u64,
+    /// The config file with providers and keys (default:
+    /// $XDG_CONFIG_HOME/mapvlm/config.toml).
+    #[arg(long, value_name = "FILE")]
+    pub config: Option<PathBuf>,
+    /// A folder of prompt templates overriding the built-in ones (default:
+    /// $XDG_CONFIG_HOME/mapvlm/prompts).
+    #[arg(long, value_name = "DIR")]
+    pub prompts: Option<PathBuf>,
     /// Model settings shared with the other model-backed commands.
     #[command(flatten)]
     pub models: super::ModelArgs,
@@ -36,6 +50,31 @@ pub struct TuiArgs {
 
 /// Runs the workbench.
 pub fn run(args: TuiArgs) -> anyhow::Result<ExitCode> {
+    let env = |name: &str| std::env::var(name).ok();
+    let (file, path) = match &args.config {
+        Some(path) => (ConfigFile::load(path, true)?, Some(path.clone())),
+        None => match ConfigFile::default_path(&env) {
+            Some(path) => (ConfigFile::load(&path, false)?, Some(path)),
+            None => (ConfigFile::default(), None),
+        },
+    };
+    let prompt_dir = args.prompts.clone().or_else(PromptSet::default_dir);
+    let prompts = PromptSet::load(prompt_dir.as_deref())?;
+    let pace = match args.replay_delay {
+        0 => Pace::Instant,
+        ms => Pace::Every(Duration::from_millis(ms)),
+    };
+    let pipeline = AgentsPipeline::new(
+        ProviderConfig {
+            file,
+            path,
+            env: Box::new(env),
+        },
+        ResponseCache::default_dir().map(ResponseCache::new),
+        pace,
+    )
+    .map_err(anyhow::Error::msg)
+    .context("the workbench cannot start")?;
     let models = args.models;
     let options = Options {
         dataset: args.dataset,
@@ -51,9 +90,8 @@ pub fn run(args: TuiArgs) -> anyhow::Result<ExitCode> {
             )
             .map_err(|e| format!("{e:#}"))
         }),
-        pipeline: Arc::new(ReplayPipeline {
-            delay: Duration::from_millis(args.replay_delay),
-        }),
+        pipeline: Arc::new(pipeline),
+        prompts: prompt_texts(&prompts),
         picker: args
             .halfblocks
             .then(ratatui_image::picker::Picker::halfblocks),

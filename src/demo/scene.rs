@@ -65,6 +65,18 @@ pub fn scene_image() -> RgbImage {
     img
 }
 
+/// The demo's scene as the PNG file sent to the agents: the same bytes on
+/// every run, so that its hash (part of each request's key) matches the
+/// recording.
+pub fn scene_png() -> Result<Vec<u8>, image::ImageError> {
+    let mut bytes = Vec::new();
+    scene_image().write_to(
+        &mut std::io::Cursor::new(&mut bytes),
+        image::ImageFormat::Png,
+    )?;
+    Ok(bytes)
+}
+
 #[cfg(test)]
 mod tests {
     #[test]

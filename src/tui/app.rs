@@ -14,18 +14,28 @@ use ratatui::layout::{Position, Rect};
 use ratatui_image::protocol::Protocol;
 use ratatui_textarea::TextArea;
 
-use super::agents::{self, AgentEvent, RunRequest, REPLAY_PROVIDER};
-use super::graph::{parse_triples, KnowledgeGraph};
+use super::agents::{self, planning_role, role_label, roles, AgentEvent, RunRequest};
 use super::scoring::{Pg2sOutcome, ScoreOutcome, ScoreRequest};
 use super::theme::Theme;
 use super::ui::layout::{pane_rects, Screen};
+use crate::agents::graph::{parse_triples, KnowledgeGraph};
+use crate::agents::prompts::template_name;
+use crate::agents::{AgentRole, Approach};
 use crate::dataset::{Dataset, Task};
 use crate::demo;
 use crate::plan::parse_steps;
 use crate::session::{
-    Agent, AgentRecord, AgentSettings, Approach, Draft, GroundTruthSource, PlanSource, RunRecord,
-    ScoreRecord, Session, Usage, SESSION_VERSION,
+    AgentRecord, AgentSettings, Draft, GroundTruthSource, PlanSource, RunRecord, ScoreRecord,
+    Session, Usage, SESSION_VERSION,
 };
+
+/// The order the approaches cycle in.
+const APPROACH_CYCLE: [Approach; 4] = [
+    Approach::MultiImage,
+    Approach::SingleImage,
+    Approach::MultiTable,
+    Approach::SingleTable,
+];
 
 /// The panes, each with the title users and tests find it by.
 #[derive(Debug, Clone, Copy, PartialEq, Eq, PartialOrd, Ord, Hash)]
@@ -113,8 +123,6 @@ pub struct AgentView {
     pub status: AgentStatus,
     /// Its latest output (growing while it runs).
     pub output: String,
-    /// Its prompt.
-    pub prompt: String,
     /// Its provider and model.
     pub settings: AgentSettings,
     /// The prompt and settings its output was made with.
@@ -180,7 +188,7 @@ pub enum Overlay {
     /// Provider, model, temperature and token limit of an agent.
     ModelForm {
         /// The agent.
-        agent: Agent,
+        agent: AgentRole,
         /// One editor per field.
         fields: Vec<TextArea<'static>>,
         /// The field with focus.
@@ -273,7 +281,7 @@ pub struct ActiveRun {
     /// When it started (Unix seconds).
     pub started_unix: u64,
     /// The agents it runs.
-    pub agents: Vec<Agent>,
+    pub agents: Vec<AgentRole>,
 }
 
 /// A message: something that happened.
@@ -339,6 +347,9 @@ pub struct AppInit {
     pub size: (u16, u16),
     /// Whether the PG2S models are known to be loading.
     pub models: ModelStatus,
+    /// The prompt templates' texts by name: the built-in ones, or the
+    /// user's where the user folder has one ([`agents::prompt_texts`]).
+    pub prompts: BTreeMap<String, String>,
 }
 
 impl AppInit {
@@ -354,6 +365,9 @@ impl AppInit {
             notice: None,
             size,
             models: ModelStatus::Unavailable(reason.to_string()),
+            prompts: crate::agents::prompts::PromptSet::load(None)
+                .map(|set| agents::prompt_texts(&set))
+                .unwrap_or_default(),
         }
     }
 }
@@ -383,9 +397,13 @@ pub struct App {
     /// The approach.
     pub approach: Approach,
     /// The agents.
-    pub agents: BTreeMap<Agent, AgentView>,
+    pub agents: BTreeMap<AgentRole, AgentView>,
+    /// Every prompt template's text by name, as edited.
+    pub prompts: BTreeMap<String, String>,
+    /// The templates' texts the workbench started with.
+    pub default_prompts: BTreeMap<String, String>,
     /// The agent whose prompt the Prompt pane shows.
-    pub prompt_agent: Agent,
+    pub prompt_agent: AgentRole,
     /// The prompt editor, holding the selected agent's prompt.
     pub prompt_editor: TextArea<'static>,
     /// The plan steps.
@@ -476,8 +494,8 @@ fn unix_now() -> u64 {
         .map_or(0, |d| d.as_secs())
 }
 
-fn fresh_agents() -> BTreeMap<Agent, AgentView> {
-    Agent::ALL
+fn fresh_agents() -> BTreeMap<AgentRole, AgentView> {
+    AgentRole::ALL
         .iter()
         .map(|&a| {
             (
@@ -485,7 +503,6 @@ fn fresh_agents() -> BTreeMap<Agent, AgentView> {
                 AgentView {
                     status: AgentStatus::Idle,
                     output: String::new(),
-                    prompt: agents::default_prompt(a).to_string(),
                     settings: agents::demo_settings(),
                     ran_with: None,
                     usage: Usage::default(),
@@ -523,7 +540,9 @@ impl App {
             dataset: init.dataset,
             approach: Approach::MultiImage,
             agents: fresh_agents(),
-            prompt_agent: Agent::Skm,
+            prompts: init.prompts.clone(),
+            default_prompts: init.prompts,
+            prompt_agent: AgentRole::Skm,
             prompt_editor: TextArea::default(),
             plan: Vec::new(),
             plan_source: PlanSource::None,
@@ -568,14 +587,11 @@ impl App {
 
     /// The session as it stands, for saving.
     pub fn to_session(&self) -> Session {
-        let mut prompts: BTreeMap<Agent, String> = self
-            .agents
-            .iter()
-            .map(|(a, v)| (*a, v.prompt.clone()))
-            .collect();
+        let mut prompts = self.prompts.clone();
         if matches!(self.editing, Editing::Prompt) {
-            prompts.insert(self.prompt_agent, self.prompt_editor.lines().join("\n"));
+            prompts.insert(self.prompt_name(self.prompt_agent), self.editor_text());
         }
+        prompts.retain(|name, text| self.default_prompts.get(name) != Some(text));
         let draft = match &self.editing {
             Editing::Step {
                 list,
@@ -635,15 +651,17 @@ impl App {
                 ),
             }
         }
-        self.approach = s.approach;
+        self.set_approach(s.approach);
         self.ground_truth_source = s.ground_truth_source;
         self.ground_truth = s.ground_truth;
         self.plan_source = s.plan_source;
         self.plan = s.plan;
-        for (agent, view) in self.agents.iter_mut() {
-            if let Some(p) = s.prompts.get(agent) {
-                view.prompt = p.clone();
+        for (name, text) in s.prompts {
+            if let Some(prompt) = self.prompts.get_mut(&name) {
+                *prompt = text;
             }
+        }
+        for (agent, view) in self.agents.iter_mut() {
             if let Some(st) = s.settings.get(agent) {
                 view.settings = st.clone();
             }
@@ -784,20 +802,41 @@ impl App {
     fn refresh_graph(&mut self) {
         let output = self
             .agents
-            .get(&Agent::Skm)
+            .get(&AgentRole::Skm)
             .map(|v| v.output.as_str())
             .unwrap_or_default();
-        self.graph = KnowledgeGraph::from_triples(&parse_triples(output));
+        self.graph = KnowledgeGraph::from_triples(&parse_triples(output).triples);
         if self.graph_cursor.node >= self.graph.nodes.len() {
             self.graph_cursor = GraphCursor::default();
         }
     }
 
+    /// The name of `agent`'s prompt template in the current approach.
+    pub fn prompt_name(&self, agent: AgentRole) -> String {
+        template_name(self.approach, agent)
+    }
+
+    /// The text of `agent`'s prompt template in the current approach, with
+    /// the editor's text when it is being edited.
+    pub fn prompt_of(&self, agent: AgentRole) -> String {
+        if agent == self.prompt_agent && matches!(self.editing, Editing::Prompt) {
+            return self.editor_text();
+        }
+        self.prompts
+            .get(&self.prompt_name(agent))
+            .cloned()
+            .unwrap_or_default()
+    }
+
+    fn editor_text(&self) -> String {
+        self.prompt_editor.lines().join("\n")
+    }
+
     fn load_prompt_editor(&mut self) {
         let text = self
-            .agents
-            .get(&self.prompt_agent)
-            .map(|v| v.prompt.clone())
+            .prompts
+            .get(&self.prompt_name(self.prompt_agent))
+            .cloned()
             .unwrap_or_default();
         self.prompt_editor = TextArea::new(text.lines().map(str::to_string).collect());
         self.prompt_editor
@@ -805,31 +844,26 @@ impl App {
     }
 
     fn store_prompt_editor(&mut self) {
-        let text = self.prompt_editor.lines().join("\n");
-        if let Some(view) = self.agents.get_mut(&self.prompt_agent) {
-            view.prompt = text;
-        }
+        let text = self.editor_text();
+        self.prompts
+            .insert(self.prompt_name(self.prompt_agent), text);
     }
 
     /// Whether an agent's prompt or settings differ from those its output was made with.
-    pub fn agent_changed(&self, agent: Agent) -> bool {
+    pub fn agent_changed(&self, agent: AgentRole) -> bool {
         let Some(v) = self.agents.get(&agent) else {
             return false;
         };
-        let prompt = if agent == self.prompt_agent && matches!(self.editing, Editing::Prompt) {
-            self.prompt_editor.lines().join("\n")
-        } else {
-            v.prompt.clone()
-        };
+        let prompt = self.prompt_of(agent);
         v.status != AgentStatus::Done || v.ran_with.as_ref() != Some(&(prompt, v.settings.clone()))
     }
 
     /// The agents a run re-executes: those whose inputs changed, and the
     /// planner when a miner it reads re-runs.
-    pub fn agents_to_run(&self, all: bool) -> Vec<Agent> {
-        let mut out: Vec<Agent> = Vec::new();
-        for &agent in self.approach.agents() {
-            let upstream = agent == Agent::Planner && !out.is_empty();
+    pub fn agents_to_run(&self, all: bool) -> Vec<AgentRole> {
+        let mut out: Vec<AgentRole> = Vec::new();
+        for &agent in roles(self.approach) {
+            let upstream = agent == AgentRole::Planner && !out.is_empty();
             if all || upstream || self.agent_changed(agent) {
                 out.push(agent);
             }
@@ -847,18 +881,15 @@ impl App {
     pub fn provider_note(&self) -> Option<String> {
         let agent = self.prompt_agent;
         let view = self.agents.get(&agent)?;
-        let prompt = if matches!(self.editing, Editing::Prompt) {
-            self.prompt_editor.lines().join("\n")
+        let prompt = self.prompt_of(agent);
+        let why = if self.approach != Approach::MultiImage {
+            "the demo's recording has only the multi-image approach"
         } else {
-            view.prompt.clone()
+            "this prompt was edited and the demo's recording has no answer for it"
         };
-        (view.settings.provider == REPLAY_PROVIDER && prompt != agents::default_prompt(agent))
-            .then(|| {
-                agents::provider_needed(
-                    agent,
-                    "this prompt was edited and the replay provider only has the demo's recorded outputs",
-                )
-            })
+        (view.settings.provider == agents::REPLAY_PROVIDER
+            && !agents::is_recorded_prompt(self.approach, agent, &prompt))
+        .then(|| agents::provider_needed(agent, why))
     }
 
     fn start_run(&mut self, all: bool) -> Vec<Cmd> {
@@ -878,7 +909,7 @@ impl App {
             return Vec::new();
         }
         let id = self.runs.iter().map(|r| r.id).max().unwrap_or(0) + 1;
-        let approach_agents = self.approach.agents();
+        let approach_agents = roles(self.approach);
         let request = RunRequest {
             run: id,
             approach: self.approach,
@@ -886,17 +917,13 @@ impl App {
             agents: to_run.clone(),
             prompts: approach_agents
                 .iter()
-                .filter_map(|a| self.agents.get(a).map(|v| (*a, v.prompt.clone())))
+                .map(|a| (*a, self.prompt_of(*a)))
                 .collect(),
             settings: approach_agents
                 .iter()
                 .filter_map(|a| self.agents.get(a).map(|v| (*a, v.settings.clone())))
                 .collect(),
-            previous: approach_agents
-                .iter()
-                .filter(|a| !to_run.contains(a))
-                .filter_map(|a| self.agents.get(a).map(|v| (*a, v.output.clone())))
-                .collect(),
+            demo: self.is_demo(),
             image: self.task.image.clone(),
             table: self.task.table.clone(),
         };
@@ -911,7 +938,7 @@ impl App {
             started_unix: unix_now(),
             agents: to_run.clone(),
         });
-        let names: Vec<&str> = to_run.iter().map(|a| a.label()).collect();
+        let names: Vec<&str> = to_run.iter().map(|a| role_label(*a)).collect();
         self.set_status(format!("run {id}: {}", names.join(", ")), Severity::Info);
         vec![Cmd::StartRun(request)]
     }
@@ -942,7 +969,7 @@ impl App {
                 Some(AgentRecord {
                     agent: *a,
                     settings: v.settings.clone(),
-                    prompt: v.prompt.clone(),
+                    prompt: self.prompt_of(*a),
                     output: v.output.clone(),
                     duration_ms: v.duration_ms,
                     usage: v.usage,
@@ -979,7 +1006,7 @@ impl App {
                     v.status = AgentStatus::Running;
                     v.output.clear();
                 }
-                if agent == Agent::Planner {
+                if agent == planning_role(self.approach) {
                     if matches!(
                         self.editing,
                         Editing::Step {
@@ -999,15 +1026,15 @@ impl App {
                     v.output.push_str(&text);
                 }
                 match agent {
-                    Agent::Skm => {
+                    AgentRole::Skm => {
                         self.refresh_graph();
                         Vec::new()
                     }
-                    Agent::Planner => {
-                        self.plan = parse_steps(&self.agents[&Agent::Planner].output);
+                    AgentRole::Planner | AgentRole::Single => {
+                        self.plan = parse_steps(&self.agents[&agent].output);
                         vec![self.rescore()]
                     }
-                    Agent::Gkm => Vec::new(),
+                    AgentRole::Gkm => Vec::new(),
                 }
             }
             AgentEvent::Finished {
@@ -1016,22 +1043,23 @@ impl App {
                 usage,
                 duration_ms,
             } => {
+                let prompt = self.prompt_of(agent);
                 if let Some(v) = self.agents.get_mut(&agent) {
                     v.output = output;
                     v.status = AgentStatus::Done;
                     v.usage = usage;
                     v.duration_ms = duration_ms;
-                    v.ran_with = Some((v.prompt.clone(), v.settings.clone()));
+                    v.ran_with = Some((prompt, v.settings.clone()));
                 }
                 self.session_dirty = true;
                 let mut cmds = Vec::new();
                 match agent {
-                    Agent::Skm => self.refresh_graph(),
-                    Agent::Planner => {
-                        self.plan = parse_steps(&self.agents[&Agent::Planner].output);
+                    AgentRole::Skm => self.refresh_graph(),
+                    AgentRole::Planner | AgentRole::Single => {
+                        self.plan = parse_steps(&self.agents[&agent].output);
                         self.plan_selected = 0;
                     }
-                    Agent::Gkm => {}
+                    AgentRole::Gkm => {}
                 }
                 let all_done = self.active_run.as_ref().is_some_and(|r| {
                     r.agents.iter().all(|a| {
@@ -1051,7 +1079,10 @@ impl App {
                 if let Some(v) = self.agents.get_mut(&agent) {
                     v.status = AgentStatus::Failed(error.clone());
                 }
-                self.set_status(format!("{agent} failed: {error}"), Severity::Error);
+                self.set_status(
+                    format!("{} failed: {error}", role_label(agent)),
+                    Severity::Error,
+                );
                 let mut cmds = vec![Cmd::CancelRun(run)];
                 cmds.extend(self.finish_run(false));
                 cmds
@@ -1114,8 +1145,8 @@ impl App {
             task: task.id.clone(),
         };
         self.ground_truth_selected = 0;
-        if self.approach.needs_table() && self.task.table.is_none() {
-            self.approach = Approach::MultiImage;
+        if !self.approach.uses_image() && self.task.table.is_none() {
+            self.set_approach(Approach::MultiImage);
         }
         for v in self.agents.values_mut() {
             v.output.clear();
@@ -1146,7 +1177,7 @@ impl App {
     }
 
     fn load_published_plan(&mut self) {
-        let key = self.approach.dataset_key();
+        let key = self.approach.dataset_field();
         match (self.task.id.clone(), self.task.published.get(key)) {
             (Some(task), Some(steps)) => {
                 self.plan = steps.clone();
@@ -1203,19 +1234,33 @@ impl App {
         vec![self.rescore()]
     }
 
+    /// Switches the approach, the Prompt pane showing the same agent's
+    /// template of the new approach (the planning agent when it has none).
+    fn set_approach(&mut self, approach: Approach) {
+        if matches!(self.editing, Editing::Prompt) {
+            self.store_prompt_editor();
+            self.editing = Editing::None;
+        }
+        self.approach = approach;
+        if !roles(approach).contains(&self.prompt_agent) {
+            self.prompt_agent = planning_role(approach);
+        }
+        self.load_prompt_editor();
+    }
+
     fn cycle_approach(&mut self) -> Vec<Cmd> {
         let has_table = self.task.table.is_some();
-        let start = Approach::ALL
+        let start = APPROACH_CYCLE
             .iter()
             .position(|a| *a == self.approach)
             .unwrap_or(0);
         let next = (1..=4)
-            .map(|k| Approach::ALL[(start + k) % 4])
-            .find(|a| has_table || !a.needs_table())
+            .map(|k| APPROACH_CYCLE[(start + k) % 4])
+            .find(|a| has_table || a.uses_image())
             .unwrap_or(Approach::MultiImage);
-        self.approach = next;
+        self.set_approach(next);
         self.session_dirty = true;
-        let mut note = format!("approach: {}", next.label());
+        let mut note = format!("approach: {next}");
         if !has_table {
             note.push_str(" (the table approaches need a task with a table)");
         }
@@ -1594,7 +1639,7 @@ impl App {
         }
     }
 
-    fn apply_model_form(&mut self, agent: Agent, fields: &[TextArea<'static>]) {
+    fn apply_model_form(&mut self, agent: AgentRole, fields: &[TextArea<'static>]) {
         let text = |i: usize| {
             fields
                 .get(i)
@@ -1615,18 +1660,18 @@ impl App {
                 }
                 self.session_dirty = true;
                 self.set_status(
-                    format!("{agent}: {} / {} (r runs what changed)", text(0), text(1)),
+                    format!("{}: {} / {} (r runs what changed)", role_label(agent), text(0), text(1)),
                     Severity::Info,
                 );
             }
             _ => self.set_status(
-                format!("{agent}: not changed: provider and model must be set, the temperature a number, the token limit a whole number"),
+                format!("{}: not changed: provider and model must be set, the temperature a number, the token limit a whole number", role_label(agent)),
                 Severity::Warn,
             ),
         }
     }
 
-    fn open_model_form(&mut self, agent: Agent) {
+    fn open_model_form(&mut self, agent: AgentRole) {
         let Some(v) = self.agents.get(&agent) else {
             return;
         };
@@ -1660,15 +1705,16 @@ impl App {
                     moved(self.ground_truth_selected, self.ground_truth.len())
             }
             Pane::Graph => {
-                let n = self.graph.neighbours(self.graph_cursor.node).len();
+                let n = self.graph_neighbours().len();
                 self.graph_cursor.neighbour = moved(self.graph_cursor.neighbour, n);
             }
             Pane::Prompt => {
-                let idx = Agent::ALL
+                let shown = roles(self.approach);
+                let idx = shown
                     .iter()
                     .position(|a| *a == self.prompt_agent)
                     .unwrap_or(0);
-                let next = Agent::ALL[moved(idx, Agent::ALL.len())];
+                let next = shown[moved(idx, shown.len())];
                 if next != self.prompt_agent {
                     self.store_prompt_editor();
                     self.prompt_agent = next;
@@ -1682,8 +1728,20 @@ impl App {
         }
     }
 
+    /// The neighbours of the graph view's node in the order the view lists
+    /// them: the sources of the edges into it, then the targets of the edges
+    /// out of it (a neighbour joined both ways appears twice).
+    pub fn graph_neighbours(&self) -> Vec<usize> {
+        let node = self.graph_cursor.node;
+        self.graph
+            .incoming(node)
+            .map(|e| e.from)
+            .chain(self.graph.outgoing(node).map(|e| e.to))
+            .collect()
+    }
+
     fn graph_enter(&mut self) {
-        let neighbours = self.graph.neighbours(self.graph_cursor.node);
+        let neighbours = self.graph_neighbours();
         if let Some(&next) = neighbours.get(self.graph_cursor.neighbour) {
             let here = self.graph_cursor.node;
             self.graph_cursor.back.push(here);
@@ -1830,10 +1888,11 @@ impl App {
                 self.editing = Editing::Prompt;
             }
             KeyCode::Char(c @ '1'..='3') if self.focus == Pane::Prompt => {
-                let agent = Agent::ALL[(c as u8 - b'1') as usize];
-                self.store_prompt_editor();
-                self.prompt_agent = agent;
-                self.load_prompt_editor();
+                if let Some(&agent) = roles(self.approach).get((c as u8 - b'1') as usize) {
+                    self.store_prompt_editor();
+                    self.prompt_agent = agent;
+                    self.load_prompt_editor();
+                }
             }
             KeyCode::Char('r') => return self.start_run(false),
             KeyCode::Char('R') => return self.start_run(true),
@@ -1861,7 +1920,7 @@ impl App {
                 self.load_published_plan();
                 if self.plan.is_empty() {
                     self.set_status(
-                        format!("this task has no published {} plan", self.approach.label()),
+                        format!("this task has no published {} plan", self.approach),
                         Severity::Info,
                     );
                 }
@@ -1872,9 +1931,9 @@ impl App {
                     self.prompt_agent
                 } else {
                     match self.focus {
-                        Pane::Graph => Agent::Skm,
-                        Pane::Description => Agent::Gkm,
-                        _ => Agent::Planner,
+                        Pane::Graph => AgentRole::Skm,
+                        Pane::Description => AgentRole::Gkm,
+                        _ => planning_role(self.approach),
                     }
                 };
                 self.open_model_form(agent);

@@ -6,12 +6,11 @@
 
 pub mod agents;
 pub mod app;
-pub mod graph;
 pub mod scoring;
 pub mod theme;
 pub mod ui;
 
-use std::collections::HashMap;
+use std::collections::{BTreeMap, HashMap};
 use std::io::Stdout;
 use std::path::PathBuf;
 use std::sync::{Arc, RwLock};
@@ -57,6 +56,8 @@ pub struct Options {
     pub scorer: ScorerLoader,
     /// Runs the agents.
     pub pipeline: Arc<dyn Pipeline>,
+    /// The prompt templates' texts by name ([`agents::prompt_texts`]).
+    pub prompts: BTreeMap<String, String>,
     /// How the scene image is drawn: `None` asks the terminal; `Some` forces
     /// a picker (e.g. half-blocks over slow links).
     pub picker: Option<Picker>,
@@ -321,6 +322,7 @@ async fn run_async(options: Options) -> Result<(), TuiError> {
         notice,
         size: (size.width, size.height),
         models: ModelStatus::Loading("starting".to_string()),
+        prompts: options.prompts.clone(),
     });
     terminal.draw(|f| ui::render(f, &app))?;
 

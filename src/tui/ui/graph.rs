@@ -9,14 +9,14 @@ use ratatui::Frame;
 
 use super::pane_block;
 use super::panes::agent_badge;
-use crate::session::Agent;
+use crate::agents::AgentRole;
 use crate::tui::app::{App, Pane};
 
 /// Draws the Knowledge Graph pane.
 pub(super) fn render(frame: &mut Frame, app: &App, area: Rect) {
     let t = &app.theme;
     let g = &app.graph;
-    let block = pane_block(app, Pane::Graph, Some(agent_badge(app, Agent::Skm)));
+    let block = pane_block(app, Pane::Graph, Some(agent_badge(app, AgentRole::Skm)));
     let inner = block.inner(area);
     frame.render_widget(block, area);
     if g.nodes.is_empty() {
@@ -32,8 +32,11 @@ pub(super) fn render(frame: &mut Frame, app: &App, area: Rect) {
     }
     let node = app.graph_cursor.node.min(g.nodes.len() - 1);
     let name = &g.nodes[node];
-    let incoming = g.incoming(node);
-    let outgoing = g.outgoing(node);
+    let incoming: Vec<(&str, usize)> = g
+        .incoming(node)
+        .map(|e| (e.label.as_str(), e.from))
+        .collect();
+    let outgoing: Vec<(&str, usize)> = g.outgoing(node).map(|e| (e.label.as_str(), e.to)).collect();
     let selected = app.graph_cursor.neighbour;
     let box_width = name.chars().count() + 4;
     let [header, body, footer] = Layout::vertical([

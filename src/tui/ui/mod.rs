@@ -152,7 +152,7 @@ fn render_header(frame: &mut Frame, app: &App, area: Rect) {
         Span::styled(" │ ", t.border),
         Span::styled(app.task.text.clone(), t.base),
         Span::styled(" │ ", t.border),
-        Span::styled(app.approach.label(), t.accent),
+        Span::styled(app.approach.name(), t.accent),
         Span::styled(" │ ", t.border),
         models,
     ]);

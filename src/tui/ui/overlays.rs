@@ -199,7 +199,7 @@ fn runs(frame: &mut Frame, app: &App, area: Rect, selected: usize, marked: Optio
             format!(
                 "{mark}  #{:<3} {:<14} {:<6} {:<6} {:<6} {:<6} {:>6} {:>8} {:>6}{}",
                 r.id,
-                r.approach.label(),
+                r.approach.name(),
                 fmt_score(s.pg2s),
                 fmt_score(s.s_plan),
                 fmt_score(s.s_goal),
@@ -220,7 +220,7 @@ fn run_lines<'a>(app: &App, run: &'a RunRecord, other: &RunRecord) -> Vec<Line<'
     let s = run.scores.unwrap_or_default();
     let mut lines = vec![
         Line::from(Span::styled(
-            format!("run #{} · {}", run.id, run.approach.label()),
+            format!("run #{} · {}", run.id, run.approach.name()),
             t.title,
         )),
         Line::from(Span::styled(

@@ -7,8 +7,10 @@ use ratatui::Frame;
 use ratatui_image::Image;
 
 use super::{highlighted, list_window, pane_block, scene_image_area};
+use crate::agents::AgentRole;
 use crate::metrics::pg2s::Pg2sReport;
-use crate::session::{Agent, PlanSource};
+use crate::session::PlanSource;
+use crate::tui::agents::{planning_role, role_label, roles};
 use crate::tui::app::{AgentStatus, App, Editing, Pane, StepList};
 use crate::tui::scoring::{Pg2sOutcome, ScoreOutcome};
 use crate::tui::theme::Theme;
@@ -27,7 +29,7 @@ pub(super) fn render_pane(frame: &mut Frame, app: &App, pane: Pane, area: Rect) 
 }
 
 /// A short word for an agent's state, with its style.
-pub(super) fn agent_badge<'a>(app: &App, agent: Agent) -> Span<'a> {
+pub(super) fn agent_badge<'a>(app: &App, agent: AgentRole) -> Span<'a> {
     let t = &app.theme;
     let Some(v) = app.agents.get(&agent) else {
         return Span::raw("");
@@ -83,10 +85,14 @@ fn scene(frame: &mut Frame, app: &App, area: Rect) {
 
 fn description(frame: &mut Frame, app: &App, area: Rect) {
     let t = &app.theme;
-    let block = pane_block(app, Pane::Description, Some(agent_badge(app, Agent::Gkm)));
+    let block = pane_block(
+        app,
+        Pane::Description,
+        Some(agent_badge(app, AgentRole::Gkm)),
+    );
     let output = app
         .agents
-        .get(&Agent::Gkm)
+        .get(&AgentRole::Gkm)
         .map(|v| v.output.as_str())
         .unwrap_or_default();
     let text: Text = if output.is_empty() {
@@ -234,14 +240,14 @@ fn steps(frame: &mut Frame, app: &App, list: StepList, area: Rect) {
     let extra = match list {
         StepList::Plan => match &app.plan_source {
             PlanSource::None => None,
-            PlanSource::Run { run } => Some(match app.agents.get(&Agent::Planner) {
+            PlanSource::Run { run } => Some(match app.agents.get(&planning_role(app.approach)) {
                 Some(v) if v.status == AgentStatus::Running => {
                     Span::styled(format!("run {run} · streaming…"), t.warn)
                 }
                 _ => Span::styled(format!("run {run}"), t.muted),
             }),
             PlanSource::Published { approach, .. } => Some(Span::styled(
-                format!("published {}", approach.label()),
+                format!("published {}", approach.name()),
                 t.muted,
             )),
         },
@@ -441,16 +447,14 @@ fn prompt(frame: &mut Frame, app: &App, area: Rect) {
     let inner = block.inner(area);
     frame.render_widget(block, area);
     let mut tabs = Vec::new();
-    for (i, agent) in Agent::ALL.iter().enumerate() {
+    for (i, agent) in roles(app.approach).iter().enumerate() {
         let style = if *agent == app.prompt_agent {
             t.selection
-        } else if !app.approach.agents().contains(agent) {
-            t.muted
         } else {
             t.base
         };
         tabs.push(Span::styled(
-            format!(" {} {} ", i + 1, agent.label()),
+            format!(" {} {} ", i + 1, role_label(*agent)),
             style,
         ));
     }

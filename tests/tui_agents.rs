@@ -1,0 +1,354 @@
+//! The workbench over the real agents: the demo's recording (made for the
+//! built-in templates, demo task and scene, replayed byte for byte) and a
+//! live run against a local OpenAI-compatible server (wiremock), driven
+//! through the workbench's update function.
+
+mod agents_support;
+
+use std::collections::BTreeMap;
+use std::sync::{Arc, Mutex};
+
+use agents_support::*;
+use crossterm::event::{KeyCode, KeyEvent, KeyModifiers};
+use mapvlm::agents::cache::ResponseCache;
+use mapvlm::agents::config::{ConfigFile, Settings};
+use mapvlm::agents::images::DEFAULT_MAX_EDGE;
+use mapvlm::agents::pipeline::{PlanInput, Runner, Source};
+use mapvlm::agents::prompts::PromptSet;
+use mapvlm::agents::provider::{Chunk, HttpSettings};
+use mapvlm::agents::replay::{Pace, Recording};
+use mapvlm::agents::{AgentRole, Approach, ProviderKind};
+use mapvlm::demo;
+use mapvlm::plan::parse_steps;
+use mapvlm::session::AgentSettings;
+use mapvlm::tui::agents::{
+    demo_scene_file, replay_settings, run_blocking, AgentEvent, AgentsPipeline, Pipeline,
+    ProviderConfig, DEMO_MODEL,
+};
+use mapvlm::tui::app::{AgentStatus, App, AppInit, Cmd, Msg, Pane};
+use serde_json::Value;
+use tokio_util::sync::CancellationToken;
+use wiremock::{MockServer, Request, Respond, ResponseTemplate};
+
+/// The note the demo's recording carries.
+const NOTE: &str =
+    "The demo's answers were written by hand by the mapvlm authors (no model was asked), \
+for the built-in prompts/ templates of the multi-image approach, the demo task and the demo scene.";
+
+/// Answers each agent's request with the demo's hand-written output, the
+/// token counts estimated from the text (four characters a token).
+struct HandWritten;
+
+impl Respond for HandWritten {
+    fn respond(&self, request: &Request) -> ResponseTemplate {
+        let body: Value = serde_json::from_slice(&request.body).unwrap();
+        let text = body.to_string();
+        let output = if text.contains(SKM_MARK) {
+            demo::SKM_OUTPUT
+        } else if text.contains(GKM_MARK) {
+            demo::GKM_OUTPUT
+        } else {
+            demo::PLANNER_OUTPUT
+        };
+        let prompt_chars: usize = body["messages"]
+            .as_array()
+            .unwrap()
+            .iter()
+            .flat_map(|m| match &m["content"] {
+                Value::String(s) => vec![s.len()],
+                Value::Array(parts) => parts
+                    .iter()
+                    .filter_map(|p| p["text"].as_str().map(str::len))
+                    .collect(),
+                _ => Vec::new(),
+            })
+            .sum();
+        ResponseTemplate::new(200).set_body_json(serde_json::json!({
+            "id": "demo", "object": "chat.completion",
+            "choices": [{"index": 0, "message": {"role": "assistant", "content": output}, "finish_reason": "stop"}],
+            "usage": {"prompt_tokens": prompt_chars.div_ceil(4), "completion_tokens": output.len().div_ceil(4)}
+        }))
+    }
+}
+
+/// The demo's recording made anew: the runner asks a local server that
+/// answers with the hand-written outputs, and records.
+fn record_demo() -> Recording {
+    let runtime = tokio::runtime::Runtime::new().unwrap();
+    runtime.block_on(async {
+        let server = MockServer::start().await;
+        wiremock::Mock::given(wiremock::matchers::method("POST"))
+            .respond_with(HandWritten)
+            .mount(&server)
+            .await;
+        let mut agents = BTreeMap::new();
+        for role in AgentRole::ALL {
+            let mut settings = replay_settings(DEMO_MODEL, 0.0, 1024);
+            settings.base_url = format!("{}/v1", server.uri());
+            agents.insert(role, settings);
+        }
+        let settings = Settings {
+            agents,
+            http: HttpSettings::default(),
+            max_image_edge: DEFAULT_MAX_EDGE,
+        };
+        let recording = Arc::new(Mutex::new(Recording::new(NOTE)));
+        let runner = Runner::new(settings, PromptSet::load(None).unwrap(), Source::Live)
+            .with_recorder(recording.clone());
+        let input = PlanInput {
+            task: demo::TASK.trim().to_string(),
+            image: Some(demo_scene_file().unwrap()),
+            table: None,
+        };
+        let (tx, _rx) = tokio::sync::mpsc::unbounded_channel();
+        let record = runner
+            .plan(Approach::MultiImage, &input, &tx, &CancellationToken::new())
+            .await
+            .unwrap();
+        assert_eq!(record.first_error(), None);
+        let mut recording = recording.lock().unwrap().clone();
+        for answer in recording.answers.values_mut() {
+            answer.completion.chunks = answer
+                .completion
+                .text
+                .split_inclusive(' ')
+                .enumerate()
+                .map(|(i, word)| Chunk {
+                    at_ms: 12 * i as u64,
+                    text: word.to_string(),
+                })
+                .collect();
+        }
+        recording
+    })
+}
+
+#[test]
+fn the_demo_recording_answers_the_built_in_templates_on_the_demo_scene() {
+    let made = serde_json::to_string_pretty(&record_demo()).unwrap() + "\n";
+    if std::env::var_os("MAPVLM_UPDATE_DEMO_RECORDING").is_some() {
+        let path = concat!(env!("CARGO_MANIFEST_DIR"), "/src/demo/recording.json");
+        std::fs::write(path, &made).unwrap();
+        return;
+    }
+    assert_eq!(
+        made,
+        demo::RECORDING,
+        "the demo's recording is out of date: run this test with MAPVLM_UPDATE_DEMO_RECORDING=1"
+    );
+}
+
+fn key(app: &mut App, code: KeyCode) -> Vec<Cmd> {
+    app.update(Msg::Key(KeyEvent::new(code, KeyModifiers::NONE)))
+}
+
+/// Appends " Be brief." to the planner's prompt in the Prompt pane.
+fn edit_planner_prompt(app: &mut App) {
+    while app.focus != Pane::Prompt {
+        key(app, KeyCode::Tab);
+    }
+    key(app, KeyCode::Char('3'));
+    key(app, KeyCode::Enter);
+    for c in " Be brief.".chars() {
+        key(app, KeyCode::Char(c));
+    }
+    key(app, KeyCode::Esc);
+}
+
+/// Carries out the runs among `cmds` with `pipeline`, feeding every event to
+/// the app; returns the events of the runs.
+fn run_cmds(app: &mut App, pipeline: &dyn Pipeline, cmds: Vec<Cmd>) -> Vec<AgentEvent> {
+    let mut seen = Vec::new();
+    let mut queue = cmds;
+    while let Some(cmd) = queue.pop() {
+        if let Cmd::StartRun(request) = cmd {
+            let run = request.run;
+            match run_blocking(pipeline, request) {
+                Ok(events) => {
+                    for event in events {
+                        seen.push(event.clone());
+                        queue.extend(app.update(Msg::Agent(run, event)));
+                    }
+                }
+                Err(reason) => app.run_refused(run, reason),
+            }
+        }
+    }
+    seen
+}
+
+fn finished(events: &[AgentEvent]) -> BTreeMap<AgentRole, String> {
+    events
+        .iter()
+        .filter_map(|e| match e {
+            AgentEvent::Finished { agent, output, .. } => Some((*agent, output.clone())),
+            _ => None,
+        })
+        .collect()
+}
+
+#[test]
+fn the_demo_replays_byte_for_byte_with_no_provider() {
+    let pipeline = AgentsPipeline::offline(Pace::Instant).unwrap();
+    let (mut app, cmds) = App::new(AppInit::demo((200, 60), "no models in this test"));
+    let events = run_cmds(&mut app, &pipeline, cmds);
+    let outputs = finished(&events);
+    assert_eq!(outputs[&AgentRole::Skm], demo::SKM_OUTPUT);
+    assert_eq!(outputs[&AgentRole::Gkm], demo::GKM_OUTPUT);
+    assert_eq!(outputs[&AgentRole::Planner], demo::PLANNER_OUTPUT);
+    let tokens = events
+        .iter()
+        .filter(|e| matches!(e, AgentEvent::Token { .. }))
+        .count();
+    assert!(
+        tokens > 100,
+        "the answers stream a word at a time: {tokens}"
+    );
+    assert_eq!(app.plan, parse_steps(demo::PLANNER_OUTPUT));
+    assert_eq!(app.plan.len(), 7);
+    assert!(app.graph.find("coffee machine").is_some());
+    assert_eq!(app.runs.len(), 1);
+    assert!(app
+        .agents
+        .values()
+        .take(3)
+        .all(|v| v.status == AgentStatus::Done));
+}
+
+#[test]
+fn editing_a_demo_prompt_says_which_provider_to_set() {
+    let pipeline = AgentsPipeline::offline(Pace::Instant).unwrap();
+    let (mut app, cmds) = App::new(AppInit::demo((200, 60), "no models in this test"));
+    run_cmds(&mut app, &pipeline, cmds);
+    edit_planner_prompt(&mut app);
+    let cmds = key(&mut app, KeyCode::Char('r'));
+    assert!(matches!(&cmds[..], [Cmd::StartRun(r)] if r.agents == [AgentRole::Planner]));
+    let Some(Cmd::StartRun(request)) = cmds.first() else {
+        unreachable!()
+    };
+    let reason = pipeline.check(request).unwrap_err();
+    assert!(
+        reason.contains("Planner's prompt was edited")
+            && reason.contains("Planner needs a provider")
+            && reason.contains("OPENAI_API_KEY"),
+        "{reason}"
+    );
+    app.update(Msg::Key(KeyEvent::new(
+        KeyCode::Char('x'),
+        KeyModifiers::NONE,
+    )));
+
+    let mut live = request.clone();
+    live.settings.insert(
+        AgentRole::Planner,
+        AgentSettings {
+            provider: "openai".into(),
+            model: "gpt-4o".into(),
+            temperature: 0.0,
+            max_tokens: 512,
+        },
+    );
+    let reason = pipeline.check(&live).unwrap_err();
+    assert!(
+        reason.contains("Planner uses openai but no API key is set")
+            && reason.contains("export OPENAI_API_KEY")
+            && reason.contains("[agents.planner]"),
+        "{reason}"
+    );
+}
+
+fn live_settings() -> AgentSettings {
+    AgentSettings {
+        provider: "openai".into(),
+        model: "test-model".into(),
+        temperature: 0.0,
+        max_tokens: 321,
+    }
+}
+
+#[test]
+fn a_live_run_streams_into_the_panes_and_an_edited_planner_prompt_asks_once() {
+    let runtime = tokio::runtime::Runtime::new().unwrap();
+    let server = runtime.block_on(multi_agent_server(
+        ProviderKind::Openai,
+        true,
+        Default::default(),
+    ));
+    let uri = format!("{}/v1", server.uri());
+    let cache_dir = tempfile::tempdir().unwrap();
+    let pipeline = AgentsPipeline::new(
+        ProviderConfig {
+            file: ConfigFile::default(),
+            path: None,
+            env: Box::new(move |name| match name {
+                "OPENAI_API_KEY" => Some(KEY.to_string()),
+                "OPENAI_BASE_URL" => Some(uri.clone()),
+                _ => None,
+            }),
+        },
+        Some(ResponseCache::new(cache_dir.path())),
+        Pace::Instant,
+    )
+    .unwrap();
+    let (mut app, cmds) = App::new(AppInit::demo((200, 60), "no models in this test"));
+    run_cmds(&mut app, &pipeline, cmds);
+    assert!(
+        runtime
+            .block_on(server.received_requests())
+            .unwrap()
+            .is_empty(),
+        "the demo's replay asks no server"
+    );
+    for role in [AgentRole::Skm, AgentRole::Gkm, AgentRole::Planner] {
+        app.agents.get_mut(&role).unwrap().settings = live_settings();
+    }
+
+    let cmds = key(&mut app, KeyCode::Char('r'));
+    let Some(Cmd::StartRun(request)) = cmds.first().cloned() else {
+        panic!("no run: {:?}", app.status)
+    };
+    let run = request.run;
+    let events = run_blocking(&pipeline, request).unwrap();
+    let mut plan_sizes = Vec::new();
+    for event in events.clone() {
+        let planner_token = matches!(
+            &event,
+            AgentEvent::Token {
+                agent: AgentRole::Planner,
+                ..
+            }
+        );
+        let cmds = app.update(Msg::Agent(run, event));
+        run_cmds(&mut app, &pipeline, cmds);
+        if planner_token {
+            plan_sizes.push(app.plan.len());
+        }
+    }
+    let outputs = finished(&events);
+    assert_eq!(outputs[&AgentRole::Skm], SKM_TEXT);
+    assert_eq!(outputs[&AgentRole::Planner], PLAN_TEXT);
+    assert!(
+        plan_sizes.len() > 3 && plan_sizes.first() < plan_sizes.last(),
+        "the plan grows as the planner writes: {plan_sizes:?}"
+    );
+    assert_eq!(app.plan, parse_steps(PLAN_TEXT));
+    assert_eq!(app.agents[&AgentRole::Gkm].output, GKM_TEXT);
+    assert!(app.graph.find("sponge").is_some());
+    assert_eq!(app.agents[&AgentRole::Planner].status, AgentStatus::Done);
+    assert_eq!(
+        runtime.block_on(server.received_requests()).unwrap().len(),
+        3
+    );
+
+    edit_planner_prompt(&mut app);
+    assert_eq!(app.agents_to_run(false), [AgentRole::Planner]);
+    let cmds = key(&mut app, KeyCode::Char('r'));
+    let events = run_cmds(&mut app, &pipeline, cmds);
+    let requests = runtime.block_on(server.received_requests()).unwrap();
+    assert_eq!(requests.len(), 4, "SKM and GKM come from the cache");
+    let last = String::from_utf8_lossy(&requests[3].body).to_string();
+    assert!(last.contains(PLANNER_MARK) && last.contains("Be brief."));
+    assert_eq!(finished(&events)[&AgentRole::Skm], SKM_TEXT);
+    assert_eq!(app.runs.len(), 3);
+    assert_eq!(app.plan, parse_steps(PLAN_TEXT));
+}
