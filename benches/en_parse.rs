@@ -23,6 +23,7 @@ fn bench(c: &mut Criterion) {
     let sentences: Vec<&str> = text.lines().collect();
     let words: usize = sentences.iter().map(|s| nlp.analyse(s).len()).sum();
     let mut group = c.benchmark_group("en_parse");
+    group.sample_size(10);
     group.throughput(Throughput::Elements(words as u64));
     group.bench_function("golden_steps", |b| {
         b.iter(|| {

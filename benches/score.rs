@@ -80,7 +80,9 @@ fn bench(c: &mut Criterion) {
     let mut edited = pred.clone();
     edited[3].push_str(" Then wait.");
 
-    c.bench_function("score 6x10 pair cold", |b| {
+    let mut pair = c.benchmark_group("score 6x10 pair");
+    pair.sample_size(10);
+    pair.bench_function("cold", |b| {
         b.iter_batched(
             || scorer(&models),
             |s| {
@@ -90,7 +92,7 @@ fn bench(c: &mut Criterion) {
             BatchSize::PerIteration,
         )
     });
-    c.bench_function("score 6x10 pair warm, one step edited", |b| {
+    pair.bench_function("warm, one step edited", |b| {
         b.iter_batched(
             || {
                 let s = scorer(&models);
@@ -104,6 +106,7 @@ fn bench(c: &mut Criterion) {
             BatchSize::PerIteration,
         )
     });
+    pair.finish();
     let forty = &pairs[..40];
     let mut group = c.benchmark_group("score 40 golden pairs");
     group.sample_size(10);

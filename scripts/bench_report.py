@@ -52,9 +52,9 @@ def main():
     print(f"{'':<44} {'mapvlm':>19} {'reference':>19} {'speed-up':>8}")
     embed = ours["mpnet/embed_64_steps"]
     per_s_row("embed 64 steps (sentences/s)", 64 / embed, ref["embed64"]["sentences_per_s"], "sent/s")
-    row("score a 6x10 pair, cold", ours["score 6x10 pair cold"], ref["pair"]["cold_s"])
+    row("score a 6x10 pair, cold", ours["score 6x10 pair/cold"], ref["pair"]["cold_s"])
     row("score a 6x10 pair, warm (one step edited)",
-        ours["score 6x10 pair warm, one step edited"], ref["pair"]["warm_s"])
+        ours["score 6x10 pair/warm, one step edited"], ref["pair"]["warm_s"])
     row("score 40 pairs, models loaded",
         ours["score 40 golden pairs/batched and cached, models loaded"], ref["pairs40"]["seconds"])
     words = ref["words"]["words"]

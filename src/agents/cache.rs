@@ -3,6 +3,7 @@
 //! hashes), so that re-running an unchanged agent costs nothing. The API key
 //! is never part of the key nor of an entry.
 
+use std::io::Write;
 use std::path::{Path, PathBuf};
 
 use serde::{Deserialize, Serialize};
@@ -101,24 +102,21 @@ impl ResponseCache {
     }
 }
 
-/// Writes `bytes` to a temporary file beside `path`, then renames it over
-/// `path`, so that a reader never sees half a file.
+/// Writes `bytes` to a uniquely named temporary file beside `path`, then
+/// renames it over `path`, so that a reader never sees half a file and
+/// concurrent writers never share a temporary file.
 pub fn write_atomic(path: &Path, bytes: &[u8]) -> Result<(), AgentError> {
     let io = |err: std::io::Error| AgentError::Io {
         path: path.to_path_buf(),
         message: err.to_string(),
     };
-    if let Some(parent) = path.parent().filter(|p| !p.as_os_str().is_empty()) {
-        std::fs::create_dir_all(parent).map_err(io)?;
-    }
-    let name = path
-        .file_name()
-        .map(|n| n.to_string_lossy().into_owned())
-        .unwrap_or_default();
-    let temp = path.with_file_name(format!(".{name}.{}.tmp", std::process::id()));
-    std::fs::write(&temp, bytes).map_err(io)?;
-    std::fs::rename(&temp, path).map_err(|err| {
-        let _ = std::fs::remove_file(&temp);
-        io(err)
-    })
+    let parent = path
+        .parent()
+        .filter(|p| !p.as_os_str().is_empty())
+        .unwrap_or(Path::new("."));
+    std::fs::create_dir_all(parent).map_err(io)?;
+    let mut temp = tempfile::NamedTempFile::new_in(parent).map_err(io)?;
+    temp.write_all(bytes).map_err(io)?;
+    temp.persist(path).map_err(|err| io(err.error))?;
+    Ok(())
 }

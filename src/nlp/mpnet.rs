@@ -4,6 +4,7 @@
 //! tokens and L2-normalise. Embeddings are cached per sentence for the life of
 //! the encoder.
 
+mod gelu;
 mod model;
 
 use std::collections::HashMap;
@@ -194,22 +195,44 @@ impl MpnetEncoder {
 
     /// Tokenises `sentences` and groups them, shortest first, into padded
     /// batches of at most `batch_size` rows, each with the input indices of
-    /// its rows.
+    /// its rows. A batch also ends where the next row would make padding more
+    /// than a quarter of its tokens, so one long sentence does not pad a
+    /// whole batch of short ones.
     fn batches(&self, sentences: &[&str]) -> Result<Vec<(Vec<usize>, TokenBatch)>, MpnetError> {
         let encodings = self
             .tokenizer
             .encode_batch(sentences.to_vec(), true)
             .map_err(|err| MpnetError::Tokenize(err.to_string()))?;
+        let length = |index: usize| encodings[index].get_ids().len();
         let mut order: Vec<usize> = (0..encodings.len()).collect();
-        order.sort_by_key(|&index| encodings[index].get_ids().len());
-        Ok(order
-            .chunks(self.options.batch_size)
-            .map(|chunk| {
-                let rows: Vec<&[u32]> = chunk
+        order.sort_by_key(|&index| length(index));
+        let mut groups: Vec<Vec<usize>> = Vec::new();
+        let mut real_tokens = 0;
+        for index in order {
+            let next = length(index);
+            match groups.last_mut() {
+                Some(group)
+                    if group.len() < self.options.batch_size
+                        && 4 * (group.len() + 1) * next <= 5 * (real_tokens + next) =>
+                {
+                    group.push(index);
+                    real_tokens += next;
+                }
+                _ => {
+                    groups.push(vec![index]);
+                    real_tokens = next;
+                }
+            }
+        }
+        Ok(groups
+            .into_iter()
+            .map(|group| {
+                let rows: Vec<&[u32]> = group
                     .iter()
                     .map(|&index| encodings[index].get_ids())
                     .collect();
-                (chunk.to_vec(), TokenBatch::pad(&rows, self.pad_id))
+                let batch = TokenBatch::pad(&rows, self.pad_id);
+                (group, batch)
             })
             .collect())
     }

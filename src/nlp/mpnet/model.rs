@@ -6,6 +6,8 @@ use candle_core::{Device, Module, Tensor};
 use candle_nn::{Embedding, VarBuilder};
 use serde::Deserialize;
 
+use super::gelu::GeluErf;
+
 /// The largest relative distance the position buckets tell apart (fixed in
 /// MPNet, not part of its `config.json`).
 const MAX_RELATIVE_DISTANCE: usize = 128;
@@ -178,7 +180,7 @@ impl Layer {
         let attended = self
             .attention_norm
             .forward(&(self.out.forward(&context)? + hidden)?)?;
-        let expanded = self.up.forward(&attended)?.gelu_erf()?;
+        let expanded = self.up.forward(&attended)?.apply_op1_no_bwd(&GeluErf)?;
         self.output_norm
             .forward(&(self.down.forward(&expanded)? + attended)?)
     }
