@@ -128,6 +128,26 @@ fn unavailable() -> ModelSlot {
     ModelSlot::Unavailable("the sentence encoder is not in this test".into())
 }
 
+/// The real models of the pack, as `mapvlm score` loads them.
+fn real_models() -> ModelSlot {
+    use mapvlm::metrics::pg2s::GoalModels;
+    use mapvlm::models::{models_dir, EN_CORE_WEB_SM, GLOVE_6B_50D, MPNET};
+    let dir = models_dir(None);
+    let encoder = mapvlm::nlp::mpnet::MpnetEncoder::load(&dir.join(MPNET)).unwrap();
+    let vectors =
+        mapvlm::nlp::wordvec::WordVectorTable::load_glove_pack(&dir.join(GLOVE_6B_50D)).unwrap();
+    let parser = mapvlm::nlp::en::EnPipeline::load(&dir.join(EN_CORE_WEB_SM)).unwrap();
+    let goal = GoalModels {
+        vectors: Arc::new(vectors),
+        parser: Arc::new(parser),
+    };
+    ModelSlot::Ready(Arc::new(Pg2sScorer::new(
+        Arc::new(encoder),
+        Ok(goal),
+        Pg2sSettings::default(),
+    )))
+}
+
 fn bag_of_words() -> ModelSlot {
     ModelSlot::Ready(Arc::new(Pg2sScorer::new(
         Arc::new(BagOfWords),
@@ -290,7 +310,7 @@ fn published_plans_score_as_in_mapvlm_score() {
     });
     let mut h = Harness {
         app,
-        models: unavailable(),
+        models: real_models(),
         pipeline: AgentsPipeline::offline(Pace::Instant).unwrap(),
     };
     h.run(cmds);
@@ -315,21 +335,36 @@ fn published_plans_score_as_in_mapvlm_score() {
         std::fs::write(&gt_file, task.ground_truth.join("\n")).unwrap();
         std::fs::write(&pred_file, plan.join("\n")).unwrap();
         let out = std::process::Command::new(env!("CARGO_BIN_EXE_mapvlm"))
-            .args(["score", "--metrics", "kas", "--json", "--gt"])
+            .args(["score", "--json", "--gt"])
             .arg(&gt_file)
             .arg("--pred")
             .arg(&pred_file)
             .output()
             .unwrap();
         let json: serde_json::Value = serde_json::from_slice(&out.stdout).unwrap();
-        let shown = h.app.scores.as_ref().and_then(|s| s.kas.kas);
+        let scores = h.app.scores.clone().unwrap();
+        let shown = scores.kas.kas;
         assert_eq!(json["kas"].as_f64(), shown, "task {}", task.id);
-        let screen = h.screen();
-        let expected = shown.map_or("  –  ".to_string(), |k| format!("KAS {k:.3}"));
-        assert!(
-            screen.contains(&expected),
-            "{expected} not on screen:\n{screen}"
+        let Pg2sOutcome::Ready(report) = &scores.pg2s else {
+            panic!("PG2S not scored for task {}", task.id);
+        };
+        assert_eq!(json["pg2s"].as_f64(), report.pg2s(), "task {}", task.id);
+        assert_eq!(
+            json["s_plan"].as_f64(),
+            Some(report.s_plan),
+            "task {}",
+            task.id
         );
+        assert_eq!(json["s_goal"].as_f64(), report.s_goal(), "task {}", task.id);
+        let screen = h.screen();
+        let kas = shown.map_or("  –  ".to_string(), |k| format!("KAS {k:.3}"));
+        let pg2s = format!("PG2S {:.3}", report.pg2s().unwrap());
+        for expected in [kas, pg2s] {
+            assert!(
+                screen.contains(&expected),
+                "{expected} not on screen:\n{screen}"
+            );
+        }
     }
 }
 
