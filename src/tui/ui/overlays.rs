@@ -78,6 +78,17 @@ fn frame_box<'a>(app: &App, title: &'a str) -> Block<'a> {
         .title(Span::styled(format!(" {title} "), app.theme.title))
 }
 
+/// Clears a centred `width`×`height` box, draws its frame titled `title`,
+/// and returns the area inside the frame.
+fn open_box(frame: &mut Frame, app: &App, area: Rect, size: (u16, u16), title: &str) -> Rect {
+    let rect = centred(area, size.0, size.1);
+    frame.render_widget(Clear, rect);
+    let block = frame_box(app, title);
+    let inner = block.inner(rect);
+    frame.render_widget(block, rect);
+    inner
+}
+
 /// Draws the open overlay, if any.
 pub(super) fn render_overlay(frame: &mut Frame, app: &App, area: Rect) {
     let Some(overlay) = &app.overlay else { return };
@@ -122,11 +133,13 @@ pub(super) fn render_overlay(frame: &mut Frame, app: &App, area: Rect) {
             );
         }
         Overlay::StepFilePath(editor) => {
-            let rect = centred(area, 80, 3);
-            frame.render_widget(Clear, rect);
-            let block = frame_box(app, "Step file path (Enter loads, Esc cancels)");
-            let inner = block.inner(rect);
-            frame.render_widget(block, rect);
+            let inner = open_box(
+                frame,
+                app,
+                area,
+                (80, 3),
+                "Step file path (Enter loads, Esc cancels)",
+            );
             frame.render_widget(editor.as_ref(), inner);
         }
         Overlay::ModelForm {
@@ -162,11 +175,13 @@ fn fmt_score(v: Option<f64>) -> String {
 
 fn runs(frame: &mut Frame, app: &App, area: Rect, selected: usize, marked: Option<usize>) {
     let t = &app.theme;
-    let rect = centred(area, 100, 24);
-    frame.render_widget(Clear, rect);
-    let block = frame_box(app, "Runs (space marks, c compares, Enter loads the plan)");
-    let inner = block.inner(rect);
-    frame.render_widget(block, rect);
+    let inner = open_box(
+        frame,
+        app,
+        area,
+        (100, 24),
+        "Runs (space marks, c compares, Enter loads the plan)",
+    );
     if app.runs.is_empty() {
         frame.render_widget(Paragraph::new(Span::styled("No runs yet.", t.muted)), inner);
         return;
@@ -275,11 +290,13 @@ fn run_lines<'a>(app: &App, run: &'a RunRecord, other: &RunRecord) -> Vec<Line<'
 }
 
 fn compare(frame: &mut Frame, app: &App, area: Rect, left: usize, right: usize) {
-    let rect = centred(area, area.width, area.height);
-    frame.render_widget(Clear, rect);
-    let block = frame_box(app, "Compare runs (Esc closes; differences highlighted)");
-    let inner = block.inner(rect);
-    frame.render_widget(block, rect);
+    let inner = open_box(
+        frame,
+        app,
+        area,
+        (area.width, area.height),
+        "Compare runs (Esc closes; differences highlighted)",
+    );
     let (Some(a), Some(b)) = (app.runs.get(left), app.runs.get(right)) else {
         return;
     };
@@ -297,11 +314,13 @@ fn compare(frame: &mut Frame, app: &App, area: Rect, left: usize, right: usize) 
 
 fn actions(frame: &mut Frame, app: &App, area: Rect) {
     let t = &app.theme;
-    let rect = centred(area, 110, 30);
-    frame.render_widget(Clear, rect);
-    let block = frame_box(app, "Framed actions and their matches (Esc closes)");
-    let inner = block.inner(rect);
-    frame.render_widget(block, rect);
+    let inner = open_box(
+        frame,
+        app,
+        area,
+        (110, 30),
+        "Framed actions and their matches (Esc closes)",
+    );
     let mut lines = Vec::new();
     match app.scores.as_ref().map(|s| &s.pg2s) {
         Some(Pg2sOutcome::Ready(report)) => match &report.goal {
