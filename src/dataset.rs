@@ -5,7 +5,7 @@ use std::collections::BTreeMap;
 use std::fmt;
 use std::path::{Path, PathBuf};
 
-use serde::Deserialize;
+use serde::{Deserialize, Serialize};
 use serde_json::{Map, Value};
 
 /// The four approaches whose published plans a task may carry, in the order
@@ -178,8 +178,11 @@ impl Task {
     }
 }
 
-/// One plan pair of a pairs file.
-#[derive(Debug, Clone, PartialEq, Eq, Deserialize)]
+/// One plan pair of a pairs file, which is also an item of `annotate.md`:
+/// the optional fields say what an annotator is shown and, for a corrupted
+/// plan, where it came from. Unknown fields are ignored, so every items file
+/// can be scored as a pairs file.
+#[derive(Debug, Clone, PartialEq, Deserialize, Serialize)]
 pub struct Pair {
     /// The pair's id.
     pub id: String,
@@ -187,6 +190,71 @@ pub struct Pair {
     pub gt: Vec<String>,
     /// Predicted steps.
     pub pred: Vec<String>,
+    /// The goal in words, shown to annotators.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub task: Option<String>,
+    /// The scene image as written: absolute, or relative to the items file.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub image: Option<String>,
+    /// The `id` of the item this one was derived from.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub source: Option<String>,
+    /// What was changed, for an item made by `mapvlm corrupt`.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub corruption: Option<Corruption>,
+}
+
+impl Pair {
+    /// A plain pair: no task, image or provenance.
+    pub fn new(id: impl Into<String>, gt: Vec<String>, pred: Vec<String>) -> Self {
+        Pair {
+            id: id.into(),
+            gt,
+            pred,
+            task: None,
+            image: None,
+            source: None,
+            corruption: None,
+        }
+    }
+}
+
+/// The record of one corruption (`annotate.md` §1): enough to see exactly
+/// what differs from the source item and to make it again.
+#[derive(Debug, Clone, PartialEq, Deserialize, Serialize)]
+pub struct Corruption {
+    /// The kind, as named on the command line (`object-swap`, `drop`, …).
+    pub kind: String,
+    /// The seed it was drawn with.
+    pub seed: u64,
+    /// One entry per changed step.
+    pub edits: Vec<Edit>,
+    /// For swaps, the word-vector cosine of the two words.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub similarity: Option<f64>,
+    /// For swaps, the word replaced and its replacement.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub words: Option<SwappedWords>,
+}
+
+/// One changed step of a corruption.
+#[derive(Debug, Clone, PartialEq, Eq, Deserialize, Serialize)]
+pub struct Edit {
+    /// The 0-based index of the step in the source plan.
+    pub step: usize,
+    /// The step as it was (`None` where a step was added).
+    pub from: Option<String>,
+    /// The step as it is now (`None` where a step was removed).
+    pub to: Option<String>,
+}
+
+/// The two words of a swap.
+#[derive(Debug, Clone, PartialEq, Eq, Deserialize, Serialize)]
+pub struct SwappedWords {
+    /// The word that was in the plan.
+    pub from: String,
+    /// The word put in its place.
+    pub to: String,
 }
 
 /// Reads a pairs file (`{"id", "gt", "pred"}` per line). Each line is either
@@ -211,6 +279,25 @@ pub fn load_pairs(path: &Path) -> Result<Vec<Result<Pair, LineError>>, DatasetEr
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    #[test]
+    fn an_item_keeps_its_task_image_and_corruption_through_a_round_trip() {
+        let line = r#"{"id": "t/a~drop", "gt": ["A."], "pred": ["B."], "task": "Do it.", "image": "images/1.jpg", "source": "t/a", "corruption": {"kind": "drop", "seed": 7, "edits": [{"step": 1, "from": "C.", "to": null}]}, "extra": 1}"#;
+        let item: Pair = serde_json::from_str(line).unwrap_or_else(|e| panic!("{e}"));
+        assert_eq!(item.source.as_deref(), Some("t/a"));
+        let corruption = item
+            .corruption
+            .as_ref()
+            .unwrap_or_else(|| panic!("no corruption"));
+        assert_eq!(corruption.edits[0].step, 1);
+        assert_eq!(corruption.edits[0].to, None);
+        let again: Pair = serde_json::from_str(&serde_json::to_string(&item).unwrap_or_default())
+            .unwrap_or_else(|e| panic!("{e}"));
+        assert_eq!(again, item);
+        let plain =
+            serde_json::to_string(&Pair::new("p", vec!["A.".into()], vec![])).unwrap_or_default();
+        assert_eq!(plain, r#"{"id":"p","gt":["A."],"pred":[]}"#);
+    }
 
     #[test]
     fn bad_lines_are_reported_and_good_ones_load() {

@@ -156,19 +156,19 @@ fn read_pairs(args: &ScoreArgs) -> anyhow::Result<(Vec<Pair>, Vec<String>)> {
     }
     match (&args.gt, &args.pred) {
         (Some(gt), Some(pred)) => {
-            let pair = Pair {
-                id: format!("{} vs {}", pred.display(), gt.display()),
-                gt: read_plan(gt)?,
-                pred: read_plan(pred)?,
-            };
+            let pair = Pair::new(
+                format!("{} vs {}", pred.display(), gt.display()),
+                read_plan(gt)?,
+                read_plan(pred)?,
+            );
             Ok((vec![pair], Vec::new()))
         }
         _ => Ok((
-            vec![Pair {
-                id: format!("built-in example: {}", crate::demo::TASK.trim()),
-                gt: parse_steps(crate::demo::GROUND_TRUTH),
-                pred: parse_steps(crate::demo::PLAN),
-            }],
+            vec![Pair::new(
+                format!("built-in example: {}", crate::demo::TASK.trim()),
+                parse_steps(crate::demo::GROUND_TRUTH),
+                parse_steps(crate::demo::PLAN),
+            )],
             Vec::new(),
         )),
     }
