@@ -53,23 +53,15 @@ fn no_panic(out: &Output) {
     assert!(!stderr(out).contains("panicked"), "{}", stderr(out));
 }
 
-const PAIR_A: &[u8] = b"{\"id\": \"a\", \"gt\": [\"Walk.\"], \"pred\": [\"Walk.\"]}\n";
-const PAIR_C: &[u8] = b"{\"id\": \"c\", \"gt\": [\"Go.\"], \"pred\": [\"Go.\"]}\n";
-
-#[test]
-fn a_bom_in_a_step_file_keeps_the_first_step() {
+/// `score --metrics kas --json` of two step files with these contents: the
+/// run and its JSON line.
+fn kas_of_step_files(gt: &[u8], pred: &[u8]) -> (Output, serde_json::Value) {
     let dir = tempfile::tempdir().unwrap_or_else(|e| panic!("{e}"));
-    let gt = write(
-        dir.path(),
-        "gt.txt",
-        b"\xef\xbb\xbfWalk to the sink.\nPick up the cup.\n",
+    let (gt, pred) = (
+        write(dir.path(), "gt.txt", gt),
+        write(dir.path(), "pred.txt", pred),
     );
-    let pred = write(
-        dir.path(),
-        "pred.txt",
-        b"\xef\xbb\xbf1. Walk to the sink.\n2. Pick up the cup.\n",
-    );
-    let out = mapvlm(&[
+    let args = [
         "score",
         "--gt",
         &gt,
@@ -78,9 +70,22 @@ fn a_bom_in_a_step_file_keeps_the_first_step() {
         "--metrics",
         "kas",
         "--json",
-    ]);
+    ];
+    let out = mapvlm(&args);
     assert!(out.status.success(), "{}", stderr(&out));
-    let v: serde_json::Value = serde_json::from_slice(&out.stdout).unwrap_or_default();
+    let v = serde_json::from_slice(&out.stdout).unwrap_or_default();
+    (out, v)
+}
+
+const PAIR_A: &[u8] = b"{\"id\": \"a\", \"gt\": [\"Walk.\"], \"pred\": [\"Walk.\"]}\n";
+const PAIR_C: &[u8] = b"{\"id\": \"c\", \"gt\": [\"Go.\"], \"pred\": [\"Go.\"]}\n";
+
+#[test]
+fn a_bom_in_a_step_file_keeps_the_first_step() {
+    let (_, v) = kas_of_step_files(
+        b"\xef\xbb\xbfWalk to the sink.\nPick up the cup.\n",
+        b"\xef\xbb\xbf1. Walk to the sink.\n2. Pick up the cup.\n",
+    );
     let both = serde_json::json!(["Walk to the sink.", "Pick up the cup."]);
     assert_eq!(v["gt"], both);
     assert_eq!(v["pred"], both);
@@ -152,22 +157,8 @@ fn an_overlong_pairs_line_is_skipped_with_its_number() {
 
 #[test]
 fn an_overlong_step_is_cut_and_said_so() {
-    let dir = tempfile::tempdir().unwrap_or_else(|e| panic!("{e}"));
     let step = format!("Walk {}.\n", "very ".repeat(100_000));
-    let gt = write(dir.path(), "gt.txt", step.as_bytes());
-    let pred = write(dir.path(), "pred.txt", b"Walk.\n");
-    let out = mapvlm(&[
-        "score",
-        "--gt",
-        &gt,
-        "--pred",
-        &pred,
-        "--metrics",
-        "kas",
-        "--json",
-    ]);
-    assert!(out.status.success(), "{}", stderr(&out));
-    let v: serde_json::Value = serde_json::from_slice(&out.stdout).unwrap_or_default();
+    let (out, v) = kas_of_step_files(step.as_bytes(), b"Walk.\n");
     let kept = v["gt"][0].as_str().unwrap_or_default().chars().count();
     assert_eq!(kept, mapvlm::plan::MAX_STEP_CHARS);
     assert!(
