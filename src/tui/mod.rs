@@ -6,6 +6,7 @@
 
 pub mod agents;
 pub mod app;
+pub mod graph_layout;
 pub mod scoring;
 pub mod theme;
 pub mod ui;
