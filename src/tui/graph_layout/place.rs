@@ -103,12 +103,10 @@ pub(super) fn place(g: &Layered, names: &[String], labels: &[String], s: Spacing
     let mut segment_channel = vec![0usize; g.segments.len()];
     let mut loop_channel = vec![0usize; g.loops.len()];
     let mut column_x = Vec::with_capacity(gaps);
-    let mut gap_start = Vec::with_capacity(gaps);
     let mut x = 0;
     for l in 0..gaps {
         column_x.push(x);
         x += column_width[l];
-        gap_start.push(x);
         let channels = assign_channels(&items[l]);
         let used = channels.iter().map(|c| c + 1).max().unwrap_or(0);
         let channel_x = x + 1 + label_zone[l];
@@ -142,11 +140,11 @@ pub(super) fn place(g: &Layered, names: &[String], labels: &[String], s: Spacing
         }
         out.height = out.height.max(y[v] + ports.height[v]);
     }
-    let label_at = |edge: usize, layer: usize, row: usize| {
+    let label_at = |edge: usize, start: Point| {
         label_of(edge).map(|text| EdgeLabel {
             at: Point {
-                x: gap_start[layer] + 1,
-                y: row,
+                x: start.x + 1,
+                y: start.y,
             },
             text: text.clone(),
         })
@@ -175,6 +173,7 @@ pub(super) fn place(g: &Layered, names: &[String], labels: &[String], s: Spacing
             y: row,
         });
         let mut points = simplify(points);
+        let label = label_at(chain.edge.index, points[0]);
         if chain.reversed {
             points.reverse();
         }
@@ -183,7 +182,7 @@ pub(super) fn place(g: &Layered, names: &[String], labels: &[String], s: Spacing
             from: chain.edge.from,
             to: chain.edge.to,
             points,
-            label: label_at(chain.edge.index, g.vertices[from].layer, start_row),
+            label,
         });
     }
     for (i, &(edge, v)) in g.loops.iter().enumerate() {
@@ -191,17 +190,18 @@ pub(super) fn place(g: &Layered, names: &[String], labels: &[String], s: Spacing
         let a = y[v] + ports.top[v] + ports.looped[i];
         let side = column_x[layer] + box_width(v);
         let x = loop_channel[i];
+        let start = Point { x: side, y: a };
         out.edges.push(EdgeRoute {
             edge: edge.index,
             from: edge.from,
             to: edge.to,
             points: vec![
-                Point { x: side, y: a },
+                start,
                 Point { x, y: a },
                 Point { x, y: a + 1 },
                 Point { x: side, y: a + 1 },
             ],
-            label: label_at(edge.index, layer, a),
+            label: label_at(edge.index, start),
         });
     }
     out
@@ -379,19 +379,21 @@ fn assign_channels(turns: &[Turn]) -> Vec<usize> {
             }
         }
     }
-    let key = |i: usize| (turns[i].span().0, i);
-    let mut ready: BTreeSet<(usize, usize)> = (0..turns.len())
+    // Self-loops first: their runs all end at their own channel, so the
+    // leftmost channels cross nothing for them.
+    let key = |i: usize| (!turns[i].right.is_empty(), turns[i].span().0, i);
+    let mut ready: BTreeSet<(bool, usize, usize)> = (0..turns.len())
         .filter(|&i| waiting[i] == 0)
         .map(key)
         .collect();
-    let mut pending: BTreeSet<(usize, usize)> = (0..turns.len())
+    let mut pending: BTreeSet<(bool, usize, usize)> = (0..turns.len())
         .filter(|&i| waiting[i] > 0)
         .map(key)
         .collect();
     let mut floor = vec![0usize; turns.len()];
     let mut channel = vec![usize::MAX; turns.len()];
     let mut occupied: Vec<Vec<(usize, usize)>> = Vec::new();
-    while let Some((_, i)) = ready.pop_first().or_else(|| pending.pop_first()) {
+    while let Some((_, _, i)) = ready.pop_first().or_else(|| pending.pop_first()) {
         if channel[i] != usize::MAX {
             continue;
         }
