@@ -23,6 +23,24 @@ fn strings(args: &[&str]) -> Vec<String> {
     args.iter().map(|a| a.to_string()).collect()
 }
 
+/// `eval` of `data` through the single-image agent at `base`, into `out`.
+fn eval_args(data: &Path, out: &Path, base: &str) -> Vec<String> {
+    strings(&[
+        "eval",
+        "--dataset",
+        data.to_str().unwrap(),
+        "--approaches",
+        "single-image",
+        "--metrics",
+        "kas",
+        "--out",
+        out.to_str().unwrap(),
+        "--base-url",
+        base,
+        "--no-cache",
+    ])
+}
+
 async fn requests(server: &MockServer) -> usize {
     server.received_requests().await.unwrap().len()
 }
@@ -61,20 +79,7 @@ async fn eval_fails_bad_images_alone_writes_the_rest_and_resumes() {
     let server = planning_server().await;
     let out = home.path().join("eval");
     let base = format!("{}/v1", server.uri());
-    let args = strings(&[
-        "eval",
-        "--dataset",
-        data.to_str().unwrap(),
-        "--approaches",
-        "single-image",
-        "--metrics",
-        "kas",
-        "--out",
-        out.to_str().unwrap(),
-        "--base-url",
-        &base,
-        "--no-cache",
-    ]);
+    let args = eval_args(&data, &out, &base);
     let run = mapvlm(args.clone(), home.path()).await;
     let err = String::from_utf8_lossy(&run.stderr);
     assert!(!run.status.success(), "{err}");
@@ -142,20 +147,7 @@ async fn unwritable_outputs_are_refused_before_any_request() {
         r#"{"id": "t-1", "task": "Wash", "image": "scene.png", "ground_truth": ["Wash."]}"#,
     )
     .unwrap();
-    let eval = strings(&[
-        "eval",
-        "--dataset",
-        data.to_str().unwrap(),
-        "--approaches",
-        "single-image",
-        "--metrics",
-        "kas",
-        "--out",
-        under_file.to_str().unwrap(),
-        "--base-url",
-        &base,
-        "--no-cache",
-    ]);
+    let eval = eval_args(&data, &under_file, &base);
     let run = mapvlm(eval, home.path()).await;
     let err = String::from_utf8_lossy(&run.stderr);
     assert!(!run.status.success());
