@@ -186,3 +186,19 @@ fn out_of_range_score_thresholds_are_refused() {
         assert!(stderr(&out).contains(name), "{}", stderr(&out));
     }
 }
+
+#[test]
+fn a_model_pack_path_that_is_a_file_is_one_clear_line() {
+    let dir = tempfile::tempdir().unwrap_or_else(|e| panic!("{e}"));
+    let file = write(dir.path(), "pack", b"x");
+    let out = Command::new(env!("CARGO_BIN_EXE_mapvlm"))
+        .args(["score", "--metrics", "pg2s"])
+        .env("MAPVLM_MODELS", &file)
+        .output()
+        .unwrap_or_else(|e| panic!("{e}"));
+    no_panic(&out);
+    assert!(!out.status.success());
+    let err = stderr(&out);
+    assert_eq!(err.trim_end().lines().count(), 1, "{err}");
+    assert!(err.contains("is a file, not a folder"), "{err}");
+}

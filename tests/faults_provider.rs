@@ -154,3 +154,252 @@ async fn unwritable_outputs_are_refused_before_any_request() {
     assert!(err.contains("nothing was asked"), "{err}");
     assert_eq!(requests(&server).await, 0);
 }
+
+/// `plan --approach single-image` of a fresh scene against `base`, with
+/// `extra` flags; the image is made under `home`.
+fn plan_args(home: &Path, base: &str, extra: &[&str]) -> Vec<String> {
+    let image = scene(home);
+    let mut args = strings(&[
+        "plan",
+        "--task",
+        "Wash the mug",
+        "--image",
+        image.to_str().unwrap(),
+        "--approach",
+        "single-image",
+        "--base-url",
+        base,
+    ]);
+    args.extend(strings(extra));
+    args
+}
+
+fn err_of(out: &Output) -> String {
+    let err = String::from_utf8_lossy(&out.stderr).into_owned();
+    assert!(!err.contains("panicked"), "{err}");
+    err
+}
+
+/// Every file under `dir`, read as bytes.
+fn files_under(dir: &Path) -> Vec<(std::path::PathBuf, Vec<u8>)> {
+    let mut found = Vec::new();
+    let Ok(entries) = std::fs::read_dir(dir) else {
+        return found;
+    };
+    for entry in entries.flatten() {
+        let path = entry.path();
+        if path.is_dir() {
+            found.extend(files_under(&path));
+        } else {
+            found.push((path.clone(), std::fs::read(&path).unwrap()));
+        }
+    }
+    found
+}
+
+fn contains(haystack: &[u8], needle: &str) -> bool {
+    haystack
+        .windows(needle.len())
+        .any(|w| w == needle.as_bytes())
+}
+
+#[tokio::test(flavor = "multi_thread")]
+async fn an_echoed_key_never_reaches_cache_record_or_output() {
+    for provider in [ProviderKind::Openai, ProviderKind::Anthropic] {
+        for stream in [true, false] {
+            let home = tempfile::tempdir().unwrap();
+            let server = MockServer::start().await;
+            let (head, tail) = KEY.split_at(9);
+            let text = format!("1. Walk to the sink, key {KEY}.\n2. Wash the mug.");
+            let response = if stream {
+                streamed(
+                    provider,
+                    &[
+                        "1. Walk to the sink, key ",
+                        head,
+                        tail,
+                        ".\n2. Wash the mug.",
+                    ],
+                    true,
+                )
+            } else {
+                whole(provider, &text)
+            };
+            answer(&server, provider, PLANNER_MARK, response).await;
+            let base = base_url(&server, provider);
+            let record = home.path().join("rec.json");
+            let mut extra = vec![
+                "--provider",
+                provider.name(),
+                "--json",
+                "--record",
+                record.to_str().unwrap(),
+            ];
+            if !stream {
+                extra.push("--no-stream");
+            }
+            let args = plan_args(home.path(), &base, &extra);
+            let home_path = home.path().to_path_buf();
+            let out = tokio::task::spawn_blocking(move || {
+                mapvlm_command(&args, &home_path)
+                    .env("ANTHROPIC_API_KEY", KEY)
+                    .output()
+                    .unwrap()
+            })
+            .await
+            .unwrap();
+            let err = err_of(&out);
+            let label = format!("{provider:?} stream={stream}");
+            assert!(out.status.success(), "{label}: {err}");
+            assert!(
+                contains(&out.stdout, "[redacted]"),
+                "{label}: the echo is shown redacted: {}",
+                String::from_utf8_lossy(&out.stdout)
+            );
+            assert!(
+                !contains(&out.stdout, KEY) && !err.contains(KEY),
+                "{label}: key in output"
+            );
+            let files = files_under(home.path());
+            assert!(
+                files
+                    .iter()
+                    .any(|(p, _)| p.starts_with(home.path().join("cache"))),
+                "{label}: cached"
+            );
+            assert!(record.is_file(), "{label}: recorded");
+            for (path, bytes) in files {
+                assert!(!contains(&bytes, KEY), "{label}: key in {}", path.display());
+            }
+        }
+    }
+}
+
+#[tokio::test(flavor = "multi_thread")]
+async fn a_key_in_an_error_body_is_redacted() {
+    let home = tempfile::tempdir().unwrap();
+    let server = MockServer::start().await;
+    let body = format!(r#"{{"error": {{"message": "bad request for key {KEY}"}}}}"#);
+    let response = wiremock::ResponseTemplate::new(400).set_body_string(body);
+    answer(&server, ProviderKind::Openai, PLANNER_MARK, response).await;
+    let base = base_url(&server, ProviderKind::Openai);
+    let out = mapvlm(plan_args(home.path(), &base, &["--no-cache"]), home.path()).await;
+    let err = err_of(&out);
+    assert!(!out.status.success());
+    assert!(err.contains("bad request for key [redacted]"), "{err}");
+    assert!(!err.contains(KEY), "{err}");
+}
+
+#[tokio::test(flavor = "multi_thread")]
+async fn a_401_names_the_variable_to_set() {
+    let home = tempfile::tempdir().unwrap();
+    let server = MockServer::start().await;
+    let refused = wiremock::ResponseTemplate::new(401).set_body_string("no");
+    answer(&server, ProviderKind::Openai, PLANNER_MARK, refused).await;
+    let base = base_url(&server, ProviderKind::Openai);
+    let out = mapvlm(plan_args(home.path(), &base, &["--no-cache"]), home.path()).await;
+    let err = err_of(&out);
+    assert!(!out.status.success());
+    assert!(err.contains("set OPENAI_API_KEY"), "{err}");
+}
+
+#[tokio::test(flavor = "multi_thread")]
+async fn an_html_page_with_status_200_is_named_a_web_page() {
+    for stream in [true, false] {
+        let home = tempfile::tempdir().unwrap();
+        let server = MockServer::start().await;
+        let page = wiremock::ResponseTemplate::new(200).set_body_raw(
+            "<html><body>Welcome</body></html>",
+            "text/html; charset=utf-8",
+        );
+        answer(&server, ProviderKind::Openai, PLANNER_MARK, page).await;
+        let base = base_url(&server, ProviderKind::Openai);
+        let extra: &[&str] = if stream {
+            &["--no-cache"]
+        } else {
+            &["--no-cache", "--no-stream"]
+        };
+        let out = mapvlm(plan_args(home.path(), &base, extra), home.path()).await;
+        let err = err_of(&out);
+        assert!(!out.status.success());
+        assert!(
+            err.contains("sent a web page (text/html)"),
+            "stream={stream}: {err}"
+        );
+        assert!(err.contains("/v1"), "{err}");
+    }
+}
+
+#[tokio::test(flavor = "multi_thread")]
+async fn malformed_base_urls_and_numbers_are_refused_before_any_request() {
+    let home = tempfile::tempdir().unwrap();
+    let server = planning_server().await;
+    let base = base_url(&server, ProviderKind::Openai);
+    let cases: [(&str, &[&str], &str); 7] = [
+        ("localhost:8000/v1", &[], "not http or https"),
+        ("http//localhost/v1", &[], "is not a URL"),
+        (
+            &base,
+            &["--timeout", "1e30"],
+            "timeout 1000000000000000000000000000000",
+        ),
+        (&base, &["--timeout=-3"], "give a number of seconds"),
+        (&base, &["--timeout", "NaN"], "give a number of seconds"),
+        (&base, &["--max-tokens", "0"], "max_tokens 0"),
+        (&base, &["--max-image-edge", "0"], "max image edge 0"),
+    ];
+    for (url, extra, needle) in cases {
+        let out = mapvlm(plan_args(home.path(), url, extra), home.path()).await;
+        let err = err_of(&out);
+        assert!(!out.status.success(), "{url} {extra:?}");
+        assert!(err.contains(needle), "{url} {extra:?}: {err}");
+        assert_eq!(err.trim_end().lines().count(), 1, "{err}");
+    }
+    let config = home.path().join("config.toml");
+    std::fs::write(&config, "timeout_secs = 1e30\n").unwrap();
+    let extra = ["--config", config.to_str().unwrap()];
+    let out = mapvlm(plan_args(home.path(), &base, &extra), home.path()).await;
+    assert!(
+        err_of(&out).contains("give a number of seconds"),
+        "{}",
+        err_of(&out)
+    );
+    assert_eq!(requests(&server).await, 0);
+}
+
+#[tokio::test(flavor = "multi_thread")]
+async fn a_retry_after_past_the_timeout_ends_at_once_and_short_waits_are_announced() {
+    let home = tempfile::tempdir().unwrap();
+    let server = MockServer::start().await;
+    let busy = wiremock::ResponseTemplate::new(429).insert_header("retry-after", "3600");
+    answer(&server, ProviderKind::Openai, PLANNER_MARK, busy).await;
+    let base = base_url(&server, ProviderKind::Openai);
+    let extra = ["--no-cache", "--timeout", "5"];
+    let out = mapvlm(plan_args(home.path(), &base, &extra), home.path()).await;
+    let err = err_of(&out);
+    assert!(!out.status.success());
+    assert!(
+        err.contains("Retry-After 3600 s") && err.contains("--timeout"),
+        "{err}"
+    );
+    assert_eq!(requests(&server).await, 1, "no wait, no retry");
+
+    let server = MockServer::start().await;
+    let soon = wiremock::ResponseTemplate::new(503).insert_header("retry-after", "0.2");
+    wiremock::Mock::given(wiremock::matchers::method("POST"))
+        .respond_with(soon)
+        .up_to_n_times(1)
+        .with_priority(1)
+        .mount(&server)
+        .await;
+    let plan = streamed(ProviderKind::Openai, &["1. Wash the mug."], true);
+    answer(&server, ProviderKind::Openai, PLANNER_MARK, plan).await;
+    let base = base_url(&server, ProviderKind::Openai);
+    let out = mapvlm(plan_args(home.path(), &base, &extra), home.path()).await;
+    let err = err_of(&out);
+    assert!(out.status.success(), "{err}");
+    assert!(
+        err.contains("answered HTTP 503; waiting 0.2 s before retry 1 of 4"),
+        "{err}"
+    );
+}

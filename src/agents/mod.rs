@@ -217,7 +217,7 @@ pub struct Usage {
 #[derive(Debug, thiserror::Error)]
 pub enum AgentError {
     /// The provider refused the API key (401 or 403).
-    #[error("{provider} refused the API key (HTTP {status}): check the key for {provider}")]
+    #[error("{provider} refused the API key (HTTP {status}): set {} (or api_key in the config file) to a valid key", key_variable(provider))]
     KeyRefused {
         /// The provider's name.
         provider: &'static str,
@@ -334,6 +334,15 @@ pub enum AgentError {
         /// What went wrong.
         message: String,
     },
+}
+
+/// The environment variable holding the API key of the provider named
+/// `provider`, for messages that tell the user what to set.
+pub fn key_variable(provider: &str) -> &'static str {
+    match provider {
+        "anthropic" => "ANTHROPIC_API_KEY",
+        _ => "OPENAI_API_KEY",
+    }
 }
 
 /// The SHA-256 of `bytes`, as lowercase hex.

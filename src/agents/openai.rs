@@ -71,7 +71,7 @@ impl OpenAi {
                 None => builder,
             }
         };
-        let mut answer = Assembler::new(on_token);
+        let mut answer = Assembler::new(on_token, self.endpoint.key.clone());
         let response = self.endpoint.send(build, cancel).await?;
         if request.stream && !is_json(&response) {
             let mut finished = false;

@@ -102,6 +102,19 @@ pub struct HttpSettings {
     pub backoff: Duration,
     /// The longest `Retry-After` honoured.
     pub max_retry_after: Duration,
+    /// Where waits before a retry are announced (none: silent).
+    pub notify: Option<Notifier>,
+}
+
+/// Tells the user what the HTTP layer waits for (a retry after a 429 or
+/// 5xx): the command line prints it on stderr, a test collects it.
+#[derive(Clone)]
+pub struct Notifier(pub Arc<dyn Fn(&str) + Send + Sync>);
+
+impl std::fmt::Debug for Notifier {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        f.write_str("Notifier")
+    }
 }
 
 impl Default for HttpSettings {
@@ -112,6 +125,7 @@ impl Default for HttpSettings {
             max_retries: 4,
             backoff: Duration::from_millis(500),
             max_retry_after: Duration::from_secs(60),
+            notify: None,
         }
     }
 }
@@ -180,12 +194,15 @@ impl HttpEndpoint {
 
     /// Sends the request `build` makes, retrying 429 and 5xx answers with
     /// exponential backoff (or the server's `Retry-After`), and returns the
-    /// first successful response. 401 and 403 end at once.
+    /// first successful response. 401 and 403 end at once. Waits are
+    /// announced and never run past the total timeout: a server asking for
+    /// a longer wait gets an error saying so instead.
     pub async fn send(
         &self,
         build: impl Fn() -> RequestBuilder,
         cancel: &CancellationToken,
     ) -> Result<Response, AgentError> {
+        let started = Instant::now();
         let mut attempt = 0;
         loop {
             let response = cancellable(cancel, build().send())
@@ -193,7 +210,7 @@ impl HttpEndpoint {
                 .map_err(|err| self.transport_error(&err))?;
             let status = response.status();
             if status.is_success() {
-                return Ok(response);
+                return self.not_a_web_page(response);
             }
             if status == StatusCode::UNAUTHORIZED || status == StatusCode::FORBIDDEN {
                 return Err(AgentError::KeyRefused {
@@ -205,18 +222,69 @@ impl HttpEndpoint {
             if !retryable || attempt >= self.settings.max_retries {
                 return Err(self.status_error(response).await);
             }
-            let wait = retry_after(&response)
+            let asked = retry_after(&response);
+            let wait = asked
                 .map(|wait| wait.min(self.settings.max_retry_after))
-                .unwrap_or_else(|| self.settings.backoff * 2u32.saturating_pow(attempt));
+                .unwrap_or_else(|| {
+                    self.settings
+                        .backoff
+                        .saturating_mul(2u32.saturating_pow(attempt))
+                });
+            let limit = self.settings.total_timeout;
+            if started.elapsed() + wait > limit {
+                let asked = asked.map_or_else(String::new, |a| {
+                    format!(" (Retry-After {:.0} s)", a.as_secs_f64())
+                });
+                return Err(AgentError::Http {
+                    provider: self.provider,
+                    status: status.as_u16(),
+                    message: format!(
+                        "the server asks to wait {:.1} s{asked}, past the limit of {:.1} s (--timeout); try again later or raise --timeout",
+                        wait.as_secs_f64(),
+                        limit.as_secs_f64()
+                    ),
+                });
+            }
             tracing::warn!(
                 provider = self.provider,
                 status = status.as_u16(),
                 wait_ms = wait.as_millis() as u64,
                 "retrying"
             );
+            if let Some(notify) = &self.settings.notify {
+                (notify.0)(&format!(
+                    "{} answered HTTP {}; waiting {:.1} s before retry {} of {}",
+                    self.provider,
+                    status.as_u16(),
+                    wait.as_secs_f64(),
+                    attempt + 1,
+                    self.settings.max_retries
+                ));
+            }
             cancellable(cancel, tokio::time::sleep(wait)).await?;
             attempt += 1;
         }
+    }
+
+    /// A successful response, unless it is a web page: a wrong base URL
+    /// often leads to a site's HTML page with status 200, which is neither
+    /// an answer nor an event stream.
+    fn not_a_web_page(&self, response: Response) -> Result<Response, AgentError> {
+        let html = response
+            .headers()
+            .get(reqwest::header::CONTENT_TYPE)
+            .and_then(|v| v.to_str().ok())
+            .is_some_and(|v| v.trim_start().starts_with("text/html"));
+        if html {
+            return Err(AgentError::InvalidResponse {
+                provider: self.provider,
+                message: format!(
+                    "{} sent a web page (text/html), not an API answer: check the base URL (an OpenAI-compatible one usually ends in /v1)",
+                    self.base_url
+                ),
+            });
+        }
+        Ok(response)
     }
 
     /// Turns an unsuccessful response into an error carrying the server's
@@ -309,10 +377,15 @@ impl HttpEndpoint {
 }
 
 /// Gathers a streamed answer: the text so far, its pieces with their arrival
-/// times, and the usage once reported.
+/// times, and the usage once reported. The API key is removed from the text
+/// before anything is passed on or kept, even when it arrives split across
+/// pieces: the end of the text that could be the start of the key is held
+/// back until the next piece tells.
 pub struct Assembler<'a> {
     start: Instant,
     on_token: TokenSink<'a>,
+    key: Option<Secret>,
+    held: String,
     text: String,
     chunks: Vec<Chunk>,
     /// The usage reported so far.
@@ -320,37 +393,63 @@ pub struct Assembler<'a> {
 }
 
 impl<'a> Assembler<'a> {
-    /// Starts gathering; times count from now.
-    pub fn new(on_token: TokenSink<'a>) -> Self {
+    /// Starts gathering, removing `key` from the text; times count from now.
+    pub fn new(on_token: TokenSink<'a>, key: Option<Secret>) -> Self {
         Self {
             start: Instant::now(),
             on_token,
+            key,
+            held: String::new(),
             text: String::new(),
             chunks: Vec::new(),
             usage: Usage::default(),
         }
     }
 
-    /// Adds a piece of text and passes it on.
+    /// Adds a piece of text and passes on what of it is known to hold no key.
     pub fn push(&mut self, piece: &str) {
         if piece.is_empty() {
             return;
         }
-        (self.on_token)(piece);
-        self.text.push_str(piece);
+        self.held.push_str(piece);
+        let Some(key) = &self.key else {
+            let ready = std::mem::take(&mut self.held);
+            return self.pass_on(ready);
+        };
+        if self.held.contains(key.expose()) {
+            self.held = key.redact(&self.held);
+        }
+        let keep = (0..self.held.len())
+            .rev()
+            .filter(|&cut| self.held.is_char_boundary(cut))
+            .find(|&cut| key.expose().starts_with(&self.held[cut..]))
+            .unwrap_or(self.held.len());
+        let rest = self.held.split_off(keep);
+        let ready = std::mem::replace(&mut self.held, rest);
+        self.pass_on(ready);
+    }
+
+    fn pass_on(&mut self, ready: String) {
+        if ready.is_empty() {
+            return;
+        }
+        (self.on_token)(&ready);
+        self.text.push_str(&ready);
         self.chunks.push(Chunk {
             at_ms: elapsed_ms(self.start),
-            text: piece.to_string(),
+            text: ready,
         });
     }
 
     /// How many characters have arrived.
     pub fn received(&self) -> usize {
-        self.text.chars().count()
+        self.text.chars().count() + self.held.chars().count()
     }
 
     /// The finished answer; an empty or blank one is an error.
-    pub fn finish(self, provider: &'static str, model: &str) -> Result<Completion, AgentError> {
+    pub fn finish(mut self, provider: &'static str, model: &str) -> Result<Completion, AgentError> {
+        let rest = std::mem::take(&mut self.held);
+        self.pass_on(rest);
         if self.text.trim().is_empty() {
             return Err(AgentError::EmptyAnswer {
                 provider,
@@ -515,6 +614,37 @@ mod tests {
                 },
             ]
         );
+    }
+
+    #[test]
+    fn the_key_is_removed_from_an_answer_even_split_across_pieces() {
+        let key = Secret::new("sk-abcdef").unwrap_or_else(|| panic!("a key"));
+        let passed = std::sync::Mutex::new(String::new());
+        let sink = |piece: &str| {
+            if let Ok(mut all) = passed.lock() {
+                all.push_str(piece);
+            }
+        };
+        let mut answer = Assembler::new(&sink, Some(key));
+        for piece in [
+            "Your key is sk",
+            "-abc",
+            "def and ",
+            "s",
+            "k-",
+            "abcdef",
+            "; sk-ab",
+        ] {
+            answer.push(piece);
+        }
+        let done = answer
+            .finish("openai", "m")
+            .unwrap_or_else(|e| panic!("{e}"));
+        let want = "Your key is [redacted] and [redacted]; sk-ab";
+        assert_eq!(done.text, want);
+        let chunks: String = done.chunks.iter().map(|c| c.text.as_str()).collect();
+        assert_eq!(chunks, want);
+        assert_eq!(passed.lock().map(|p| p.clone()).unwrap_or_default(), want);
     }
 
     #[test]

@@ -24,6 +24,9 @@ use crate::dataset::{Dataset, Task};
 use crate::metrics::kas::kas;
 use crate::metrics::pg2s::{Pg2sScorer, Pg2sSettings};
 
+/// The most plans made at once: more only draws 429s from any provider.
+const MAX_CONCURRENCY: usize = 64;
+
 /// Options of `mapvlm eval`.
 #[derive(Debug, Args)]
 pub struct EvalArgs {
@@ -93,6 +96,12 @@ struct Job<'a> {
 /// Runs `mapvlm eval`. Every task's result is written as soon as it is
 /// scored; a task that fails is named with its reason and the others go on.
 pub fn run(args: &EvalArgs) -> anyhow::Result<ExitCode> {
+    if !(1..=MAX_CONCURRENCY).contains(&args.concurrency) {
+        anyhow::bail!(
+            "--concurrency {} is outside 1..={MAX_CONCURRENCY}",
+            args.concurrency
+        );
+    }
     let tasks_dir = args.out.join("tasks");
     check_writable(&tasks_dir.join("probe.json"))
         .context("the results could not be written, so nothing was asked of any model")?;

