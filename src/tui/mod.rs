@@ -253,7 +253,11 @@ pub fn run(options: Options) -> Result<(), TuiError> {
         .worker_threads(2)
         .enable_all()
         .build()?;
-    rt.block_on(run_async(options))
+    let result = rt.block_on(run_async(options));
+    // The session is saved by now; a model still loading on a blocking
+    // thread must not hold the exit up (dropping the runtime would wait).
+    rt.shutdown_background();
+    result
 }
 
 fn load_start(
