@@ -6,6 +6,7 @@
 
 pub mod agents;
 pub mod cli;
+pub mod corrupt;
 pub mod dataset;
 pub mod demo;
 pub mod metrics;
