@@ -5,6 +5,7 @@
 //! plan, the metrics judge the plan, and the views show all of it.
 
 pub mod agents;
+pub mod annotate;
 pub mod cli;
 pub mod corrupt;
 pub mod dataset;

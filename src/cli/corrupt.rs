@@ -2,7 +2,6 @@
 //! corruptions of every plan, written as an items file (`annotate.md` §2)
 //! that `score --pairs` reads as it is.
 
-use std::io::Write as _;
 use std::path::{Component, Path, PathBuf};
 use std::process::ExitCode;
 
@@ -11,7 +10,7 @@ use clap::Args;
 
 use crate::agents::Approach;
 use crate::corrupt::{Corrupter, Kind, Language, Vocabulary};
-use crate::dataset::{load_pairs, Dataset, Pair};
+use crate::dataset::{open_pairs, Dataset, Pair};
 use crate::nlp::en::EnPipeline;
 
 /// Arguments of `mapvlm corrupt`.
@@ -56,8 +55,8 @@ actions a line (`pick up, put down`); `#` starts a comment.";
 /// Runs `mapvlm corrupt`.
 pub fn run(args: &CorruptArgs) -> anyhow::Result<ExitCode> {
     let kinds = requested_kinds(&args.kinds);
-    let output = Output::open(&args.out)?;
-    let (items, problems) = read_items(args, &output.dir)?;
+    let out_dir = output_dir(&args.out)?;
+    let (items, problems) = read_items(args, &out_dir)?;
     for line in &problems {
         eprintln!("mapvlm: {line}");
     }
@@ -104,7 +103,7 @@ pub fn run(args: &CorruptArgs) -> anyhow::Result<ExitCode> {
         text.push_str(&serde_json::to_string(item)?);
         text.push('\n');
     }
-    output.write(text.as_bytes())?;
+    crate::agents::cache::write_atomic(&args.out, text.as_bytes())?;
     eprintln!(
         "mapvlm: wrote {} items to {}: {} originals, {} corruptions, {} skipped",
         written.len(),
@@ -134,47 +133,17 @@ fn requested_kinds(asked: &[Kind]) -> Vec<Kind> {
     kinds
 }
 
-/// The output file, opened as a temporary file beside it before any work so
-/// that an unwritable place fails at once, and renamed over it at the end.
-struct Output {
-    path: PathBuf,
-    dir: PathBuf,
-    temp: tempfile::NamedTempFile,
-}
-
-impl Output {
-    fn open(path: &Path) -> anyhow::Result<Self> {
-        if path.is_dir() {
-            bail!("--out {} is a folder; give a file name", path.display());
-        }
-        let parent = path
-            .parent()
-            .filter(|p| !p.as_os_str().is_empty())
-            .unwrap_or(Path::new("."));
-        std::fs::create_dir_all(parent)
-            .with_context(|| format!("cannot create the folder of --out {}", path.display()))?;
-        let temp = tempfile::NamedTempFile::new_in(parent)
-            .with_context(|| format!("cannot write --out {}", path.display()))?;
-        let dir = parent
-            .canonicalize()
-            .with_context(|| format!("cannot resolve the folder of {}", path.display()))?;
-        Ok(Output {
-            path: path.to_path_buf(),
-            dir,
-            temp,
-        })
-    }
-
-    fn write(mut self, bytes: &[u8]) -> anyhow::Result<()> {
-        let context = || format!("cannot write {}", self.path.display());
-        self.temp.write_all(bytes).with_context(context)?;
-        self.temp.as_file().sync_data().with_context(context)?;
-        self.temp
-            .persist(&self.path)
-            .map_err(|e| e.error)
-            .with_context(context)?;
-        Ok(())
-    }
+/// The folder of the output file, absolute, once the file is known to be
+/// writable (checked before any work).
+fn output_dir(out: &Path) -> anyhow::Result<PathBuf> {
+    crate::agents::cache::check_writable(out).context("--out")?;
+    let parent = out
+        .parent()
+        .filter(|p| !p.as_os_str().is_empty())
+        .unwrap_or(Path::new("."));
+    parent
+        .canonicalize()
+        .with_context(|| format!("cannot resolve the folder of {}", out.display()))
 }
 
 /// The items to corrupt, with their image paths rewritten relative to
@@ -184,7 +153,7 @@ fn read_items(args: &CorruptArgs, out_dir: &Path) -> anyhow::Result<(Vec<Pair>, 
     let mut items = Vec::new();
     if let Some(path) = &args.items {
         let base = path.parent().unwrap_or(Path::new(""));
-        for line in load_pairs(path)? {
+        for line in open_pairs(path)? {
             match line {
                 Ok(mut item) => {
                     item.image = item
