@@ -105,8 +105,8 @@ fn is_noun(token: &Token) -> bool {
     token.pos == "NOUN" || token.pos == "PROPN"
 }
 
-/// One object (or place) noun of the plan, a direct object or object of a
-/// preposition listed in `vocabulary`, is replaced in every step by a word
+/// One object (or place) noun of the plan, a singular direct object or
+/// object of a preposition listed in `vocabulary`, is replaced in every step by a word
 /// of `vocabulary` that the plan does not mention.
 pub fn noun_swap(
     plan: &[ParsedStep],
@@ -121,7 +121,7 @@ pub fn noun_swap(
         for (i, t) in step.tokens.iter().enumerate() {
             let word = step.word(i);
             if (t.dep == "dobj" || t.dep == "pobj")
-                && t.tag == "NN"
+                && (t.tag == "NN" || t.tag == "NNP")
                 && listed.contains(word.as_str())
                 && !candidates.contains(&word)
                 && language.vectors.vector(&word).is_some()
