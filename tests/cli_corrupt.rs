@@ -7,21 +7,11 @@ mod common;
 
 use std::collections::{BTreeMap, BTreeSet};
 use std::path::Path;
-use std::process::{Command, Output};
+use std::process::Output;
 
+use common::{mapvlm, stderr};
 use mapvlm::corrupt::apply_edits;
 use mapvlm::dataset::Pair;
-
-fn mapvlm(args: &[&str]) -> Output {
-    Command::new(env!("CARGO_BIN_EXE_mapvlm"))
-        .args(args)
-        .output()
-        .unwrap_or_else(|e| panic!("running mapvlm: {e}"))
-}
-
-fn stderr(out: &Output) -> String {
-    String::from_utf8_lossy(&out.stderr).into_owned()
-}
 
 fn read_items(path: &Path) -> Vec<Pair> {
     std::fs::read_to_string(path)
