@@ -152,10 +152,7 @@ pub fn run() -> anyhow::Result<ExitCode> {
         Some(Command::Score(args)) => score::run(&args),
         Some(Command::Models(args)) => models::run(args),
         Some(Command::Tui(args)) => tui::run(args),
-        Some(Command::Parse(args)) => {
-            parse::run(&args)?;
-            Ok(ExitCode::SUCCESS)
-        }
+        Some(Command::Parse(args)) => parse::run(&args),
         Some(Command::Embed(args)) => embed::run(&args),
         Some(Command::Plan(args)) => plan::run(&args),
         Some(Command::Eval(args)) => eval::run(&args),
