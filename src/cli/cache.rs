@@ -50,6 +50,17 @@ pub enum Which {
     All,
 }
 
+impl Which {
+    /// Whether the cache called `name` is among these.
+    fn includes(self, name: &str) -> bool {
+        match self {
+            Self::Embeddings => name == "embeddings",
+            Self::Responses => name == "responses",
+            Self::All => true,
+        }
+    }
+}
+
 /// The caches by name, with their stores.
 fn caches() -> [(&'static str, DiskStore); 2] {
     let root = crate::store::user_cache_root();
@@ -90,11 +101,7 @@ pub fn run(args: &CacheArgs) -> anyhow::Result<ExitCode> {
         }
         CacheAction::Clear { which } => {
             for (name, store) in &caches {
-                if *which == Which::All
-                    || which
-                        .to_possible_value()
-                        .is_some_and(|v| v.get_name() == *name)
-                {
+                if which.includes(name) {
                     let removed = store.clear()?;
                     println!("{name}: removed {}", describe(removed));
                 }

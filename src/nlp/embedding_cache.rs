@@ -95,14 +95,14 @@ impl CachedEncoder {
         ])
     }
 
-    fn from_disk(&self, text: &str) -> Option<Arc<[f32]>> {
+    fn stored(&self, text: &str) -> Option<Arc<[f32]>> {
         let (store, model) = self.store.as_ref()?;
         let vector = decode(&store.get(&Self::key(model, text))?, text)?;
         self.disk_hits.fetch_add(1, Ordering::Relaxed);
         Some(vector.into())
     }
 
-    fn to_disk(&self, text: &str, vector: &[f32]) {
+    fn keep(&self, text: &str, vector: &[f32]) {
         if let Some((store, model)) = &self.store {
             if let Err(err) = store.put(&Self::key(model, text), &encode_entry(text, vector)) {
                 tracing::warn!(dir = %store.dir().display(), %err, "cannot store an embedding");
@@ -129,7 +129,7 @@ impl SentenceEncoder for CachedEncoder {
             if working.contains_key(sentence) || missing.contains(&sentence) {
                 continue;
             }
-            match self.from_disk(sentence) {
+            match self.stored(sentence) {
                 Some(vector) => {
                     working.insert(sentence.to_owned(), vector);
                 }
@@ -141,7 +141,7 @@ impl SentenceEncoder for CachedEncoder {
             self.encoded
                 .fetch_add(missing.len() as u64, Ordering::Relaxed);
             for (sentence, vector) in missing.iter().zip(fresh) {
-                self.to_disk(sentence, &vector);
+                self.keep(sentence, &vector);
                 working.insert((*sentence).to_owned(), vector.into());
             }
         }
