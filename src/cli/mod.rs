@@ -81,7 +81,7 @@ impl PackArgs {
 }
 
 /// Where the models come from, for the commands that need them.
-#[derive(Debug, Args)]
+#[derive(Debug, Clone, Args)]
 pub struct ModelArgs {
     /// The model pack folder (default: $MAPVLM_MODELS, else the user's cache folder).
     #[arg(long, env = "MAPVLM_MODELS", value_name = "DIR")]
@@ -92,7 +92,7 @@ pub struct ModelArgs {
     pub vectors: Option<PathBuf>,
     /// Neither read nor write the embedding cache ($XDG_CACHE_HOME/mapvlm/embeddings).
     #[arg(long)]
-    pub no_cache: bool,
+    pub no_embedding_cache: bool,
     /// The embedding cache's size bound in MB; the least recently used entries go first.
     #[arg(long, env = "MAPVLM_CACHE_MAX_MB", value_name = "MB", default_value_t = crate::store::DEFAULT_MAX_BYTES >> 20)]
     pub cache_max_mb: u64,
@@ -104,7 +104,7 @@ impl ModelArgs {
     /// loaded only when a sentence is not in the cache.
     fn encoder(&self, dir: &Path, report: &dyn Fn(String)) -> CachedEncoder {
         let folder = crate::models::model_path(dir, crate::models::MPNET);
-        let store = if self.no_cache {
+        let store = if self.no_embedding_cache {
             None
         } else {
             let identity = stamped_identity(dir, crate::models::MPNET);
