@@ -5,7 +5,9 @@
 //! plan, the metrics judge the plan, and the views show all of it.
 
 pub mod agents;
+pub mod annotate;
 pub mod cli;
+pub mod corrupt;
 pub mod dataset;
 pub mod demo;
 pub mod metrics;

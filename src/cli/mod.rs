@@ -2,6 +2,8 @@
 //! program may read the output.
 
 mod cache;
+mod completions;
+mod corrupt;
 mod embed;
 mod eval;
 mod models;
@@ -61,6 +63,12 @@ pub enum Command {
     Eval(eval::EvalArgs),
     /// Show, prune or clear the embedding and response caches.
     Cache(cache::CacheArgs),
+    /// Write a dataset's plans or an items file plus seeded corruptions of every plan.
+    Corrupt(corrupt::CorruptArgs),
+    /// Write a shell completion script on standard output.
+    Completions(completions::CompletionsArgs),
+    /// Write the man page (roff) on standard output.
+    Man,
 }
 
 /// Where the model pack is, for the commands that need one model of it.
@@ -155,15 +163,7 @@ fn load_scorer(
     let dir = crate::models::models_dir(args.models_dir.as_deref());
     models::ensure_pack(&dir, report, progress)?;
     let (vectors, parser) = std::thread::scope(|s| {
-        let vectors = s.spawn(|| -> anyhow::Result<WordVectorTable> {
-            Ok(match &args.vectors {
-                Some(file) => WordVectorTable::load_word2vec(file)?,
-                None => WordVectorTable::load_glove_pack(&crate::models::model_path(
-                    &dir,
-                    crate::models::GLOVE_6B_50D,
-                )?)?,
-            })
-        });
+        let vectors = s.spawn(|| load_vectors(args, &dir));
         let parser = s.spawn(|| load_parser(&dir));
         (joined(vectors), joined(parser))
     });
@@ -176,6 +176,17 @@ fn load_scorer(
         Ok(goal),
         settings,
     ))
+}
+
+/// The word vectors of `--vectors`, else the pack's GloVe.
+fn load_vectors(args: &ModelArgs, dir: &Path) -> anyhow::Result<WordVectorTable> {
+    Ok(match &args.vectors {
+        Some(file) => WordVectorTable::load_word2vec(file)?,
+        None => WordVectorTable::load_glove_pack(&crate::models::model_path(
+            dir,
+            crate::models::GLOVE_6B_50D,
+        )?)?,
+    })
 }
 
 /// The framing parser (the spaCy-compatible English pipeline).
@@ -198,14 +209,14 @@ pub fn run() -> anyhow::Result<ExitCode> {
         Some(Command::Score(args)) => score::run(&args),
         Some(Command::Models(args)) => models::run(args),
         Some(Command::Tui(args)) => tui::run(args),
-        Some(Command::Parse(args)) => {
-            parse::run(&args)?;
-            Ok(ExitCode::SUCCESS)
-        }
+        Some(Command::Parse(args)) => parse::run(&args),
         Some(Command::Embed(args)) => embed::run(&args),
         Some(Command::Plan(args)) => plan::run(&args),
         Some(Command::Eval(args)) => eval::run(&args),
         Some(Command::Cache(args)) => cache::run(&args),
+        Some(Command::Corrupt(args)) => corrupt::run(&args),
+        Some(Command::Completions(args)) => completions::completions(&args),
+        Some(Command::Man) => completions::man(),
         None => tui::run(cli.tui),
     }
 }
