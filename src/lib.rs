@@ -15,4 +15,5 @@ pub mod models;
 pub mod nlp;
 pub mod plan;
 pub mod session;
+pub mod store;
 pub mod tui;

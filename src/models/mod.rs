@@ -14,6 +14,7 @@ mod verify;
 use std::path::{Path, PathBuf};
 
 pub use fetch::{fetch_model, FetchOutcome, Pip, Progress};
+pub(crate) use verify::{hex, STAMP_FILE};
 pub use hf_cache::{find_snapshot, hub_cache_dir, repo_dir, CacheLookup, CachedSnapshot};
 pub use hub::HubSettings;
 pub use link::LinkedFrom;
