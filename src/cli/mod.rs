@@ -88,8 +88,12 @@ pub struct ModelArgs {
     pub models_dir: Option<PathBuf>,
     /// Word vectors in word2vec binary or text format, instead of the pack's GloVe
     /// (e.g. GoogleNews-vectors-negative300.bin for the paper's configuration).
-    #[arg(long, value_name = "FILE")]
+    #[arg(long, value_name = "FILE", conflicts_with = "paper")]
     pub vectors: Option<PathBuf>,
+    /// The paper's configuration: word2vec GoogleNews 300-d vectors (gensim
+    /// KeyedVectors from the Hugging Face Hub, fetched once into the pack).
+    #[arg(long)]
+    pub paper: bool,
 }
 
 /// Prints a line about the model pack on stderr.
@@ -108,6 +112,9 @@ fn load_scorer(
 ) -> anyhow::Result<Pg2sScorer> {
     let dir = crate::models::models_dir(args.models_dir.as_deref());
     models::ensure_pack(&dir, report, progress)?;
+    if args.paper {
+        models::ensure_paper_vectors(&dir, report, progress)?;
+    }
     let (encoder, vectors, parser) = std::thread::scope(|s| {
         let encoder = s.spawn(|| -> anyhow::Result<MpnetEncoder> {
             let path = crate::models::model_path(&dir, crate::models::MPNET)?;
@@ -116,6 +123,13 @@ fn load_scorer(
         let vectors = s.spawn(|| -> anyhow::Result<WordVectorTable> {
             Ok(match &args.vectors {
                 Some(file) => WordVectorTable::load_word2vec(file)?,
+                None if args.paper => {
+                    let folder =
+                        crate::models::model_path(&dir, crate::models::WORD2VEC_GOOGLE_NEWS)?;
+                    WordVectorTable::load_keyed_vectors(
+                        &folder.join(crate::models::WORD2VEC_GOOGLE_NEWS_FILE),
+                    )?
+                }
                 None => WordVectorTable::load_glove_pack(&crate::models::model_path(
                     &dir,
                     crate::models::GLOVE_6B_50D,
