@@ -7,6 +7,7 @@
 pub mod agents;
 pub mod annotate;
 pub mod cli;
+pub mod corrupt;
 pub mod dataset;
 pub mod demo;
 pub mod metrics;
@@ -14,4 +15,5 @@ pub mod models;
 pub mod nlp;
 pub mod plan;
 pub mod session;
+pub mod store;
 pub mod tui;
