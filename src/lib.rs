@@ -5,6 +5,7 @@
 //! plan, the metrics judge the plan, and the views show all of it.
 
 pub mod agents;
+pub mod agree;
 pub mod cli;
 pub mod dataset;
 pub mod demo;
@@ -13,4 +14,5 @@ pub mod models;
 pub mod nlp;
 pub mod plan;
 pub mod session;
+pub mod stats;
 pub mod tui;
