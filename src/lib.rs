@@ -6,6 +6,7 @@
 
 pub mod agents;
 pub mod agree;
+pub mod annotate;
 pub mod cli;
 pub mod dataset;
 pub mod demo;

@@ -1,6 +1,7 @@
 //! The command line: one subcommand a module, each with `--json` where a
 //! program may read the output.
 
+mod completions;
 mod embed;
 mod eval;
 mod models;
@@ -56,6 +57,10 @@ pub enum Command {
     Plan(plan::PlanArgs),
     /// Plan and score every task of a dataset; write the paper's Table 3.
     Eval(eval::EvalArgs),
+    /// Write a shell completion script on standard output.
+    Completions(completions::CompletionsArgs),
+    /// Write the man page (roff) on standard output.
+    Man,
 }
 
 /// Where the model pack is, for the commands that need one model of it.
@@ -147,13 +152,12 @@ pub fn run() -> anyhow::Result<ExitCode> {
         Some(Command::Score(args)) => score::run(&args),
         Some(Command::Models(args)) => models::run(args),
         Some(Command::Tui(args)) => tui::run(args),
-        Some(Command::Parse(args)) => {
-            parse::run(&args)?;
-            Ok(ExitCode::SUCCESS)
-        }
+        Some(Command::Parse(args)) => parse::run(&args),
         Some(Command::Embed(args)) => embed::run(&args),
         Some(Command::Plan(args)) => plan::run(&args),
         Some(Command::Eval(args)) => eval::run(&args),
+        Some(Command::Completions(args)) => completions::completions(&args),
+        Some(Command::Man) => completions::man(),
         None => tui::run(cli.tui),
     }
 }

@@ -6,6 +6,8 @@
 
 pub mod agents;
 pub mod app;
+pub mod graph_layout;
+pub mod graph_view;
 pub mod scoring;
 pub mod theme;
 pub mod ui;
