@@ -4,7 +4,7 @@
 
 use serde_json::{json, Map, Value};
 
-use super::{Agreement, Detection, HumanAgreement, Interval, InterAnnotator};
+use super::{Agreement, Detection, HumanAgreement, InterAnnotator, Interval};
 use crate::stats::Estimate;
 
 /// The whole document.
@@ -63,12 +63,16 @@ fn human_json(h: &HumanAgreement, doc: &mut Map<String, Value>) {
             test.map.insert("p_value".into(), json!(t.p_value));
             test.map.insert("difference".into(), json!(t.difference));
             test.map.insert("n".into(), json!(t.n));
-            test.map.insert("permutations".into(), json!(t.permutations));
+            test.map
+                .insert("permutations".into(), json!(t.permutations));
         }
         Err(why) => test.estimate("p_value", Err(*why)),
     }
     doc.insert("pg2s_vs_kas".into(), test.done());
-    doc.insert("inter_annotator".into(), inter_annotator(&h.inter_annotator));
+    doc.insert(
+        "inter_annotator".into(),
+        inter_annotator(&h.inter_annotator),
+    );
     let pairwise: Map<String, Value> = h
         .pairwise
         .iter()
@@ -86,7 +90,8 @@ fn inter_annotator(ia: &InterAnnotator) -> Value {
     let mut obj = Fields::default();
     obj.estimate("krippendorff_alpha_ordinal", ia.ordinal);
     obj.estimate("krippendorff_alpha_interval", ia.interval);
-    obj.map.insert("shared_items".into(), json!(ia.shared_items));
+    obj.map
+        .insert("shared_items".into(), json!(ia.shared_items));
     let pairs: Vec<Value> = ia
         .by_pair
         .iter()
@@ -132,7 +137,8 @@ impl Fields {
 
     fn done(mut self) -> Value {
         if !self.reasons.is_empty() {
-            self.map.insert("reasons".into(), Value::Object(self.reasons));
+            self.map
+                .insert("reasons".into(), Value::Object(self.reasons));
         }
         Value::Object(self.map)
     }

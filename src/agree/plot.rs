@@ -116,6 +116,7 @@ fn panel<DB: DrawingBackend>(
         .build_cartesian_2d(h_lo..h_hi, v_lo..v_hi)?;
     chart
         .configure_mesh()
+        .light_line_style(WHITE)
         .x_desc("mean human rating")
         .y_desc(m.metric)
         .label_style(("sans-serif", 15))

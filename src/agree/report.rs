@@ -60,7 +60,11 @@ fn human_section(h: &HumanAgreement, agreement: &Agreement, out: &mut String) {
             cell("tau-b", c.kendall_tau_b, m.ci95.kendall_tau_b),
             cell("Spearman", c.spearman, m.ci95.spearman),
             cell("Pearson", c.pearson, m.ci95.pearson),
-            cell("pairwise accuracy", c.pairwise_accuracy, m.ci95.pairwise_accuracy),
+            cell(
+                "pairwise accuracy",
+                c.pairwise_accuracy,
+                m.ci95.pairwise_accuracy,
+            ),
         ];
         let line = format!(
             "{:<8} {:>6}  {:<22} {:<22} {:<22} {:<22}",
@@ -94,9 +98,18 @@ fn human_section(h: &HumanAgreement, agreement: &Agreement, out: &mut String) {
     for (a, b, n) in &ia.by_pair {
         let _ = writeln!(out, "  {a} & {b}: {n} shared items");
     }
-    let _ = writeln!(out, "\nPairwise preferences (the metric prefers the same plan):");
+    let _ = writeln!(
+        out,
+        "\nPairwise preferences (the metric prefers the same plan):"
+    );
     for p in &h.pairwise {
-        let _ = writeln!(out, "  {:<8} {:>6} preferences  {}", p.metric, p.n, value(p.agreement));
+        let _ = writeln!(
+            out,
+            "  {:<8} {:>6} preferences  {}",
+            p.metric,
+            p.n,
+            value(p.agreement)
+        );
     }
     out.push('\n');
 }
@@ -202,6 +215,11 @@ fn scatter(m: &MetricAgreement) -> String {
     let left = format!("{h_lo:.2}");
     let right = format!("{h_hi:.2}");
     let gap = PLOT_WIDTH.saturating_sub(left.len() + right.len());
-    let _ = writeln!(out, "{}  {left}{}{right}  human", " ".repeat(7), " ".repeat(gap));
+    let _ = writeln!(
+        out,
+        "{}  {left}{}{right}  human",
+        " ".repeat(7),
+        " ".repeat(gap)
+    );
     out
 }

@@ -1,6 +1,7 @@
 //! The command line: one subcommand a module, each with `--json` where a
 //! program may read the output.
 
+mod agree;
 mod completions;
 mod embed;
 mod eval;
@@ -57,6 +58,8 @@ pub enum Command {
     Plan(plan::PlanArgs),
     /// Plan and score every task of a dataset; write the paper's Table 3.
     Eval(eval::EvalArgs),
+    /// How far PG2S, S_plan, S_goal and KAS agree with human judgements.
+    Agree(agree::AgreeArgs),
     /// Write a shell completion script on standard output.
     Completions(completions::CompletionsArgs),
     /// Write the man page (roff) on standard output.
@@ -156,6 +159,7 @@ pub fn run() -> anyhow::Result<ExitCode> {
         Some(Command::Embed(args)) => embed::run(&args),
         Some(Command::Plan(args)) => plan::run(&args),
         Some(Command::Eval(args)) => eval::run(&args),
+        Some(Command::Agree(args)) => agree::run(&args),
         Some(Command::Completions(args)) => completions::completions(&args),
         Some(Command::Man) => completions::man(),
         None => tui::run(cli.tui),

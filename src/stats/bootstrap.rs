@@ -57,10 +57,7 @@ pub fn percentile_interval(
     }
     defined.sort_unstable_by(f64::total_cmp);
     let tail = (1.0 - level) / 2.0;
-    Ok([
-        percentile(&defined, tail),
-        percentile(&defined, 1.0 - tail),
-    ])
+    Ok([percentile(&defined, tail), percentile(&defined, 1.0 - tail)])
 }
 
 /// The `q` quantile (0..=1) of sorted, non-empty values, interpolated
@@ -97,7 +94,10 @@ mod tests {
         // numpy.percentile([1, 2, 3, 4, 10], [2.5, 97.5]) = [1.1, 9.4]
         let values = [4.0, 1.0, 10.0, 3.0, 2.0].map(Ok);
         let [lo, hi] = percentile_interval(values, 0.95).unwrap_or([f64::NAN; 2]);
-        assert!((lo - 1.1).abs() < 1e-12 && (hi - 9.4).abs() < 1e-12, "{lo} {hi}");
+        assert!(
+            (lo - 1.1).abs() < 1e-12 && (hi - 9.4).abs() < 1e-12,
+            "{lo} {hi}"
+        );
         let one = percentile_interval([Ok(0.5), Err(Undefined::TooFewItems)], 0.95);
         assert_eq!(one, Ok([0.5, 0.5]));
         assert_eq!(

@@ -7,7 +7,6 @@
 //! multiplicity of the items ([`Paired::correlations_weighted`]), which is
 //! what a bootstrap resample is, without sorting again.
 
-
 use super::rank::dense_ranks;
 use super::{Column, Estimate, Undefined};
 
@@ -41,6 +40,18 @@ pub struct Correlations {
     /// Among pairs whose human scores differ, the fraction the metric orders
     /// the same way (a metric tie is not agreement).
     pub pairwise_accuracy: Estimate,
+}
+
+/// A column with its dense ranks ([`dense_ranks`]: 0-based, equal values
+/// sharing a rank).
+#[derive(Debug, Clone, PartialEq)]
+pub struct Ranked {
+    /// The values.
+    pub values: Vec<f64>,
+    /// The dense rank of each value.
+    pub ranks: Vec<u32>,
+    /// How many distinct values (ranks run below this).
+    pub distinct: usize,
 }
 
 /// Pair counts of Knight's algorithm, over the items counted with their
@@ -101,20 +112,34 @@ impl Paired {
     /// score). Panics never; extra values of the longer column are ignored.
     pub fn new(x: &[f64], y: &[f64]) -> Paired {
         let len = x.len().min(y.len());
-        let (x, y) = (x[..len].to_vec(), y[..len].to_vec());
-        let (x_rank, _) = dense_ranks(&x);
-        let (mut y_rank, y_distinct) = dense_ranks(&y);
-        for r in &mut y_rank {
-            *r += 1;
-        }
-        let mut order: Vec<u32> = (0..len as u32).collect();
-        order.sort_unstable_by_key(|&i| (x_rank[i as usize], y_rank[i as usize]));
+        let (x_rank, x_distinct) = dense_ranks(&x[..len]);
+        let (y_rank, y_distinct) = dense_ranks(&y[..len]);
+        Paired::from_ranks(
+            Ranked {
+                values: x[..len].to_vec(),
+                ranks: x_rank,
+                distinct: x_distinct,
+            },
+            Ranked {
+                values: y[..len].to_vec(),
+                ranks: y_rank,
+                distinct: y_distinct,
+            },
+        )
+    }
+
+    /// Prepares two columns whose dense ranks are known already; the order
+    /// by both is found by counting, in O(n + distinct values), so a column
+    /// that changes on every permutation needs no sort.
+    pub fn from_ranks(x: Ranked, y: Ranked) -> Paired {
+        let by_y = counting_order(0..x.ranks.len() as u32, &y.ranks, y.distinct);
+        let order = counting_order(by_y.into_iter(), &x.ranks, x.distinct);
         Paired {
-            x,
-            y,
-            x_rank,
-            y_rank,
-            y_distinct,
+            x: x.values,
+            y: y.values,
+            x_rank: x.ranks,
+            y_rank: y.ranks.into_iter().map(|r| r + 1).collect(),
+            y_distinct: y.distinct,
             order,
         }
     }
@@ -318,6 +343,24 @@ fn weighted_pearson(x: &[f64], y: &[f64], weights: &[u32], n: u64) -> f64 {
     }
 }
 
+/// The items of `input`, stably ordered by `key` (values below `distinct`).
+fn counting_order(input: impl Iterator<Item = u32>, key: &[u32], distinct: usize) -> Vec<u32> {
+    let mut start = vec![0usize; distinct + 1];
+    for &k in key {
+        start[k as usize + 1] += 1;
+    }
+    for i in 1..start.len() {
+        start[i] += start[i - 1];
+    }
+    let mut order = vec![0u32; key.len()];
+    for i in input {
+        let slot = &mut start[key[i as usize] as usize];
+        order[*slot] = i;
+        *slot += 1;
+    }
+    order
+}
+
 /// `n (n - 1) / 2`.
 fn pairs(n: u64) -> u64 {
     n * n.saturating_sub(1) / 2
@@ -387,7 +430,9 @@ mod tests {
         let y = [1.0, 3.0, 2.0, 5.0, 3.0, 1.0];
         let c = Paired::new(&x, &y).correlations();
         assert_eq!(c.n, 6);
-        let close = |a: Estimate, b: f64| assert!((a.unwrap_or(f64::NAN) - b).abs() < 1e-12, "{a:?} vs {b}");
+        let close = |a: Estimate, b: f64| {
+            assert!((a.unwrap_or(f64::NAN) - b).abs() < 1e-12, "{a:?} vs {b}")
+        };
         close(c.kendall_tau_b, 0.7412493166611012);
         close(c.spearman, 0.8508410434878082);
         close(c.pearson, 0.9430419201928971);
@@ -408,7 +453,10 @@ mod tests {
         assert_eq!(c.kendall_tau_b, Err(Undefined::Constant(Column::Second)));
         assert_eq!(c.pairwise_accuracy, Err(Undefined::NoDifferingPairs));
         let c = Paired::new(&[0.1, 0.2], &[5.0, 4.0]).correlations();
-        assert_eq!((c.kendall_tau_b, c.spearman, c.pearson), (Ok(-1.0), Ok(-1.0), Ok(-1.0)));
+        assert_eq!(
+            (c.kendall_tau_b, c.spearman, c.pearson),
+            (Ok(-1.0), Ok(-1.0), Ok(-1.0))
+        );
         assert!(Paired::new(&[], &[]).is_empty());
     }
 

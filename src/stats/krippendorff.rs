@@ -3,7 +3,6 @@
 //! missing values: coincidences within units, expected coincidences from
 //! the pairable values, and `1 - D_o / D_e`.
 
-
 use super::{Estimate, Undefined};
 
 /// The level of measurement, which fixes the distance between two values.
@@ -106,9 +105,57 @@ mod tests {
     /// The example of the package's documentation (Krippendorff's own).
     fn example() -> Vec<Vec<Option<f64>>> {
         let rows: [[f64; 15]; 3] = [
-            [f64::NAN, f64::NAN, f64::NAN, f64::NAN, f64::NAN, 3., 4., 1., 2., 1., 1., 3., 3., f64::NAN, 3.],
-            [1., f64::NAN, 2., 1., 3., 3., 4., 3., f64::NAN, f64::NAN, f64::NAN, f64::NAN, f64::NAN, f64::NAN, f64::NAN],
-            [f64::NAN, f64::NAN, 2., 1., 3., 4., 4., f64::NAN, 2., 1., 1., 3., 3., f64::NAN, 4.],
+            [
+                f64::NAN,
+                f64::NAN,
+                f64::NAN,
+                f64::NAN,
+                f64::NAN,
+                3.,
+                4.,
+                1.,
+                2.,
+                1.,
+                1.,
+                3.,
+                3.,
+                f64::NAN,
+                3.,
+            ],
+            [
+                1.,
+                f64::NAN,
+                2.,
+                1.,
+                3.,
+                3.,
+                4.,
+                3.,
+                f64::NAN,
+                f64::NAN,
+                f64::NAN,
+                f64::NAN,
+                f64::NAN,
+                f64::NAN,
+                f64::NAN,
+            ],
+            [
+                f64::NAN,
+                f64::NAN,
+                2.,
+                1.,
+                3.,
+                4.,
+                4.,
+                f64::NAN,
+                2.,
+                1.,
+                1.,
+                3.,
+                3.,
+                f64::NAN,
+                4.,
+            ],
         ];
         rows.iter()
             .map(|r| r.iter().map(|&v| (!v.is_nan()).then_some(v)).collect())
@@ -128,10 +175,19 @@ mod tests {
     #[test]
     fn undefined_cases() {
         let one_value = vec![vec![Some(3.0), Some(3.0)], vec![Some(3.0), None]];
-        assert_eq!(alpha(&one_value, Level::Ordinal), Err(Undefined::NoVariation));
+        assert_eq!(
+            alpha(&one_value, Level::Ordinal),
+            Err(Undefined::NoVariation)
+        );
         let unshared = vec![vec![Some(1.0), None], vec![None, Some(2.0)]];
-        assert_eq!(alpha(&unshared, Level::Interval), Err(Undefined::NoSharedUnits));
+        assert_eq!(
+            alpha(&unshared, Level::Interval),
+            Err(Undefined::NoSharedUnits)
+        );
         let agree_within = vec![vec![Some(1.0), Some(2.0)], vec![Some(1.0), None]];
-        assert_eq!(alpha(&agree_within, Level::Interval), Err(Undefined::NoVariation));
+        assert_eq!(
+            alpha(&agree_within, Level::Interval),
+            Err(Undefined::NoVariation)
+        );
     }
 }

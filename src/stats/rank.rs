@@ -26,6 +26,25 @@ pub fn dense_ranks(values: &[f64]) -> (Vec<u32>, usize) {
     (ranks, distinct)
 }
 
+/// The dense ranks of whole-number keys below `bound`, found by counting
+/// (O(n + bound)) instead of sorting.
+pub fn dense_ranks_of_keys(keys: &[u32], bound: usize) -> (Vec<u32>, usize) {
+    let mut rank_of = vec![0u32; bound];
+    for &k in keys {
+        rank_of[k as usize] = 1;
+    }
+    let mut distinct = 0u32;
+    for slot in &mut rank_of {
+        let present = *slot;
+        *slot = distinct;
+        distinct += present;
+    }
+    (
+        keys.iter().map(|&k| rank_of[k as usize]).collect(),
+        distinct as usize,
+    )
+}
+
 /// The average ranks (1-based, ties sharing the mean of their positions),
 /// as `scipy.stats.rankdata(values, method="average")`.
 pub fn average_ranks(values: &[f64]) -> Vec<f64> {
@@ -49,7 +68,8 @@ pub fn average_ranks(values: &[f64]) -> Vec<f64> {
 /// Ascending order of two values, with `-0.0` and `0.0` side by side and
 /// NaN last.
 fn cmp(a: f64, b: f64) -> Ordering {
-    a.partial_cmp(&b).unwrap_or_else(|| a.is_nan().cmp(&b.is_nan()))
+    a.partial_cmp(&b)
+        .unwrap_or_else(|| a.is_nan().cmp(&b.is_nan()))
 }
 
 #[cfg(test)]
@@ -64,5 +84,9 @@ mod tests {
         assert_eq!(distinct, 4);
         assert_eq!(average_ranks(&values), [4.5, 3.0, 4.5, 1.5, 1.5, 6.0]);
         assert_eq!(dense_ranks(&[]), (vec![], 0));
+        assert_eq!(
+            dense_ranks_of_keys(&[9, 3, 9, 0], 10),
+            (vec![2, 1, 2, 0], 3)
+        );
     }
 }
