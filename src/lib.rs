@@ -8,6 +8,7 @@ pub mod agents;
 pub mod agree;
 pub mod annotate;
 pub mod cli;
+pub mod corrupt;
 pub mod dataset;
 pub mod demo;
 pub mod metrics;
