@@ -4,6 +4,8 @@
 //! Data flows one way: a dataset or scene goes to the agents, the agents make a
 //! plan, the metrics judge the plan, and the views show all of it.
 
+#![warn(missing_docs)]
+
 pub mod agents;
 pub mod annotate;
 pub mod cli;
