@@ -4,6 +4,8 @@
 //! Data flows one way: a dataset or scene goes to the agents, the agents make a
 //! plan, the metrics judge the plan, and the views show all of it.
 
+#![warn(missing_docs)]
+
 pub mod agents;
 pub mod agree;
 pub mod annotate;
@@ -17,4 +19,5 @@ pub mod nlp;
 pub mod plan;
 pub mod session;
 pub mod stats;
+pub mod store;
 pub mod tui;
