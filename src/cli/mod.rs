@@ -1,6 +1,7 @@
 //! The command line: one subcommand a module, each with `--json` where a
 //! program may read the output.
 
+mod agree;
 mod cache;
 mod completions;
 mod corrupt;
@@ -61,6 +62,8 @@ pub enum Command {
     Plan(plan::PlanArgs),
     /// Plan and score every task of a dataset; write the paper's Table 3.
     Eval(eval::EvalArgs),
+    /// How far PG2S, S_plan, S_goal and KAS agree with human judgements.
+    Agree(agree::AgreeArgs),
     /// Show, prune or clear the embedding and response caches.
     Cache(cache::CacheArgs),
     /// Write a dataset's plans or an items file plus seeded corruptions of every plan.
@@ -226,6 +229,7 @@ pub fn run() -> anyhow::Result<ExitCode> {
         Some(Command::Embed(args)) => embed::run(&args),
         Some(Command::Plan(args)) => plan::run(&args),
         Some(Command::Eval(args)) => eval::run(&args),
+        Some(Command::Agree(args)) => agree::run(&args),
         Some(Command::Cache(args)) => cache::run(&args),
         Some(Command::Corrupt(args)) => corrupt::run(&args),
         Some(Command::Completions(args)) => completions::completions(&args),
