@@ -1,6 +1,7 @@
 //! The command line: one subcommand a module, each with `--json` where a
 //! program may read the output.
 
+mod annotate;
 mod embed;
 mod eval;
 mod models;
@@ -56,6 +57,8 @@ pub enum Command {
     Plan(plan::PlanArgs),
     /// Plan and score every task of a dataset; write the paper's Table 3.
     Eval(eval::EvalArgs),
+    /// Judge plans blind, one screen per item (or pair); --export writes CSV.
+    Annotate(annotate::AnnotateArgs),
 }
 
 /// Where the model pack is, for the commands that need one model of it.
@@ -154,6 +157,7 @@ pub fn run() -> anyhow::Result<ExitCode> {
         Some(Command::Embed(args)) => embed::run(&args),
         Some(Command::Plan(args)) => plan::run(&args),
         Some(Command::Eval(args)) => eval::run(&args),
+        Some(Command::Annotate(args)) => annotate::run(args),
         None => tui::run(cli.tui),
     }
 }
