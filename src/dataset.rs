@@ -1,8 +1,11 @@
 //! Datasets (`dataset.md`): a folder with `tasks.jsonl`, one task a line, and
 //! the pairs files used for batch scoring.
 
+pub mod lines;
+
 use std::collections::BTreeMap;
 use std::fmt;
+use std::io::BufRead;
 use std::path::{Path, PathBuf};
 
 use serde::{Deserialize, Serialize};
@@ -85,16 +88,21 @@ pub struct Dataset {
     pub tasks: Vec<Task>,
 }
 
-/// Reads a whole text file as UTF-8, with errors naming the file.
+/// Reads a whole text file as UTF-8, with errors naming the file; a UTF-8
+/// byte-order mark at its start is dropped (it is not part of the text).
 pub fn read_text(path: &Path) -> Result<String, DatasetError> {
     let bytes = std::fs::read(path).map_err(|error| DatasetError::Read {
         path: path.to_path_buf(),
         error,
     })?;
-    String::from_utf8(bytes).map_err(|e| DatasetError::NotUtf8 {
+    let mut text = String::from_utf8(bytes).map_err(|e| DatasetError::NotUtf8 {
         path: path.to_path_buf(),
         offset: e.utf8_error().valid_up_to(),
-    })
+    })?;
+    if text.starts_with(lines::BOM) {
+        text.drain(..lines::BOM.len());
+    }
+    Ok(text)
 }
 
 #[derive(Deserialize)]
@@ -257,23 +265,76 @@ pub struct SwappedWords {
     pub to: String,
 }
 
-/// Reads a pairs file (`{"id", "gt", "pred"}` per line). Each line is either
-/// a pair or the reason it could not be read, so the good ones can still be
-/// scored in order.
-pub fn load_pairs(path: &Path) -> Result<Vec<Result<Pair, LineError>>, DatasetError> {
-    let text = read_text(path)?;
-    Ok(text
-        .lines()
-        .enumerate()
-        .filter(|(_, line)| !line.trim().is_empty())
-        .map(|(n, line)| {
-            serde_json::from_str::<Pair>(line).map_err(|e| LineError {
-                path: path.to_path_buf(),
-                line: n + 1,
-                message: format!("not a pair {{\"id\", \"gt\", \"pred\"}}: {e}"),
-            })
-        })
-        .collect())
+/// The longest pairs-file line read, in bytes: a longer line is skipped
+/// with its number (a pair that long is not a plan), so memory stays bounded.
+pub const MAX_PAIR_LINE_BYTES: usize = 4 << 20;
+
+/// The pairs of a pairs file (`{"id", "gt", "pred"}` per line), read one line
+/// at a time so that memory stays bounded whatever the file's size. Each item
+/// is a pair or the reason its line could not be read (with the line's
+/// number), so the good ones can still be scored in order.
+pub struct PairsReader {
+    path: PathBuf,
+    lines: lines::BoundedLines<Box<dyn BufRead + Send>>,
+    failed: bool,
+}
+
+/// Opens a pairs file for reading; `-` is standard input.
+pub fn open_pairs(path: &Path) -> Result<PairsReader, DatasetError> {
+    let source: Box<dyn BufRead + Send> = if path == Path::new("-") {
+        Box::new(std::io::BufReader::new(std::io::stdin()))
+    } else {
+        let file = std::fs::File::open(path).map_err(|error| DatasetError::Read {
+            path: path.to_path_buf(),
+            error,
+        })?;
+        Box::new(std::io::BufReader::with_capacity(1 << 16, file))
+    };
+    let shown = if path == Path::new("-") {
+        PathBuf::from("standard input")
+    } else {
+        path.to_path_buf()
+    };
+    Ok(PairsReader {
+        path: shown,
+        lines: lines::BoundedLines::new(source, MAX_PAIR_LINE_BYTES),
+        failed: false,
+    })
+}
+
+impl Iterator for PairsReader {
+    type Item = Result<Pair, LineError>;
+
+    fn next(&mut self) -> Option<Self::Item> {
+        if self.failed {
+            return None;
+        }
+        loop {
+            let error = |line: usize, message: String| LineError {
+                path: self.path.clone(),
+                line,
+                message,
+            };
+            let (n, text) = match self.lines.next()? {
+                Ok(line) => line,
+                Err(err) => {
+                    self.failed = true;
+                    return Some(Err(error(0, format!("cannot read further: {err}"))));
+                }
+            };
+            let text = match text {
+                Ok(text) => text,
+                Err(problem) => return Some(Err(error(n, problem.to_string()))),
+            };
+            if text.trim().is_empty() {
+                continue;
+            }
+            return Some(
+                serde_json::from_str::<Pair>(&text)
+                    .map_err(|e| error(n, format!("not a pair {{\"id\", \"gt\", \"pred\"}}: {e}"))),
+            );
+        }
+    }
 }
 
 #[cfg(test)]

@@ -10,6 +10,7 @@
 /// "Here is the plan:" and closing remarks are left out. When no line carries a
 /// marker, every non-blank line is a step, except a first line ending in `:`.
 pub fn parse_steps(text: &str) -> Vec<String> {
+    let text = text.strip_prefix('\u{feff}').unwrap_or(text);
     let lines: Vec<&str> = text
         .lines()
         .map(str::trim)
@@ -27,6 +28,42 @@ pub fn parse_steps(text: &str) -> Vec<String> {
         .map(clean_step)
         .filter(|s| !s.is_empty())
         .collect()
+}
+
+/// The longest step scored, in characters. The sentence encoder reads at
+/// most 384 tokens of a step (about 2,000 characters of English) and the
+/// parser needs no more to find a step's actions, so a longer step is cut
+/// here rather than costing minutes and gigabytes further on.
+pub const MAX_STEP_CHARS: usize = 2_000;
+
+/// The most steps of one plan scored: a plan is a list of actions a person
+/// reads, and matching costs the product of the two plans' lengths.
+pub const MAX_STEPS: usize = 1_000;
+
+/// Cuts `steps` to the limits above; returns what was cut, in words for the
+/// user, or `None` when nothing was.
+pub fn bound_steps(steps: &mut Vec<String>) -> Option<String> {
+    let mut notes = Vec::new();
+    if steps.len() > MAX_STEPS {
+        notes.push(format!(
+            "{} steps, only the first {MAX_STEPS} kept",
+            steps.len()
+        ));
+        steps.truncate(MAX_STEPS);
+    }
+    let mut cut = 0;
+    for step in steps.iter_mut() {
+        if let Some((end, _)) = step.char_indices().nth(MAX_STEP_CHARS) {
+            step.truncate(end);
+            cut += 1;
+        }
+    }
+    if cut > 0 {
+        notes.push(format!(
+            "{cut} step(s) longer than {MAX_STEP_CHARS} characters cut to that length"
+        ));
+    }
+    (!notes.is_empty()).then(|| notes.join("; "))
 }
 
 /// Removes a trailing `,` after the final period (`... sink.,`) and markdown
@@ -102,7 +139,26 @@ fn strip_number(line: &str) -> Option<&str> {
 
 #[cfg(test)]
 mod tests {
-    use super::parse_steps;
+    use super::{bound_steps, parse_steps, MAX_STEPS, MAX_STEP_CHARS};
+
+    #[test]
+    fn a_bom_does_not_hide_the_first_step() {
+        assert_eq!(parse_steps("\u{feff}1. Go.\n2. Stop."), ["Go.", "Stop."]);
+        assert_eq!(parse_steps("\u{feff}Go.\nStop."), ["Go.", "Stop."]);
+    }
+
+    #[test]
+    fn steps_are_bounded_in_length_and_number() {
+        let mut steps = vec!["é".repeat(MAX_STEP_CHARS + 5), "Go.".into()];
+        let note = bound_steps(&mut steps).unwrap_or_default();
+        assert_eq!(steps[0].chars().count(), MAX_STEP_CHARS);
+        assert_eq!(steps[1], "Go.");
+        assert!(note.contains("1 step(s) longer"), "{note}");
+        let mut many = vec!["Go.".to_string(); MAX_STEPS + 1];
+        assert!(bound_steps(&mut many).is_some());
+        assert_eq!(many.len(), MAX_STEPS);
+        assert_eq!(bound_steps(&mut many), None);
+    }
 
     #[test]
     fn strips_numbering_bullets_and_step_words() {

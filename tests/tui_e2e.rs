@@ -69,21 +69,30 @@ fn score_on(screen: &str, name: &str) -> Option<String> {
     })
 }
 
-/// Starts mapvlm on the demo in a fresh tmux server, or `None` without tmux.
-fn start(name: &str, dir: &Path, session: &Path) -> Option<Tmux> {
-    if Command::new("tmux").arg("-V").output().is_err() {
-        eprintln!("SKIPPED: tmux is not installed; install it to run this test");
-        return None;
-    }
+/// Starts mapvlm on the demo in a fresh tmux server (200×60) with the
+/// half-block picker. Fails when tmux is missing: `.ci/run` installs it.
+fn start(name: &str, dir: &Path, session: &Path) -> Tmux {
+    start_with(name, dir, session, "--halfblocks")
+}
+
+/// Starts mapvlm with `flags` as a user would in tmux: TERM=xterm-256color,
+/// and its exit status written to `dir/status` when it ends.
+fn start_with(name: &str, dir: &Path, session: &Path, flags: &str) -> Tmux {
+    let version = Command::new("tmux").arg("-V").output();
+    assert!(
+        version.is_ok_and(|o| o.status.success()),
+        "tmux is not installed: install it to run the end-to-end tests (.ci/run does)"
+    );
     let tmux = Tmux {
         socket: format!("mapvlm-{name}-{}", std::process::id()),
     };
     let command = format!(
-        "env -u NO_COLOR HOME={} MAPVLM_MODELS={} {} --halfblocks --replay-delay 1 --session {}",
+        "env -u NO_COLOR TERM=xterm-256color HOME={} MAPVLM_MODELS={} {} {flags} --replay-delay 1 --session {}; echo $? > {}/status",
         dir.display(),
         mapvlm::models::models_dir(None).display(),
         env!("CARGO_BIN_EXE_mapvlm"),
-        session.display()
+        session.display(),
+        dir.display(),
     );
     tmux.cmd(&[
         "new-session",
@@ -96,16 +105,76 @@ fn start(name: &str, dir: &Path, session: &Path) -> Option<Tmux> {
         "60",
         &command,
     ]);
-    Some(tmux)
+    tmux
+}
+
+/// Waits for the exit status `start_with` writes, and returns it.
+fn exit_status(dir: &Path) -> String {
+    let path = dir.join("status");
+    let start = Instant::now();
+    loop {
+        if let Ok(text) = std::fs::read_to_string(&path) {
+            if text.ends_with('\n') {
+                return text.trim().to_string();
+            }
+        }
+        assert!(
+            start.elapsed() < Duration::from_secs(10),
+            "mapvlm did not quit"
+        );
+        std::thread::sleep(Duration::from_millis(50));
+    }
+}
+
+/// The first frame is on screen: the title bar and the panes.
+fn first_frame(screen: &str) -> bool {
+    screen.contains(" mapvlm │ demo │") && screen.contains("Plan")
+}
+
+#[test]
+fn q_as_the_first_key_quits_without_halfblocks() {
+    let dir = tempfile::tempdir().unwrap();
+    let tmux = start_with("first-q", dir.path(), &dir.path().join("s.json"), "");
+    tmux.wait_for("the first frame", first_frame);
+    tmux.keys(&["q"]);
+    assert_eq!(exit_status(dir.path()), "0");
+}
+
+#[test]
+fn help_as_the_first_key_and_a_resize_drawn_at_once_without_halfblocks() {
+    let dir = tempfile::tempdir().unwrap();
+    let tmux = start_with("first-help", dir.path(), &dir.path().join("s.json"), "");
+    tmux.wait_for("the first frame", first_frame);
+    tmux.keys(&["?"]);
+    tmux.wait_for("the help", |s| s.contains("Keys (any key closes)"));
+    tmux.cmd(&["resize-window", "-t", "e2e", "-x", "120", "-y", "40"]);
+    // Redrawn for 120 columns: the rightmost pane closes in the last column.
+    let start = Instant::now();
+    loop {
+        let screen = tmux.screen();
+        let redrawn = screen
+            .lines()
+            .nth(1)
+            .is_some_and(|l| l.chars().count() == 120 && l.ends_with('┐'));
+        if redrawn {
+            break;
+        }
+        assert!(
+            start.elapsed() < Duration::from_secs(3),
+            "the resize was not drawn; screen:\n{screen}"
+        );
+        std::thread::sleep(Duration::from_millis(20));
+    }
+    tmux.keys(&["Escape"]);
+    tmux.keys(&["q"]);
+    assert_eq!(exit_status(dir.path()), "0");
 }
 
 #[test]
 fn demo_ground_truth_switch_step_edit_and_quit_in_tmux() {
     let dir = tempfile::tempdir().unwrap();
     let session = dir.path().join("session.json");
-    let Some(tmux) = start("e2e", dir.path(), &session) else {
-        return;
-    };
+    let tmux = start("e2e", dir.path(), &session);
     let screen = tmux.wait_for("the demo's plan and scores", |s| {
         s.contains("run 1 finished") && kas_on(s).is_some() && score_on(s, "PG2S").is_some()
     });
@@ -159,9 +228,7 @@ fn assert_session_holds_the_edit(path: &Path) {
 fn a_kill_while_typing_loses_at_most_the_last_second() {
     let dir = tempfile::tempdir().unwrap();
     let session = dir.path().join("session.json");
-    let Some(tmux) = start("kill", dir.path(), &session) else {
-        return;
-    };
+    let tmux = start("kill", dir.path(), &session);
     tmux.wait_for("the demo's plan", |s| s.contains("run 1 finished"));
     tmux.keys(&["Enter"]);
     tmux.wait_for("the step editor", |s| s.contains("EDIT step"));
@@ -179,4 +246,138 @@ fn a_kill_while_typing_loses_at_most_the_last_second() {
         serde_json::from_str(&std::fs::read_to_string(&session).unwrap()).unwrap();
     let draft = json["draft"]["text"].as_str().unwrap_or_default();
     assert!(draft.ends_with("typed before the kill"), "{json}");
+}
+
+/// mapvlm on a pseudo-terminal of `script`'s, whose other side this test
+/// plays: it reads what mapvlm writes and types, or answers, as a terminal.
+struct Pty {
+    child: std::process::Child,
+    stdin: std::process::ChildStdin,
+    output: std::sync::Arc<std::sync::Mutex<Vec<u8>>>,
+}
+
+impl Pty {
+    fn start(dir: &Path) -> Pty {
+        use std::io::Read;
+        use std::process::Stdio;
+        let found = Command::new("script").arg("--version").output();
+        assert!(
+            found.is_ok_and(|o| o.status.success()),
+            "script (util-linux) is not installed: install it to run this test"
+        );
+        let command = format!(
+            "stty rows 40 cols 120; exec {} --replay-delay 1 --session {}",
+            env!("CARGO_BIN_EXE_mapvlm"),
+            dir.join("session.json").display()
+        );
+        let mut child = Command::new("script")
+            .args(["-q", "-e", "-c", &command, "/dev/null"])
+            .env_remove("TMUX")
+            .env_remove("TERM_PROGRAM")
+            .env_remove("NO_COLOR")
+            .env("TERM", "xterm-256color")
+            .env("HOME", dir)
+            .env("MAPVLM_MODELS", mapvlm::models::models_dir(None))
+            .stdin(Stdio::piped())
+            .stdout(Stdio::piped())
+            .stderr(Stdio::null())
+            .spawn()
+            .expect("script starts");
+        let stdin = child.stdin.take().unwrap();
+        let mut stdout = child.stdout.take().unwrap();
+        let output = std::sync::Arc::new(std::sync::Mutex::new(Vec::new()));
+        let sink = output.clone();
+        std::thread::spawn(move || {
+            let mut buf = [0u8; 4096];
+            while let Ok(n) = stdout.read(&mut buf) {
+                if n == 0 {
+                    return;
+                }
+                sink.lock().unwrap().extend_from_slice(&buf[..n]);
+            }
+        });
+        Pty {
+            child,
+            stdin,
+            output,
+        }
+    }
+
+    fn send(&mut self, bytes: &[u8]) {
+        use std::io::Write;
+        self.stdin.write_all(bytes).unwrap();
+        self.stdin.flush().unwrap();
+    }
+
+    fn wait_for(&self, what: &str, text: &str) {
+        let start = Instant::now();
+        loop {
+            let found = {
+                let out = self.output.lock().unwrap();
+                out.windows(text.len()).any(|w| w == text.as_bytes())
+            };
+            if found {
+                return;
+            }
+            assert!(
+                start.elapsed() < Duration::from_secs(30),
+                "timed out waiting for {what}"
+            );
+            std::thread::sleep(Duration::from_millis(20));
+        }
+    }
+
+    fn exit_code(mut self) -> Option<i32> {
+        let start = Instant::now();
+        loop {
+            if let Some(status) = self.child.try_wait().unwrap() {
+                return status.code();
+            }
+            if start.elapsed() > Duration::from_secs(10) {
+                let _ = self.child.kill();
+                panic!("mapvlm did not quit");
+            }
+            std::thread::sleep(Duration::from_millis(20));
+        }
+    }
+}
+
+/// A kitty-like answer to ratatui-image's query: graphics, sixels, a cell
+/// size, then the status report that ends it.
+const KITTY_ANSWER: &[u8] = b"\x1b_Gi=31;OK\x1b\\\x1b[?62;4c\x1b[6;20;10t\x1b[0n";
+
+#[test]
+fn a_terminal_that_answers_the_graphics_query_gets_the_first_key() {
+    let dir = tempfile::tempdir().unwrap();
+    let mut pty = Pty::start(dir.path());
+    pty.wait_for("the graphics query", "\x1b[5n");
+    pty.send(KITTY_ANSWER);
+    pty.wait_for("the first frame", "mapvlm");
+    pty.send(b"?");
+    pty.wait_for("the help", "Keys (any key closes)");
+    pty.send(b"q");
+    std::thread::sleep(Duration::from_millis(100));
+    pty.send(b"q");
+    assert_eq!(pty.exit_code(), Some(0));
+}
+
+#[test]
+fn a_key_typed_before_a_slow_answer_counts() {
+    let dir = tempfile::tempdir().unwrap();
+    let mut pty = Pty::start(dir.path());
+    pty.wait_for("the graphics query", "\x1b[5n");
+    pty.send(b"q");
+    std::thread::sleep(Duration::from_millis(50));
+    pty.send(KITTY_ANSWER);
+    assert_eq!(pty.exit_code(), Some(0));
+}
+
+#[test]
+fn a_terminal_that_never_answers_still_gets_the_first_key() {
+    let dir = tempfile::tempdir().unwrap();
+    let mut pty = Pty::start(dir.path());
+    pty.wait_for("the graphics query", "\x1b[5n");
+    std::thread::sleep(Duration::from_millis(800));
+    pty.send(b"q");
+    assert_eq!(pty.exit_code(), Some(0));
 }

@@ -120,3 +120,26 @@ pub fn write_atomic(path: &Path, bytes: &[u8]) -> Result<(), AgentError> {
     temp.persist(path).map_err(|err| io(err.error))?;
     Ok(())
 }
+
+/// Checks, before any work is spent, that a file could be written at `path`
+/// by [`write_atomic`]: its folder exists or can be made, a file can be
+/// created there, and `path` is not a folder. Nothing is left behind but
+/// the folder.
+pub fn check_writable(path: &Path) -> Result<(), AgentError> {
+    let io = |message: String| AgentError::Io {
+        path: path.to_path_buf(),
+        message,
+    };
+    if path.is_dir() {
+        return Err(io("is a folder; give a file name".into()));
+    }
+    let parent = path
+        .parent()
+        .filter(|p| !p.as_os_str().is_empty())
+        .unwrap_or(Path::new("."));
+    std::fs::create_dir_all(parent)
+        .map_err(|err| io(format!("cannot create its folder ({err})")))?;
+    tempfile::NamedTempFile::new_in(parent)
+        .map(drop)
+        .map_err(|err| io(format!("cannot write in its folder ({err})")))
+}

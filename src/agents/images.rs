@@ -22,6 +22,11 @@ pub fn prepare_image(path: &Path, max_edge: u32) -> Result<ImageInput, AgentErro
         reason,
     };
     let bytes = std::fs::read(path).map_err(|err| fail(format!("cannot read it ({err})")))?;
+    if bytes.is_empty() {
+        return Err(fail(
+            "the file is empty (0 bytes): copy the image again".into(),
+        ));
+    }
     let reader = ImageReader::new(Cursor::new(&bytes))
         .with_guessed_format()
         .map_err(|err| fail(format!("cannot read it ({err})")))?;
@@ -88,5 +93,10 @@ mod tests {
         std::fs::write(&bad, b"\xff\xd8\xff\xe0 not really a jpeg").unwrap();
         let err = prepare_image(&bad, 1000).unwrap_err().to_string();
         assert!(err.contains("scene.jpg"), "{err}");
+
+        let empty = dir.path().join("empty.jpg");
+        std::fs::write(&empty, b"").unwrap();
+        let err = prepare_image(&empty, 1000).unwrap_err().to_string();
+        assert!(err.contains("empty.jpg: the file is empty"), "{err}");
     }
 }

@@ -11,7 +11,7 @@ use crate::annotate::guidelines::Guidelines;
 use crate::annotate::{
     default_annotations_path, export_csv, AnnotationWriter, Annotations, Current,
 };
-use crate::dataset::load_pairs;
+use crate::dataset::open_pairs;
 use crate::tui::annotate::{self, Options};
 use crate::tui::theme;
 
@@ -157,7 +157,7 @@ fn read_items(path: &Path) -> anyhow::Result<(Vec<crate::dataset::Pair>, Vec<Str
     let mut items = Vec::new();
     let mut notices = Vec::new();
     let mut bad = Vec::new();
-    for line in load_pairs(path)? {
+    for line in open_pairs(path)? {
         match line {
             Ok(item) => items.push(item),
             Err(e) => {

@@ -17,7 +17,7 @@ use tokio_util::sync::CancellationToken;
 
 use super::plan::{runtime, AgentArgs};
 use super::score::Metric;
-use crate::agents::cache::write_atomic;
+use crate::agents::cache::{check_writable, write_atomic};
 use crate::agents::pipeline::{PlanInput, PlanRecord, Runner};
 use crate::agents::Approach;
 use crate::dataset::{Dataset, Task};
@@ -90,8 +90,12 @@ struct Job<'a> {
     file: PathBuf,
 }
 
-/// Runs `mapvlm eval`.
+/// Runs `mapvlm eval`. Every task's result is written as soon as it is
+/// scored; a task that fails is named with its reason and the others go on.
 pub fn run(args: &EvalArgs) -> anyhow::Result<ExitCode> {
+    let tasks_dir = args.out.join("tasks");
+    check_writable(&tasks_dir.join("probe.json"))
+        .context("the results could not be written, so nothing was asked of any model")?;
     let (dataset, bad_lines) = Dataset::load(&args.dataset)?;
     for line in &bad_lines {
         eprintln!("mapvlm: {line}; that task was skipped");
@@ -102,26 +106,23 @@ pub fn run(args: &EvalArgs) -> anyhow::Result<ExitCode> {
         args.approaches.clone()
     };
     let scorer = pg2s_scorer(args)?;
-    let tasks_dir = args.out.join("tasks");
-    let mut results: Vec<TaskResult> = Vec::new();
+    let mut done = Finished {
+        scorer: scorer.as_deref(),
+        results: Vec::new(),
+        failures: 0,
+    };
     let mut to_make = Vec::new();
     let mut skipped = 0;
     for task in &dataset.tasks {
         for &approach in &approaches {
             let file = tasks_dir.join(format!("{}.{}.json", safe_name(&task.id), approach));
             match read_result(&file) {
-                Some(done) if done.pg2s_scored || scorer.is_none() => results.push(done),
-                Some(mut planned) => {
-                    score(&mut planned, scorer.as_deref())?;
-                    write_result(&file, &planned)?;
-                    results.push(planned);
-                }
+                Some(result) if result.pg2s_scored || scorer.is_none() => done.results.push(result),
+                Some(planned) => done.add(&file, planned),
                 None if args.from_dataset_plans => match task.plans.get(approach.dataset_field()) {
                     Some(steps) => {
-                        let mut result = new_result(task, approach, "dataset", steps.clone(), None);
-                        score(&mut result, scorer.as_deref())?;
-                        write_result(&file, &result)?;
-                        results.push(result);
+                        let result = new_result(task, approach, "dataset", steps.clone(), None);
+                        done.add(&file, result);
                     }
                     None => skipped += 1,
                 },
@@ -134,29 +135,14 @@ pub fn run(args: &EvalArgs) -> anyhow::Result<ExitCode> {
             }
         }
     }
-    let mut failures = 0;
     if !to_make.is_empty() {
-        let made = make_plans(args, to_make)?;
-        for (job, record) in made {
-            match record.first_error() {
-                Some((role, error)) => {
-                    eprintln!(
-                        "mapvlm: {} {}: {role} failed: {error}",
-                        job.task.id, job.approach
-                    );
-                    failures += 1;
-                }
-                None => {
-                    let steps = record.steps.clone();
-                    let mut result =
-                        new_result(job.task, job.approach, "model", steps, Some(record));
-                    score(&mut result, scorer.as_deref())?;
-                    write_result(&job.file, &result)?;
-                    results.push(result);
-                }
-            }
-        }
+        make_plans(args, to_make, &mut done)?;
     }
+    let Finished {
+        mut results,
+        failures,
+        ..
+    } = done;
     let order = |r: &TaskResult| {
         let task = dataset.tasks.iter().position(|t| t.id == r.id);
         let approach = approaches.iter().position(|a| *a == r.approach);
@@ -171,11 +157,40 @@ pub fn run(args: &EvalArgs) -> anyhow::Result<ExitCode> {
         results.len(),
         args.out.display()
     );
+    if failures > 0 {
+        eprintln!("mapvlm: run the same command again to retry only what failed");
+    }
     Ok(if failures == 0 && bad_lines.is_empty() {
         ExitCode::SUCCESS
     } else {
         ExitCode::FAILURE
     })
+}
+
+/// The results gathered so far and how many tasks failed.
+struct Finished<'a> {
+    scorer: Option<&'a Pg2sScorer>,
+    results: Vec<TaskResult>,
+    failures: usize,
+}
+
+impl Finished<'_> {
+    /// Scores `result` and writes it to `file` at once, so that a later
+    /// failure or a kill loses nothing already paid for; a failure is named
+    /// on stderr and counted.
+    fn add(&mut self, file: &Path, mut result: TaskResult) {
+        let outcome = score(&mut result, self.scorer).and_then(|()| write_result(file, &result));
+        match outcome {
+            Ok(()) => self.results.push(result),
+            Err(err) => self.fail(&result.id, result.approach, &format!("{err:#}")),
+        }
+    }
+
+    /// Names a failed task on stderr and counts it.
+    fn fail(&mut self, id: &str, approach: Approach, reason: &str) {
+        eprintln!("mapvlm: {id} {approach}: {reason}");
+        self.failures += 1;
+    }
 }
 
 fn pg2s_scorer(args: &EvalArgs) -> anyhow::Result<Option<Arc<Pg2sScorer>>> {
@@ -246,11 +261,9 @@ fn score(result: &mut TaskResult, scorer: Option<&Pg2sScorer>) -> anyhow::Result
     Ok(())
 }
 
-/// Makes the plans of `jobs`, at most `--concurrency` at once.
-fn make_plans<'a>(
-    args: &EvalArgs,
-    jobs: Vec<Job<'a>>,
-) -> anyhow::Result<Vec<(Job<'a>, PlanRecord)>> {
+/// Makes the plans of `jobs`, at most `--concurrency` at once, each scored
+/// and written as soon as it is made.
+fn make_plans(args: &EvalArgs, jobs: Vec<Job<'_>>, done: &mut Finished) -> anyhow::Result<()> {
     let (runner, recording) = args.agents.runner()?;
     let runner = Arc::new(runner);
     let cancel = CancellationToken::new();
@@ -261,8 +274,8 @@ fn make_plans<'a>(
             .unwrap_or_else(|_| ProgressStyle::default_bar()),
     );
     let limit = Arc::new(Semaphore::new(args.concurrency.max(1)));
-    let mut handles = Vec::new();
-    for job in &jobs {
+    let mut running = tokio::task::JoinSet::new();
+    for (index, job) in jobs.iter().enumerate() {
         let runner: Arc<Runner> = runner.clone();
         let limit = limit.clone();
         let cancel = cancel.clone();
@@ -274,29 +287,43 @@ fn make_plans<'a>(
             table: job.task.table.clone(),
         };
         let label = format!("{} {approach}", job.task.id);
-        handles.push(runtime.spawn(async move {
-            let _permit = limit.acquire_owned().await;
-            let (events, mut drained) = tokio::sync::mpsc::unbounded_channel();
-            let drain = tokio::spawn(async move { while drained.recv().await.is_some() {} });
-            let record = runner.plan(approach, &input, &events, &cancel).await;
-            drop(events);
-            let _ = drain.await;
-            progress.set_message(label);
-            progress.inc(1);
-            record
-        }));
+        running.spawn_on(
+            async move {
+                let _permit = limit.acquire_owned().await;
+                let (events, mut drained) = tokio::sync::mpsc::unbounded_channel();
+                let drain = tokio::spawn(async move { while drained.recv().await.is_some() {} });
+                let record = runner.plan(approach, &input, &events, &cancel).await;
+                drop(events);
+                let _ = drain.await;
+                progress.set_message(label);
+                progress.inc(1);
+                (index, record)
+            },
+            runtime.handle(),
+        );
     }
-    let mut made = Vec::new();
-    for (job, handle) in jobs.into_iter().zip(handles) {
-        let record = runtime
-            .block_on(handle)
-            .context("a planning task stopped")?
-            .with_context(|| format!("{} {}", job.task.id, job.approach))?;
-        made.push((job, record));
+    while let Some(joined) = runtime.block_on(running.join_next()) {
+        let (index, record) = joined.context("a planning task stopped")?;
+        let job = &jobs[index];
+        let (id, approach) = (&job.task.id, job.approach);
+        match record {
+            Err(err) => progress.suspend(|| done.fail(id, approach, &err.to_string())),
+            Ok(record) => match record.first_error() {
+                Some((role, error)) => {
+                    let reason = format!("{role} failed: {error}");
+                    progress.suspend(|| done.fail(id, approach, &reason));
+                }
+                None => {
+                    let steps = record.steps.clone();
+                    let result = new_result(job.task, approach, "model", steps, Some(record));
+                    progress.suspend(|| done.add(&job.file, result));
+                }
+            },
+        }
     }
     progress.finish_and_clear();
     args.agents.save_recording(recording)?;
-    Ok(made)
+    Ok(())
 }
 
 fn safe_name(id: &str) -> String {

@@ -2,6 +2,7 @@
 //! program may read the output.
 
 mod annotate;
+mod completions;
 mod embed;
 mod eval;
 mod models;
@@ -59,6 +60,10 @@ pub enum Command {
     Eval(eval::EvalArgs),
     /// Judge plans blind, one screen per item (or pair); --export writes CSV.
     Annotate(annotate::AnnotateArgs),
+    /// Write a shell completion script on standard output.
+    Completions(completions::CompletionsArgs),
+    /// Write the man page (roff) on standard output.
+    Man,
 }
 
 /// Where the model pack is, for the commands that need one model of it.
@@ -150,14 +155,13 @@ pub fn run() -> anyhow::Result<ExitCode> {
         Some(Command::Score(args)) => score::run(&args),
         Some(Command::Models(args)) => models::run(args),
         Some(Command::Tui(args)) => tui::run(args),
-        Some(Command::Parse(args)) => {
-            parse::run(&args)?;
-            Ok(ExitCode::SUCCESS)
-        }
+        Some(Command::Parse(args)) => parse::run(&args),
         Some(Command::Embed(args)) => embed::run(&args),
         Some(Command::Plan(args)) => plan::run(&args),
         Some(Command::Eval(args)) => eval::run(&args),
         Some(Command::Annotate(args)) => annotate::run(args),
+        Some(Command::Completions(args)) => completions::completions(&args),
+        Some(Command::Man) => completions::man(),
         None => tui::run(cli.tui),
     }
 }

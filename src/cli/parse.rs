@@ -1,13 +1,15 @@
 //! `mapvlm parse`: analyse sentences from standard input with the English
 //! pipeline, one line in, one analysis out.
 
-use std::io::{BufRead, Write};
+use std::io::Write;
+use std::process::ExitCode;
 
 use anyhow::Context;
 use clap::Args;
 use serde::Serialize;
 
 use super::PackArgs;
+use crate::dataset::lines::BoundedLines;
 use crate::models::EN_CORE_WEB_SM;
 use crate::nlp::en::EnPipeline;
 use crate::nlp::Token;
@@ -29,15 +31,34 @@ struct Analysis<'a> {
     tokens: &'a [Token],
 }
 
-/// Runs `mapvlm parse`.
-pub fn run(args: &ParseArgs) -> anyhow::Result<()> {
+/// The longest line analysed, in characters: the parser's memory grows with
+/// a sentence's length, and no sentence needs more. A longer line is cut.
+pub const MAX_SENTENCE_CHARS: usize = 10_000;
+
+/// Runs `mapvlm parse`; lines that are not UTF-8 are reported and skipped,
+/// and make the exit status a failure.
+pub fn run(args: &ParseArgs) -> anyhow::Result<ExitCode> {
     let dir = args.pack.model(EN_CORE_WEB_SM)?;
     let nlp = EnPipeline::load(&dir)?;
     let stdin = std::io::stdin().lock();
     let mut out = std::io::BufWriter::new(std::io::stdout().lock());
-    for (n, line) in stdin.lines().enumerate() {
-        let text =
-            line.with_context(|| format!("standard input, line {}: not UTF-8 text", n + 1))?;
+    let mut failed = false;
+    for line in BoundedLines::new(stdin, MAX_SENTENCE_CHARS * 4) {
+        let (n, text) = line.context("cannot read standard input")?;
+        let mut text = match text {
+            Ok(text) => text,
+            Err(problem) => {
+                eprintln!("mapvlm: standard input, line {n}: {problem}; that line was skipped");
+                failed = true;
+                continue;
+            }
+        };
+        if let Some((end, _)) = text.char_indices().nth(MAX_SENTENCE_CHARS) {
+            eprintln!(
+                "mapvlm: standard input, line {n}: longer than {MAX_SENTENCE_CHARS} characters; only those were parsed"
+            );
+            text.truncate(end);
+        }
         let tokens = nlp.analyse(&text);
         if args.json {
             let json = serde_json::to_string(&Analysis {
@@ -57,5 +78,9 @@ pub fn run(args: &ParseArgs) -> anyhow::Result<()> {
         }
     }
     out.flush()?;
-    Ok(())
+    Ok(if failed {
+        ExitCode::FAILURE
+    } else {
+        ExitCode::SUCCESS
+    })
 }

@@ -12,7 +12,7 @@ use clap::Args;
 use tokio::sync::mpsc::unbounded_channel;
 use tokio_util::sync::CancellationToken;
 
-use crate::agents::cache::ResponseCache;
+use crate::agents::cache::{check_writable, ResponseCache};
 use crate::agents::config::{ConfigFile, FlagLayers, Settings};
 use crate::agents::pipeline::{AgentEvent, PlanInput, Runner, Source};
 use crate::agents::prompts::PromptSet;
@@ -77,6 +77,11 @@ pub struct AgentArgs {
 impl AgentArgs {
     /// The runner these options describe, and the recording being made.
     pub fn runner(&self) -> anyhow::Result<(Runner, Option<Arc<Mutex<Recording>>>)> {
+        if let Some(path) = &self.record {
+            check_writable(path).context(
+                "--record: the recording could not be written, so nothing was asked of any model",
+            )?;
+        }
         let env = |name: &str| std::env::var(name).ok();
         let file = match &self.config {
             Some(path) => ConfigFile::load(path, true)?,

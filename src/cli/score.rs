@@ -9,10 +9,10 @@ use anyhow::bail;
 use clap::{Args, ValueEnum};
 use serde_json::{json, Value};
 
-use crate::dataset::{load_pairs, read_text, Pair};
+use crate::dataset::{open_pairs, read_text, Pair};
 use crate::metrics::kas::{kas, KasReport};
 use crate::metrics::pg2s::{Pg2sReport, Pg2sScorer, Pg2sSettings};
-use crate::plan::parse_steps;
+use crate::plan::{bound_steps, parse_steps};
 
 /// A metric `score` can compute.
 #[derive(Debug, Clone, Copy, PartialEq, Eq, ValueEnum)]
@@ -32,8 +32,8 @@ pub struct ScoreArgs {
     /// Predicted step file, or raw model output.
     #[arg(long, requires = "gt")]
     pub pred: Option<PathBuf>,
-    /// A pairs file: `{"id", "gt", "pred"}` per line.
-    #[arg(long)]
+    /// A pairs file: `{"id", "gt", "pred"}` per line (`-` for standard input).
+    #[arg(long, value_name = "FILE")]
     pub pairs: Option<PathBuf>,
     /// Print one JSON object per pair instead of the explanation.
     #[arg(long)]
@@ -77,7 +77,18 @@ pub fn run(args: &ScoreArgs) -> anyhow::Result<ExitCode> {
     if !(0.0..=1.0).contains(&args.alpha) {
         bail!("--alpha {} is outside 0..=1", args.alpha);
     }
-    let (pairs, bad_lines) = read_pairs(args)?;
+    for (flag, value) in [
+        ("--sentence-threshold", args.sentence_threshold),
+        ("--word-threshold", args.word_threshold),
+    ] {
+        if !(-1.0..=1.0).contains(&value) {
+            bail!("{flag} {value} is outside -1..=1 (a cosine similarity)");
+        }
+    }
+    let (mut pairs, bad_lines) = read_pairs(args)?;
+    for pair in &mut pairs {
+        bound_pair(pair);
+    }
     let scorer = if args.metrics.contains(&Metric::Pg2s) {
         Some(super::load_scorer(
             &args.models,
@@ -146,7 +157,7 @@ fn read_pairs(args: &ScoreArgs) -> anyhow::Result<(Vec<Pair>, Vec<String>)> {
     if let Some(path) = &args.pairs {
         let mut pairs = Vec::new();
         let mut bad = Vec::new();
-        for line in load_pairs(path)? {
+        for line in open_pairs(path)? {
             match line {
                 Ok(pair) => pairs.push(pair),
                 Err(e) => bad.push(e.to_string()),
@@ -171,6 +182,18 @@ fn read_pairs(args: &ScoreArgs) -> anyhow::Result<(Vec<Pair>, Vec<String>)> {
             )],
             Vec::new(),
         )),
+    }
+}
+
+/// Cuts a pair's plans to the limits of [`bound_steps`], saying so on stderr.
+fn bound_pair(pair: &mut Pair) {
+    for (name, steps) in [
+        ("ground truth", &mut pair.gt),
+        ("prediction", &mut pair.pred),
+    ] {
+        if let Some(note) = bound_steps(steps) {
+            eprintln!("mapvlm: {}: {name}: {note}", pair.id);
+        }
     }
 }
 

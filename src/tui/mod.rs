@@ -7,7 +7,10 @@
 pub mod agents;
 pub mod annotate;
 pub mod app;
+pub mod graph_layout;
+pub mod graph_view;
 pub mod scoring;
+pub mod terminal_query;
 pub mod theme;
 pub mod ui;
 
@@ -28,7 +31,6 @@ use image::DynamicImage;
 use ratatui::backend::CrosstermBackend;
 use ratatui::layout::Rect;
 use ratatui::Terminal;
-use ratatui_image::picker::cap_parser::QueryStdioOptions;
 use ratatui_image::picker::Picker;
 use ratatui_image::Resize;
 use tokio::sync::{mpsc, watch};
@@ -328,16 +330,22 @@ async fn run_async(options: Options) -> Result<(), TuiError> {
     });
     terminal.draw(|f| ui::render(f, &app))?;
 
+    let (msg_tx, mut msg_rx) = mpsc::unbounded_channel::<Msg>();
+    // The query reads stdin itself, so it runs before the input thread
+    // exists; what was typed meanwhile and the size the window has now
+    // (a resize during the query has no reader yet) go first in the queue.
     let picker = match options.picker {
         Some(p) => p,
-        None => Picker::from_query_stdio_with_options(QueryStdioOptions {
-            timeout: Duration::from_millis(400),
-            ..QueryStdioOptions::default()
-        })
-        .unwrap_or_else(|_| Picker::halfblocks()),
+        None => {
+            let probe = terminal_query::query_picker(terminal_query::QUERY_TIMEOUT);
+            for key in probe.typed {
+                let _ = msg_tx.send(Msg::Key(key));
+            }
+            let size = terminal.size()?;
+            let _ = msg_tx.send(Msg::Resize(size.width, size.height));
+            probe.picker
+        }
     };
-
-    let (msg_tx, mut msg_rx) = mpsc::unbounded_channel::<Msg>();
     let (agent_tx, mut agent_rx) = mpsc::unbounded_channel();
     let (score_tx, score_rx) = watch::channel(None);
     let (save_tx, save_rx) = watch::channel::<Option<Session>>(None);

@@ -24,6 +24,7 @@ use tokio::sync::mpsc;
 use crate::annotate::guidelines::Guidelines;
 use crate::annotate::{AnnotationWriter, Annotations, Judgement, Verdict};
 use crate::dataset::Pair;
+use crate::tui::terminal_query::{query_picker, QUERY_TIMEOUT};
 use crate::tui::theme::Theme;
 use crate::tui::TuiError;
 use state::{Clock, Cmd, Judging, Msg, Scene, Setup};
@@ -185,13 +186,17 @@ async fn run_async(options: Options) -> Result<Outcome, TuiError> {
     let (size_tx, mut size_rx) = mpsc::unbounded_channel::<(u16, u16)>();
     let picker = match options.picker {
         Some(p) => p,
-        None => Picker::from_query_stdio_with_options(
-            ratatui_image::picker::cap_parser::QueryStdioOptions {
-                timeout: Duration::from_millis(400),
-                ..Default::default()
-            },
-        )
-        .unwrap_or_else(|_| Picker::halfblocks()),
+        None => {
+            // Asked before the input thread exists, so no key is lost;
+            // keys typed meanwhile go first.
+            let probe = query_picker(QUERY_TIMEOUT);
+            for key in probe.typed {
+                let _ = msg_tx.send(Msg::Key(key));
+            }
+            let size = terminal.size()?;
+            let _ = size_tx.send((size.width, size.height));
+            probe.picker
+        }
     };
     spawn_input(msg_tx.clone(), size_tx.clone());
     spawn_signal_watch(size_tx);
