@@ -12,6 +12,7 @@ use crate::annotate::{
     default_annotations_path, export_csv, AnnotationWriter, Annotations, Current,
 };
 use crate::dataset::open_pairs;
+use crate::tui::annotate::state::Setup;
 use crate::tui::annotate::{self, Options};
 use crate::tui::theme;
 
@@ -121,15 +122,17 @@ pub fn run(args: AnnotateArgs) -> anyhow::Result<ExitCode> {
         .parent()
         .map_or_else(PathBuf::new, Path::to_path_buf);
     let outcome = annotate::run(Options {
-        items,
-        items_dir,
-        annotator: annotator.clone(),
-        pairwise: args.pairwise,
-        show_gt: args.show_gt,
-        guidelines,
-        existing,
+        setup: Setup {
+            items,
+            items_dir,
+            annotator: annotator.clone(),
+            pairwise: args.pairwise,
+            show_gt: args.show_gt,
+            guidelines,
+            existing,
+            notices,
+        },
         writer,
-        notices,
         theme,
         picker: args
             .halfblocks
@@ -173,22 +176,20 @@ fn read_items(path: &Path) -> anyhow::Result<(Vec<crate::dataset::Pair>, Vec<Str
             bad.len()
         ));
     }
-    let without: Vec<usize> = (0..items.len())
-        .filter(|&i| items[i].pred.is_empty())
-        .collect();
-    if !without.is_empty() {
-        warn(format!(
-            "{}: {} items have no plan (`pred` is empty) and are left out",
-            path.display(),
-            without.len()
-        ));
-        items.retain(|i| !i.pred.is_empty());
-    }
+    let before = items.len();
+    items.retain(|i| !i.pred.is_empty());
     if items.is_empty() {
         bail!(
             "{}: no plans to judge (no line with a non-empty `pred`); give a pairs file of {{\"id\", \"gt\", \"pred\"}} lines",
             path.display()
         );
+    }
+    if items.len() < before {
+        warn(format!(
+            "{}: {} items have no plan (`pred` is empty) and are left out",
+            path.display(),
+            before - items.len()
+        ));
     }
     Ok((items, notices))
 }

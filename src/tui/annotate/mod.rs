@@ -11,7 +11,7 @@ pub mod keys;
 pub mod state;
 pub mod view;
 
-use std::path::{Path, PathBuf};
+use std::path::Path;
 use std::sync::Arc;
 use std::time::{Duration, Instant};
 
@@ -21,9 +21,7 @@ use ratatui_image::picker::Picker;
 use ratatui_image::Resize;
 use tokio::sync::mpsc;
 
-use crate::annotate::guidelines::Guidelines;
-use crate::annotate::{AnnotationWriter, Annotations, Judgement, Verdict};
-use crate::dataset::Pair;
+use crate::annotate::{AnnotationWriter, Judgement, Verdict};
 use crate::tui::terminal_query::{query_picker, QUERY_TIMEOUT};
 use crate::tui::theme::Theme;
 use crate::tui::TuiError;
@@ -31,24 +29,10 @@ use state::{Clock, Cmd, Judging, Msg, Scene, Setup};
 
 /// What the annotation screen is opened with.
 pub struct Options {
-    /// The items, read already (bad lines reported by the caller).
-    pub items: Vec<Pair>,
-    /// The folder relative image paths are read from (the items file's).
-    pub items_dir: PathBuf,
-    /// Who is judging.
-    pub annotator: String,
-    /// Compare two plans instead of rating one.
-    pub pairwise: bool,
-    /// Show the ground-truth plan.
-    pub show_gt: bool,
-    /// The guidelines.
-    pub guidelines: Guidelines,
-    /// The annotations file, read already.
-    pub existing: Annotations,
+    /// The items, guidelines and judgements the screen starts from.
+    pub setup: Setup,
     /// The writer of the annotations file, opened already.
     pub writer: AnnotationWriter,
-    /// Notices to show at start (one line each).
-    pub notices: Vec<String>,
     /// The theme.
     pub theme: Theme,
     /// How images are drawn: `None` asks the terminal.
@@ -169,17 +153,7 @@ async fn run_async(options: Options) -> Result<Outcome, TuiError> {
         elapsed: start.elapsed(),
         unix: unix_now(),
     };
-    let (mut screen, first) = Judging::new(Setup {
-        items: options.items,
-        items_dir: options.items_dir,
-        annotator: options.annotator,
-        pairwise: options.pairwise,
-        show_gt: options.show_gt,
-        guidelines: options.guidelines,
-        existing: options.existing,
-        notices: options.notices,
-        clock: clock(started),
-    });
+    let (mut screen, first) = Judging::new(options.setup, clock(started));
     let theme = options.theme;
     let (guard, mut terminal) = crate::tui::setup_terminal()?;
     let (msg_tx, mut msg_rx) = mpsc::unbounded_channel::<Msg>();

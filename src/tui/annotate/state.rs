@@ -129,8 +129,6 @@ pub struct Setup {
     pub existing: Annotations,
     /// One-line notices to show at start.
     pub notices: Vec<String>,
-    /// The clock at start.
-    pub clock: Clock,
 }
 
 /// The annotation screen.
@@ -181,7 +179,7 @@ pub struct Judging {
 impl Judging {
     /// Builds the screen at the first unjudged position; the command reads
     /// its scene image.
-    pub fn new(setup: Setup) -> (Judging, Vec<Cmd>) {
+    pub fn new(setup: Setup, clock: Clock) -> (Judging, Vec<Cmd>) {
         let units = if setup.pairwise {
             pairwise_units(&setup.items, &setup.annotator)
         } else {
@@ -218,8 +216,8 @@ impl Judging {
             draft: Draft::default(),
             step: 0,
             mode: Mode::Judging,
-            clock: setup.clock,
-            shown_at: setup.clock.elapsed,
+            clock,
+            shown_at: clock.elapsed,
             spent: HashMap::new(),
             status: setup
                 .notices
@@ -614,11 +612,16 @@ pub(crate) mod tests {
             guidelines: Guidelines::built_in(),
             existing,
             notices: vec![],
-            clock: Clock {
-                elapsed: Duration::ZERO,
-                unix: 1_700_000_000,
-            },
         }
+    }
+
+    /// The screen opened at a fixed time.
+    pub(crate) fn open(setup: Setup) -> (Judging, Vec<Cmd>) {
+        let clock = Clock {
+            elapsed: Duration::ZERO,
+            unix: 1_700_000_000,
+        };
+        Judging::new(setup, clock)
     }
 
     pub(crate) fn press(screen: &mut Judging, c: char) -> Vec<Cmd> {
@@ -639,7 +642,7 @@ pub(crate) mod tests {
 
     #[test]
     fn the_first_key_rates_the_first_item_and_moves_on() {
-        let (mut s, _) = Judging::new(setup(false, Annotations::default()));
+        let (mut s, _) = open(setup(false, Annotations::default()));
         assert_eq!(s.pos, 0);
         let first = s.subject(0);
         s.update(Msg::Tick(Clock {
@@ -664,7 +667,7 @@ pub(crate) mod tests {
 
     #[test]
     fn labels_and_note_go_with_the_rating() {
-        let (mut s, _) = Judging::new(setup(false, Annotations::default()));
+        let (mut s, _) = open(setup(false, Annotations::default()));
         press(&mut s, 'j');
         press(&mut s, 'w');
         assert_eq!(s.step, 2, "a label moves to the next step");
@@ -702,7 +705,7 @@ pub(crate) mod tests {
 
     #[test]
     fn undo_withdraws_the_last_and_reopening_resumes_there() {
-        let (mut s, _) = Judging::new(setup(false, Annotations::default()));
+        let (mut s, _) = open(setup(false, Annotations::default()));
         let mut lines = Vec::new();
         for c in ['3', '4', '5'] {
             lines.extend(appended(&press(&mut s, c)));
@@ -717,14 +720,14 @@ pub(crate) mod tests {
             lines: lines.into_iter().enumerate().collect(),
             errors: vec![],
         };
-        let (again, _) = Judging::new(setup(false, existing));
+        let (again, _) = open(setup(false, existing));
         assert_eq!(again.pos, 2);
         assert_eq!(again.judged(), 2);
     }
 
     #[test]
     fn skip_next_previous_and_next_unjudged_move_as_said() {
-        let (mut s, _) = Judging::new(setup(false, Annotations::default()));
+        let (mut s, _) = open(setup(false, Annotations::default()));
         press(&mut s, 's');
         assert_eq!(s.pos, 1);
         press(&mut s, '1');
@@ -750,7 +753,7 @@ pub(crate) mod tests {
 
     #[test]
     fn pairwise_prefers_sides_of_one_task() {
-        let (mut s, _) = Judging::new(setup(true, Annotations::default()));
+        let (mut s, _) = open(setup(true, Annotations::default()));
         assert_eq!(s.units.len(), 3);
         assert_eq!(
             press(&mut s, '3'),
@@ -770,7 +773,7 @@ pub(crate) mod tests {
 
     #[test]
     fn a_failed_write_leaves_the_item_unjudged_and_says_so() {
-        let (mut s, _) = Judging::new(setup(false, Annotations::default()));
+        let (mut s, _) = open(setup(false, Annotations::default()));
         let cmds = press(&mut s, '4');
         let Some(Cmd::Append {
             judgement,

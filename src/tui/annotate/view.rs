@@ -393,7 +393,7 @@ fn draw_help(frame: &mut Frame, screen: &Judging, theme: &Theme, area: Rect) {
 
 #[cfg(test)]
 mod tests {
-    use super::super::state::tests::{items, press, setup};
+    use super::super::state::tests::{items, open, press, setup};
     use super::super::state::{Judging, Msg};
     use super::*;
     use crate::annotate::Annotations;
@@ -444,7 +444,7 @@ mod tests {
 
     #[test]
     fn rating_view() {
-        let (mut s, _) = Judging::new(setup(false, Annotations::default()));
+        let (mut s, _) = open(setup(false, Annotations::default()));
         press(&mut s, '4');
         let text = draw(&s, 100, 30);
         assert_blind(&text);
@@ -453,7 +453,7 @@ mod tests {
 
     #[test]
     fn step_labels_and_note() {
-        let (mut s, _) = Judging::new(setup(false, Annotations::default()));
+        let (mut s, _) = open(setup(false, Annotations::default()));
         press(&mut s, 'w');
         press(&mut s, 'm');
         press(&mut s, 'e');
@@ -469,7 +469,7 @@ mod tests {
     fn pairwise_with_the_reference() {
         let mut init = setup(true, Annotations::default());
         init.show_gt = true;
-        let (mut s, _) = Judging::new(init);
+        let (mut s, _) = open(init);
         press(&mut s, '2');
         press(&mut s, 'p');
         let text = draw(&s, 100, 30);
@@ -480,7 +480,7 @@ mod tests {
 
     #[test]
     fn narrow_terminal_with_help() {
-        let (mut s, _) = Judging::new(setup(false, Annotations::default()));
+        let (mut s, _) = open(setup(false, Annotations::default()));
         let text = draw(&s, 44, 24);
         assert_blind(&text);
         insta::assert_snapshot!(text);
@@ -506,7 +506,7 @@ mod tests {
         for item in &mut init.items {
             item.image = Some("images/gone.png".into());
         }
-        let (mut s, cmds) = Judging::new(init);
+        let (mut s, cmds) = open(init);
         assert_eq!(
             cmds,
             vec![super::super::state::Cmd::LoadImage(
