@@ -7,6 +7,7 @@
 pub mod agents;
 pub mod annotate;
 pub mod cli;
+pub mod corrupt;
 pub mod dataset;
 pub mod demo;
 pub mod metrics;

@@ -4,18 +4,9 @@
 mod common;
 
 use std::path::Path;
-use std::process::{Command, Output};
+use std::process::Output;
 
-fn mapvlm(args: &[&str]) -> Output {
-    Command::new(env!("CARGO_BIN_EXE_mapvlm"))
-        .args(args)
-        .output()
-        .unwrap_or_else(|e| panic!("running mapvlm: {e}"))
-}
-
-fn stderr(out: &Output) -> String {
-    String::from_utf8_lossy(&out.stderr).into_owned()
-}
+use common::{mapvlm, stderr};
 
 fn write(dir: &Path, name: &str, bytes: &[u8]) -> String {
     let path = dir.join(name);

@@ -175,6 +175,7 @@ fn demo_spec(weights_sha: &str) -> ModelSpec {
                 sha256: sha256_hex(VOCAB),
             },
         ],
+        hub: None,
     }
 }
 
@@ -284,6 +285,7 @@ fn split_spec(parts: usize, joined_sha: &str) -> ModelSpec {
             path: "1_Pooling/config.json".into(),
             sha256: sha256_hex(VOCAB),
         }],
+        hub: None,
     }
 }
 

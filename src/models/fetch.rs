@@ -146,7 +146,7 @@ impl Progress {
     }
 
     /// A bar for a step that goes through `total` bytes.
-    fn bytes(&self, message: String, total: u64) -> ProgressBar {
+    pub(crate) fn bytes(&self, message: String, total: u64) -> ProgressBar {
         let bar = ProgressBar::with_draw_target(Some(total), self.target()).with_message(message);
         if let Ok(style) = ProgressStyle::with_template(
             "{msg:30} [{bar:30}] {bytes}/{total_bytes} ({bytes_per_sec}, {eta})",
@@ -157,9 +157,17 @@ impl Progress {
     }
 }
 
-/// What [`fetch_model`] did.
-#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+/// What [`fetch_model`] or [`super::obtain_model`] did.
+#[derive(Debug, Clone, PartialEq, Eq)]
 pub enum FetchOutcome {
+    /// The model folder now links to verified files kept elsewhere (a
+    /// Hugging Face cache snapshot or a `--from` folder); nothing was copied.
+    Linked {
+        /// Where the files are.
+        from: super::LinkedFrom,
+        /// Whether they were downloaded from the Hub first.
+        downloaded: bool,
+    },
     /// The model was present and verified; nothing was downloaded.
     AlreadyVerified,
     /// The model was downloaded, verified and installed.
@@ -199,7 +207,11 @@ pub fn fetch_model(
 
 /// Whether the present folder `target` is verified: by its stamp, else by
 /// hashing (and then stamped).
-fn is_verified(target: &Path, spec: &ModelSpec, progress: &Progress) -> Result<bool, ModelsError> {
+pub(crate) fn is_verified(
+    target: &Path,
+    spec: &ModelSpec,
+    progress: &Progress,
+) -> Result<bool, ModelsError> {
     if stamp_matches(target, &spec.key_files) {
         return Ok(true);
     }
@@ -247,12 +259,12 @@ fn refusal(problem: Problem, model: &str) -> ModelsError {
 
 /// A staging folder inside the pack, removed with everything in it when
 /// dropped.
-struct Staging {
-    path: PathBuf,
+pub(crate) struct Staging {
+    pub(crate) path: PathBuf,
 }
 
 impl Staging {
-    fn create(models_dir: &Path, folder: &str) -> Result<Self, ModelsError> {
+    pub(crate) fn create(models_dir: &Path, folder: &str) -> Result<Self, ModelsError> {
         let path = models_dir.join(format!(".staging-{folder}-{}", std::process::id()));
         fs::create_dir(&path).map_err(ModelsError::io("create", &path))?;
         Ok(Self { path })
@@ -267,7 +279,7 @@ impl Drop for Staging {
 }
 
 /// Removes staging folders of `folder` left by an interrupted fetch.
-fn remove_stale_staging(models_dir: &Path, folder: &str) -> Result<(), ModelsError> {
+pub(crate) fn remove_stale_staging(models_dir: &Path, folder: &str) -> Result<(), ModelsError> {
     let prefix = format!(".staging-{folder}-");
     let entries = fs::read_dir(models_dir).map_err(ModelsError::io("list", models_dir))?;
     for entry in entries.flatten() {
@@ -281,7 +293,7 @@ fn remove_stale_staging(models_dir: &Path, folder: &str) -> Result<(), ModelsErr
 
 /// Moves `assembled` to `target`, putting an earlier `target` aside in
 /// `previous` (restored if the move fails).
-fn install(assembled: &Path, target: &Path, previous: &Path) -> Result<(), ModelsError> {
+pub(crate) fn install(assembled: &Path, target: &Path, previous: &Path) -> Result<(), ModelsError> {
     let replacing = target.exists();
     if replacing {
         fs::rename(target, previous).map_err(ModelsError::io("move aside", target))?;

@@ -5,11 +5,19 @@
 //! ([`model_path`]); `mapvlm models verify` recomputes every hash.
 
 mod fetch;
+mod hf_cache;
+mod hub;
+mod link;
+mod sources;
 mod verify;
 
 use std::path::{Path, PathBuf};
 
 pub use fetch::{fetch_model, FetchOutcome, Pip, Progress};
+pub use hf_cache::{find_snapshot, hub_cache_dir, repo_dir, CacheLookup, CachedSnapshot};
+pub use hub::HubSettings;
+pub use link::LinkedFrom;
+pub use sources::{obtain_model, Source, Sources};
 pub use verify::{quick_status, sha256_file, verify_model, Problem, QuickStatus, Status};
 
 /// Folder of the sentence encoder inside the pack.
@@ -26,11 +34,6 @@ pub fn models_dir(flag: Option<&Path>) -> PathBuf {
     if let Some(dir) = flag {
         return dir.to_path_buf();
     }
-    let env_dir = |name: &str| {
-        std::env::var_os(name)
-            .filter(|v| !v.is_empty())
-            .map(PathBuf::from)
-    };
     if let Some(dir) = env_dir("MAPVLM_MODELS") {
         return dir;
     }
@@ -38,6 +41,13 @@ pub fn models_dir(flag: Option<&Path>) -> PathBuf {
         .or_else(|| env_dir("HOME").map(|home| home.join(".cache")))
         .unwrap_or_else(|| PathBuf::from(".cache"));
     cache.join("mapvlm").join("models")
+}
+
+/// The folder environment variable `name` names, when set and not empty.
+pub(crate) fn env_dir(name: &str) -> Option<PathBuf> {
+    std::env::var_os(name)
+        .filter(|v| !v.is_empty())
+        .map(PathBuf::from)
 }
 
 /// The folder of model `folder` inside the pack `models_dir`, if present; the
@@ -118,6 +128,18 @@ pub enum Assembly {
     },
 }
 
+/// A model's repository on the Hugging Face Hub, pinned to one revision.
+#[derive(Debug, Clone, PartialEq, Eq)]
+pub struct HubRepo {
+    /// The repository, `ORG/NAME`.
+    pub repo: String,
+    /// The pinned revision (a commit hash) downloads come from.
+    pub revision: String,
+    /// The files the model needs, `/`-separated; a cached snapshot is used
+    /// only when it holds all of them.
+    pub files: Vec<String>,
+}
+
 /// One model of the pack: its folder name, how to build it, and which files
 /// must match which hash.
 #[derive(Debug, Clone, PartialEq, Eq)]
@@ -128,6 +150,9 @@ pub struct ModelSpec {
     pub assembly: Assembly,
     /// The files verified by SHA-256.
     pub key_files: Vec<KeyFile>,
+    /// Where the model is on the Hugging Face Hub, when it is there in the
+    /// form the pack uses.
+    pub hub: Option<HubRepo>,
 }
 
 /// The three models of the default pack, with the hashes of models.md.
@@ -158,6 +183,20 @@ pub fn default_pack() -> Vec<ModelSpec> {
                     "b8be2c30ba5dd723a6d5ee26d013da103d5408d92ddcb23747622f9e48f1d842",
                 ),
             ],
+            hub: Some(HubRepo {
+                repo: "sentence-transformers/all-mpnet-base-v2".into(),
+                revision: "e8c3b32edf5434bc2275fc9bab85f82640a19130".into(),
+                files: [
+                    "config.json",
+                    "modules.json",
+                    "sentence_bert_config.json",
+                    "1_Pooling/config.json",
+                    "tokenizer.json",
+                    "model.safetensors",
+                ]
+                .map(String::from)
+                .to_vec(),
+            }),
         },
         ModelSpec {
             folder: EN_CORE_WEB_SM.to_string(),
@@ -175,6 +214,7 @@ pub fn default_pack() -> Vec<ModelSpec> {
                     "e0098910535a863d430082ece57455d5fa071cd4ca3a0054e80582076c752b1e",
                 ),
             ],
+            hub: None,
         },
         ModelSpec {
             folder: GLOVE_6B_50D.to_string(),
@@ -192,6 +232,7 @@ pub fn default_pack() -> Vec<ModelSpec> {
                     "02fd68e35358e9c8f75300bf0aec89c92de00bb446f1298c0e5de65f5f0e1e39",
                 ),
             ],
+            hub: None,
         },
     ]
 }
@@ -259,6 +300,50 @@ pub enum ModelsError {
         path: PathBuf,
         /// The I/O error.
         source: std::io::Error,
+    },
+    /// `HF_HUB_OFFLINE` forbids the Hub and the cache has no usable copy.
+    #[error("{model} is not in the Hugging Face cache and HF_HUB_OFFLINE is set; unset it to download, or use `--from DIR`")]
+    HubOffline {
+        /// The model folder name.
+        model: String,
+    },
+    /// The Hub answered with a refusal.
+    #[error("the Hub refused {what} (HTTP {status}): {hint}")]
+    HubRefused {
+        /// The repository or file asked for.
+        what: String,
+        /// The HTTP status.
+        status: u16,
+        /// What to do.
+        hint: &'static str,
+    },
+    /// The Hub could not be reached or its answer could not be used.
+    #[error("downloading {repo} from the Hub failed: {detail}; check the network or HF_ENDPOINT and rerun (a partial download resumes)")]
+    HubFailed {
+        /// The repository or file.
+        repo: String,
+        /// What went wrong.
+        detail: String,
+    },
+    /// The Hub served another revision than the pinned one.
+    #[error("the Hub served revision {served} of {repo}, not the pinned {pinned}; the file was removed again; check HF_ENDPOINT (a mirror may lag)")]
+    RevisionMismatch {
+        /// The repository.
+        repo: String,
+        /// The pinned revision.
+        pinned: String,
+        /// The revision the Hub served.
+        served: String,
+    },
+    /// The model has no source of the kind asked for.
+    #[error("{model} has no {source_kind} source: {hint}")]
+    NoSource {
+        /// The model folder name.
+        model: String,
+        /// The kind of source asked for, e.g. `Hub`.
+        source_kind: &'static str,
+        /// What to do instead.
+        hint: String,
     },
     /// A model folder is absent from the pack.
     #[error("model {model} is not in {}; run `mapvlm models fetch` (or pass --models-dir / set MAPVLM_MODELS)", dir.display())]

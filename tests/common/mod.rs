@@ -3,6 +3,20 @@
 #![allow(dead_code)]
 
 use std::path::PathBuf;
+use std::process::{Command, Output};
+
+/// Runs the real `mapvlm` binary with `args` and waits for it.
+pub fn mapvlm(args: &[&str]) -> Output {
+    Command::new(env!("CARGO_BIN_EXE_mapvlm"))
+        .args(args)
+        .output()
+        .unwrap_or_else(|e| panic!("running mapvlm: {e}"))
+}
+
+/// What a run wrote on standard error.
+pub fn stderr(out: &Output) -> String {
+    String::from_utf8_lossy(&out.stderr).into_owned()
+}
 
 /// `../shared` beside the repository, where the specs, data and golden files live.
 pub fn shared() -> PathBuf {
