@@ -4,6 +4,8 @@
 //! Data flows one way: a dataset or scene goes to the agents, the agents make a
 //! plan, the metrics judge the plan, and the views show all of it.
 
+#![warn(missing_docs)]
+
 pub mod agents;
 pub mod annotate;
 pub mod cli;
@@ -15,4 +17,5 @@ pub mod models;
 pub mod nlp;
 pub mod plan;
 pub mod session;
+pub mod store;
 pub mod tui;

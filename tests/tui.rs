@@ -10,6 +10,7 @@ use mapvlm::metrics::pg2s::{Pg2sScorer, Pg2sSettings};
 use mapvlm::metrics::{ModelError, SentenceEncoder};
 use mapvlm::tui::agents::{run_blocking, AgentEvent, AgentsPipeline};
 use mapvlm::tui::app::{App, AppInit, Cmd, Msg, Pane};
+use mapvlm::tui::keymap::{self, Action, Context, BINDINGS};
 use mapvlm::tui::scoring::{score_now, ModelSlot, Pg2sOutcome};
 use mapvlm::tui::theme::{load_themes, Theme};
 use mapvlm::tui::{prepare_image, ui};
@@ -165,7 +166,7 @@ fn demo_fills_every_pane_at_200x60() {
     }
     assert!(screen.contains("KAS 0.720"), "{screen}");
     assert!(screen.contains("PG2S is waiting for models"));
-    assert!(screen.contains("counter ─right of─▶"));
+    assert!(screen.contains("│ robot "), "{screen}");
     insta::assert_snapshot!("demo_200x60", screen);
 }
 
@@ -200,6 +201,13 @@ fn help_lists_every_key() {
     h.key(KeyCode::Char('?'));
     let screen = h.screen();
     assert!(screen.contains("Keys (any key closes)"));
+    for binding in BINDINGS {
+        assert!(
+            screen.contains(binding.label),
+            "{} not in the help",
+            binding.label
+        );
+    }
     insta::assert_snapshot!("help_120x40", screen);
     h.key(KeyCode::Char('x'));
     assert!(!h.screen().contains("Keys (any key closes)"));
@@ -279,6 +287,8 @@ fn the_knowledge_graph_is_navigable() {
     while h.app.focus != Pane::Graph {
         h.key(KeyCode::Tab);
     }
+    h.key(KeyCode::Char('v'));
+    assert!(h.screen().contains("counter ─right of─▶"));
     let start = h.app.graph_cursor.node;
     h.key(KeyCode::Enter);
     let next = h.app.graph_cursor.node;
@@ -378,4 +388,170 @@ fn a_start_notice_is_not_hidden_by_the_demo_run() {
         ..AppInit::demo((200, 60), "none")
     });
     assert!(app.status.unwrap().0.contains("moved aside"));
+}
+
+/// Every key a user might press: printable characters, Ctrl+letter and the
+/// named keys.
+fn every_key() -> Vec<KeyEvent> {
+    let mut keys: Vec<KeyEvent> = (' '..='~')
+        .map(|c| KeyEvent::new(KeyCode::Char(c), KeyModifiers::NONE))
+        .chain(('a'..='z').map(|c| KeyEvent::new(KeyCode::Char(c), KeyModifiers::CONTROL)))
+        .collect();
+    let named = [
+        KeyCode::Enter,
+        KeyCode::Esc,
+        KeyCode::Tab,
+        KeyCode::BackTab,
+        KeyCode::Backspace,
+        KeyCode::Delete,
+        KeyCode::Insert,
+        KeyCode::Up,
+        KeyCode::Down,
+        KeyCode::Left,
+        KeyCode::Right,
+        KeyCode::Home,
+        KeyCode::End,
+        KeyCode::PageUp,
+        KeyCode::PageDown,
+    ];
+    keys.extend(
+        named
+            .into_iter()
+            .chain((1..=12).map(KeyCode::F))
+            .map(|code| KeyEvent::new(code, KeyModifiers::NONE)),
+    );
+    keys
+}
+
+impl Harness {
+    fn focus(&mut self, pane: Pane) {
+        for _ in 0..Pane::ALL.len() {
+            if self.app.focus == pane {
+                return;
+            }
+            self.key(KeyCode::Tab);
+        }
+        panic!("{pane:?} cannot be focused");
+    }
+
+    /// Presses `key` and tells whether anything happened: the screen (its
+    /// text or its colours) changed, commands were asked for, or the app quits.
+    fn press_changes(&mut self, key: KeyEvent) -> bool {
+        let before = self.terminal().backend().buffer().clone();
+        let cmds = self.app.update(Msg::Key(key));
+        let asked = !cmds.is_empty();
+        self.run(cmds);
+        asked || self.app.quit || *self.terminal().backend().buffer() != before
+    }
+}
+
+#[test]
+fn a_key_missing_from_the_key_table_does_nothing_in_any_pane() {
+    for pane in Pane::ALL {
+        let mut h = Harness::new((200, 60), None, false, unavailable());
+        h.focus(pane);
+        let contexts: Vec<Context> = [Context::Always]
+            .into_iter()
+            .chain(h.app.pane_contexts())
+            .collect();
+        for key in every_key() {
+            if keymap::action(&contexts, &key).is_some() {
+                continue;
+            }
+            assert!(
+                !h.press_changes(key),
+                "{key:?} does something in {pane:?} but is not in the key table"
+            );
+        }
+    }
+}
+
+/// Starts in a state where `context`'s bindings apply. `warm` also moves
+/// the selection and sets a search, so that "back", "up" and "next hit"
+/// have somewhere to go.
+fn state_for(context: Context, action: Action, warm: bool) -> Harness {
+    let mut h = Harness::new((200, 60), None, false, unavailable());
+    let pane = match context {
+        Context::Graph | Context::WholeGraph => Pane::Graph,
+        Context::Prompt | Context::PromptEditor => Pane::Prompt,
+        Context::Panes if matches!(action, Action::NextPane | Action::PreviousPane) => Pane::Scene,
+        _ => Pane::Plan,
+    };
+    h.focus(pane);
+    if context == Context::Graph {
+        h.key(KeyCode::Char('v'));
+    }
+    if warm {
+        match context {
+            Context::WholeGraph => h.keys("]]]"),
+            Context::Graph => {
+                h.key(KeyCode::Down);
+                h.key(KeyCode::Enter);
+            }
+            Context::Prompt => h.key(KeyCode::Right),
+            Context::Search => {}
+            _ => {
+                h.keys("/the");
+                h.key(KeyCode::Enter);
+                h.key(KeyCode::Down);
+                h.key(KeyCode::Down);
+            }
+        }
+    }
+    match context {
+        Context::StepEditor | Context::PromptEditor => h.key(KeyCode::Enter),
+        Context::Search if warm => h.keys("/the"),
+        Context::Search => h.key(KeyCode::Char('/')),
+        _ => {}
+    }
+    h
+}
+
+#[test]
+fn every_key_in_the_key_table_is_handled() {
+    for binding in BINDINGS {
+        for &(key, action) in binding.keys {
+            let modifiers = if key.ctrl {
+                KeyModifiers::CONTROL
+            } else {
+                KeyModifiers::NONE
+            };
+            let event = KeyEvent::new(key.code, modifiers);
+            let handled = [false, true].into_iter().any(|warm| {
+                let mut h = state_for(binding.context, action, warm);
+                let contexts: Vec<Context> = [Context::Always]
+                    .into_iter()
+                    .chain(match binding.context {
+                        Context::Always => vec![],
+                        Context::StepEditor | Context::PromptEditor | Context::Search => {
+                            vec![h.app.editing.context()]
+                        }
+                        _ => h.app.pane_contexts(),
+                    })
+                    .collect();
+                keymap::action(&contexts, &event) == Some(action) && h.press_changes(event)
+            });
+            assert!(
+                handled,
+                "{} ({:?} in {:?}) is in the key table but does nothing",
+                binding.label, key.code, binding.context
+            );
+        }
+    }
+}
+
+#[test]
+fn the_whole_graph_is_the_default_and_the_neighbourhood_a_mode() {
+    let mut h = Harness::new((200, 60), None, false, unavailable());
+    h.focus(Pane::Graph);
+    let whole = h.screen();
+    assert!(!whole.contains("node 1/13"), "{whole}");
+    let first = h.app.graph_view.selected();
+    h.key(KeyCode::Char(']'));
+    assert_ne!(h.app.graph_view.selected(), first);
+    assert_ne!(h.screen(), whole);
+    h.key(KeyCode::Char('v'));
+    assert!(h.screen().contains("node 1/13"));
+    h.key(KeyCode::Char('v'));
+    assert!(!h.screen().contains("node 1/13"));
 }

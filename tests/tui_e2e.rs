@@ -165,7 +165,11 @@ fn help_as_the_first_key_and_a_resize_drawn_at_once_without_halfblocks() {
         );
         std::thread::sleep(Duration::from_millis(20));
     }
+    // Esc and q sent together would read as Alt-q: wait for the help to close.
     tmux.keys(&["Escape"]);
+    tmux.wait_for("the help to close", |s| {
+        !s.contains("Keys (any key closes)")
+    });
     tmux.keys(&["q"]);
     assert_eq!(exit_status(dir.path()), "0");
 }

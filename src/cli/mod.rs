@@ -2,6 +2,7 @@
 //! program may read the output.
 
 mod annotate;
+mod cache;
 mod completions;
 mod corrupt;
 mod embed;
@@ -19,11 +20,13 @@ use std::sync::Arc;
 use clap::{Args, Parser, Subcommand};
 
 use crate::metrics::pg2s::{GoalModels, Pg2sScorer, Pg2sSettings};
-use crate::metrics::FramingParser;
+use crate::metrics::{FramingParser, ModelError, SentenceEncoder};
 use crate::models::Progress;
+use crate::nlp::embedding_cache::{stamped_identity, CachedEncoder};
 use crate::nlp::en::EnPipeline;
-use crate::nlp::mpnet::MpnetEncoder;
+use crate::nlp::mpnet::{MpnetEncoder, MpnetOptions};
 use crate::nlp::wordvec::WordVectorTable;
+use crate::store::DiskStore;
 
 /// mapvlm: multi-agent planning with visual language models, and plan metrics.
 #[derive(Debug, Parser)]
@@ -59,6 +62,8 @@ pub enum Command {
     Plan(plan::PlanArgs),
     /// Plan and score every task of a dataset; write the paper's Table 3.
     Eval(eval::EvalArgs),
+    /// Show, prune or clear the embedding and response caches.
+    Cache(cache::CacheArgs),
     /// Write a dataset's plans or an items file plus seeded corruptions of every plan.
     Corrupt(corrupt::CorruptArgs),
     /// Judge plans blind, one screen per item (or pair); --export writes CSV.
@@ -87,7 +92,7 @@ impl PackArgs {
 }
 
 /// Where the models come from, for the commands that need them.
-#[derive(Debug, Args)]
+#[derive(Debug, Clone, Args)]
 pub struct ModelArgs {
     /// The model pack folder (default: $MAPVLM_MODELS, else the user's cache folder).
     #[arg(long, env = "MAPVLM_MODELS", value_name = "DIR")]
@@ -96,6 +101,52 @@ pub struct ModelArgs {
     /// (e.g. GoogleNews-vectors-negative300.bin for the paper's configuration).
     #[arg(long, value_name = "FILE")]
     pub vectors: Option<PathBuf>,
+    /// Neither read nor write the embedding cache ($XDG_CACHE_HOME/mapvlm/embeddings).
+    #[arg(long)]
+    pub no_embedding_cache: bool,
+    /// The embedding cache's size bound in MB; the least recently used entries go first.
+    #[arg(long, env = "MAPVLM_CACHE_MAX_MB", value_name = "MB", default_value_t = crate::store::DEFAULT_MAX_BYTES >> 20)]
+    pub cache_max_mb: u64,
+}
+
+impl ModelArgs {
+    /// The sentence encoder of the pack `dir`: behind the embedding cache
+    /// unless `--no-cache` (or the model is not verified as it is now), and
+    /// loaded only when a sentence is not in the cache.
+    fn encoder(&self, dir: &Path, report: &dyn Fn(String)) -> CachedEncoder {
+        let folder = crate::models::model_path(dir, crate::models::MPNET);
+        let store = if self.no_embedding_cache {
+            None
+        } else {
+            let identity = stamped_identity(dir, crate::models::MPNET);
+            if identity.is_none() {
+                report(format!(
+                    "embedding cache off: {} is not verified as it is now; run `mapvlm models verify`",
+                    crate::models::MPNET
+                ));
+            }
+            identity.map(|model| (embedding_store(self.cache_max_mb << 20), model))
+        };
+        CachedEncoder::new(
+            store,
+            Box::new(move || -> Result<Arc<dyn SentenceEncoder>, ModelError> {
+                let options = MpnetOptions {
+                    cache: false,
+                    ..MpnetOptions::default()
+                };
+                let path = folder.as_ref().map_err(|e| e.to_string())?;
+                Ok(Arc::new(MpnetEncoder::load_with(path, options)?))
+            }),
+        )
+    }
+}
+
+/// The embedding cache, `$XDG_CACHE_HOME/mapvlm/embeddings`, kept under `max_bytes`.
+fn embedding_store(max_bytes: u64) -> DiskStore {
+    DiskStore::new(
+        crate::store::user_cache_root().join("embeddings"),
+        max_bytes,
+    )
 }
 
 /// Prints a line about the model pack on stderr.
@@ -114,20 +165,20 @@ fn load_scorer(
 ) -> anyhow::Result<Pg2sScorer> {
     let dir = crate::models::models_dir(args.models_dir.as_deref());
     models::ensure_pack(&dir, report, progress)?;
-    let (encoder, vectors, parser) = std::thread::scope(|s| {
-        let encoder = s.spawn(|| -> anyhow::Result<MpnetEncoder> {
-            let path = crate::models::model_path(&dir, crate::models::MPNET)?;
-            Ok(MpnetEncoder::load(&path)?)
-        });
+    let (vectors, parser) = std::thread::scope(|s| {
         let vectors = s.spawn(|| load_vectors(args, &dir));
         let parser = s.spawn(|| load_parser(&dir));
-        (joined(encoder), joined(vectors), joined(parser))
+        (joined(vectors), joined(parser))
     });
     let goal = GoalModels {
         vectors: Arc::new(vectors?),
         parser: parser?,
     };
-    Ok(Pg2sScorer::new(Arc::new(encoder?), Ok(goal), settings))
+    Ok(Pg2sScorer::new(
+        Arc::new(args.encoder(&dir, report)),
+        Ok(goal),
+        settings,
+    ))
 }
 
 /// The word vectors of `--vectors`, else the pack's GloVe.
@@ -165,6 +216,7 @@ pub fn run() -> anyhow::Result<ExitCode> {
         Some(Command::Embed(args)) => embed::run(&args),
         Some(Command::Plan(args)) => plan::run(&args),
         Some(Command::Eval(args)) => eval::run(&args),
+        Some(Command::Cache(args)) => cache::run(&args),
         Some(Command::Corrupt(args)) => corrupt::run(&args),
         Some(Command::Annotate(args)) => annotate::run(args),
         Some(Command::Completions(args)) => completions::completions(&args),

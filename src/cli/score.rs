@@ -44,6 +44,9 @@ pub struct ScoreArgs {
     /// Model settings shared with the other model-backed commands.
     #[command(flatten)]
     pub models: super::ModelArgs,
+    /// Neither read nor write any cache (here: the embedding cache).
+    #[arg(long)]
+    pub no_cache: bool,
     /// A sentence match needs a cosine strictly above this.
     #[arg(long, default_value_t = Pg2sSettings::default().sentence_threshold)]
     pub sentence_threshold: f64,
@@ -90,8 +93,10 @@ pub fn run(args: &ScoreArgs) -> anyhow::Result<ExitCode> {
         bound_pair(pair);
     }
     let scorer = if args.metrics.contains(&Metric::Pg2s) {
+        let mut models = args.models.clone();
+        models.no_embedding_cache |= args.no_cache;
         Some(super::load_scorer(
-            &args.models,
+            &models,
             args.settings(),
             &super::say,
             &crate::models::Progress::stderr(),

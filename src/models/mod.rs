@@ -18,6 +18,7 @@ pub use hf_cache::{find_snapshot, hub_cache_dir, repo_dir, CacheLookup, CachedSn
 pub use hub::HubSettings;
 pub use link::LinkedFrom;
 pub use sources::{obtain_model, Source, Sources};
+pub(crate) use verify::{hex, STAMP_FILE};
 pub use verify::{quick_status, sha256_file, verify_model, Problem, QuickStatus, Status};
 
 /// Folder of the sentence encoder inside the pack.

@@ -1,5 +1,6 @@
 //! The language models behind the metrics.
 
+pub mod embedding_cache;
 pub mod en;
 pub mod mpnet;
 pub mod wordvec;

@@ -19,6 +19,11 @@ use tokenizers::{Tokenizer, TruncationParams};
 use crate::metrics::{ModelError, SentenceEncoder};
 use model::{Mpnet, MpnetConfig, TokenBatch};
 
+/// The revision of the encoder's arithmetic, part of every stored
+/// embedding's key: bump it with any change that can move an embedding's
+/// bits (batching, kernels, pooling), so no older vector is served.
+pub const REVISION: u32 = 1;
+
 /// The number of sentences run through the network together by default.
 pub const DEFAULT_BATCH_SIZE: usize = 32;
 

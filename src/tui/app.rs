@@ -6,15 +6,17 @@ use std::collections::BTreeMap;
 use std::path::PathBuf;
 use std::sync::Arc;
 
-use crossterm::event::{
-    KeyCode, KeyEvent, KeyEventKind, KeyModifiers, MouseButton, MouseEvent, MouseEventKind,
-};
+use crossterm::event::{KeyCode, KeyEvent, KeyEventKind, MouseButton, MouseEvent, MouseEventKind};
 use image::DynamicImage;
 use ratatui::layout::{Position, Rect};
 use ratatui_image::protocol::Protocol;
 use ratatui_textarea::TextArea;
 
 use super::agents::{self, planning_role, role_label, roles, AgentEvent, RunRequest};
+use super::component;
+use super::graph_view::GraphView;
+use super::help::{Close, Help};
+use super::keymap::{self, Action, Context};
 use super::scoring::{Pg2sOutcome, ScoreOutcome, ScoreRequest};
 use super::theme::Theme;
 use super::ui::layout::{pane_rects, Screen};
@@ -173,6 +175,18 @@ pub enum Editing {
     Search(TextArea<'static>),
 }
 
+impl Editing {
+    /// The key context of this editor ([`Context::Panes`] when none is open).
+    pub fn context(&self) -> Context {
+        match self {
+            Editing::None => Context::Panes,
+            Editing::Step { .. } => Context::StepEditor,
+            Editing::Prompt => Context::PromptEditor,
+            Editing::Search(_) => Context::Search,
+        }
+    }
+}
+
 /// A modal view over the panes.
 #[derive(Debug, Clone)]
 pub enum Overlay {
@@ -271,6 +285,16 @@ pub struct GraphCursor {
     pub neighbour: usize,
     /// Nodes visited before, for going back.
     pub back: Vec<usize>,
+}
+
+/// How the Knowledge Graph pane draws the graph (`v` switches).
+#[derive(Debug, Clone, Copy, Default, PartialEq, Eq)]
+pub enum GraphMode {
+    /// Every node and labelled edge, laid out in layers.
+    #[default]
+    Whole,
+    /// One node with its incoming and outgoing edges.
+    Neighbourhood,
 }
 
 /// The run in flight.
@@ -434,6 +458,10 @@ pub struct App {
     pub graph: KnowledgeGraph,
     /// The graph view's position.
     pub graph_cursor: GraphCursor,
+    /// The whole-graph view: layout, selection, zoom and pan.
+    pub graph_view: GraphView,
+    /// Which of the two graph drawings the pane shows.
+    pub graph_mode: GraphMode,
     /// The search, highlighted in every pane.
     pub search: String,
     /// The latest status message.
@@ -558,6 +586,8 @@ impl App {
             run_awaiting_scores: None,
             graph: KnowledgeGraph::default(),
             graph_cursor: GraphCursor::default(),
+            graph_view: GraphView::default(),
+            graph_mode: GraphMode::default(),
             search: String::new(),
             status: init.notice,
             image_enabled: true,
@@ -809,6 +839,7 @@ impl App {
         if self.graph_cursor.node >= self.graph.nodes.len() {
             self.graph_cursor = GraphCursor::default();
         }
+        self.graph_view.set_graph(&self.graph);
     }
 
     /// The name of `agent`'s prompt template in the current approach.
@@ -1370,8 +1401,7 @@ impl App {
     }
 
     fn on_key(&mut self, key: KeyEvent) -> Vec<Cmd> {
-        let ctrl = key.modifiers.contains(KeyModifiers::CONTROL);
-        if ctrl && key.code == KeyCode::Char('c') {
+        if keymap::action(&[Context::Always], &key) == Some(Action::Quit) {
             self.quit = true;
             return Vec::new();
         }
@@ -1385,15 +1415,15 @@ impl App {
     }
 
     fn on_editor_key(&mut self, key: KeyEvent) -> Vec<Cmd> {
-        let ctrl = key.modifiers.contains(KeyModifiers::CONTROL);
+        let action = keymap::action(&[self.editing.context()], &key);
         match std::mem::replace(&mut self.editing, Editing::None) {
             Editing::Step {
                 list,
                 index,
                 mut editor,
                 inserted,
-            } => match key.code {
-                KeyCode::Enter => {
+            } => match action {
+                Some(Action::Accept) => {
                     let text = editor.lines().join(" ").trim().to_string();
                     let steps = self.steps_mut(list);
                     if text.is_empty() {
@@ -1412,7 +1442,7 @@ impl App {
                     }
                     vec![self.rescore()]
                 }
-                KeyCode::Esc => {
+                Some(Action::Leave) => {
                     if inserted && index < self.steps(list).len() {
                         self.steps_mut(list).remove(index);
                     }
@@ -1432,7 +1462,7 @@ impl App {
                 }
             },
             Editing::Prompt => {
-                if key.code == KeyCode::Esc {
+                if action == Some(Action::Leave) {
                     self.store_prompt_editor();
                     self.session_dirty = true;
                     if let Some(note) = self.provider_note() {
@@ -1440,7 +1470,7 @@ impl App {
                     }
                     return Vec::new();
                 }
-                if (ctrl && key.code == KeyCode::Char('r')) || key.code == KeyCode::F(5) {
+                if action == Some(Action::RunFromEditor) {
                     self.store_prompt_editor();
                     self.session_dirty = true;
                     return self.start_run(false);
@@ -1451,9 +1481,9 @@ impl App {
                 Vec::new()
             }
             Editing::Search(mut editor) => {
-                match key.code {
-                    KeyCode::Esc => self.search.clear(),
-                    KeyCode::Enter => self.jump_to_search(),
+                match action {
+                    Some(Action::Leave) => self.search.clear(),
+                    Some(Action::Accept) => self.jump_to_search(),
                     _ => {
                         editor.input(key);
                         self.search = editor.lines().join("");
@@ -1500,7 +1530,10 @@ impl App {
         let down = matches!(key.code, KeyCode::Down | KeyCode::Char('j'));
         let up = matches!(key.code, KeyCode::Up | KeyCode::Char('k'));
         match overlay {
-            Overlay::Help => Vec::new(),
+            Overlay::Help => {
+                let Close = component::dispatch(&mut Help, &key);
+                Vec::new()
+            }
             Overlay::Actions | Overlay::Compare { .. } => {
                 if !matches!(key.code, KeyCode::Esc | KeyCode::Char('q') | KeyCode::Enter) {
                     self.overlay = Some(overlay);
@@ -1788,53 +1821,76 @@ impl App {
         Vec::new()
     }
 
-    fn step_command(&mut self, list: StepList, code: KeyCode) -> Option<Vec<Cmd>> {
+    fn step_command(&mut self, list: StepList, action: Action) -> Vec<Cmd> {
         let sel = match list {
             StepList::Plan => self.plan_selected,
             StepList::GroundTruth => self.ground_truth_selected,
         };
         let len = self.steps(list).len();
-        match code {
-            KeyCode::Enter | KeyCode::Char('e') => Some(self.edit_step(list, None)),
-            KeyCode::Char('o') => Some(self.edit_step(list, Some(sel + usize::from(len > 0)))),
-            KeyCode::Char('O') => Some(self.edit_step(list, Some(sel))),
-            KeyCode::Char('d') | KeyCode::Delete if sel < len => {
+        match action {
+            Action::EditStep => self.edit_step(list, None),
+            Action::InsertAfter => self.edit_step(list, Some(sel + usize::from(len > 0))),
+            Action::InsertBefore => self.edit_step(list, Some(sel)),
+            Action::DeleteStep if sel < len => {
                 self.steps_mut(list).remove(sel);
                 *self.selected_mut(list) = sel.min(len.saturating_sub(2));
-                Some(vec![self.rescore()])
+                vec![self.rescore()]
             }
-            KeyCode::Char('J') if sel + 1 < len => {
+            Action::StepDown if sel + 1 < len => {
                 self.steps_mut(list).swap(sel, sel + 1);
                 *self.selected_mut(list) = sel + 1;
-                Some(vec![self.rescore()])
+                vec![self.rescore()]
             }
-            KeyCode::Char('K') if sel > 0 && sel < len => {
+            Action::StepUp if sel > 0 && sel < len => {
                 self.steps_mut(list).swap(sel, sel - 1);
                 *self.selected_mut(list) = sel - 1;
-                Some(vec![self.rescore()])
+                vec![self.rescore()]
             }
-            _ => None,
+            _ => Vec::new(),
         }
     }
 
-    fn on_command_key(&mut self, key: KeyEvent) -> Vec<Cmd> {
-        let pane_list = match self.focus {
-            Pane::Plan => Some(StepList::Plan),
-            Pane::GroundTruth => Some(StepList::GroundTruth),
+    /// Whether an editor (step, prompt or search) has the keyboard.
+    pub fn is_editing(&self) -> bool {
+        !matches!(self.editing, Editing::None)
+    }
+
+    /// The contexts whose bindings apply with no editor or overlay open,
+    /// the focused pane's first.
+    pub fn pane_contexts(&self) -> Vec<Context> {
+        let pane = match self.focus {
+            Pane::Plan | Pane::GroundTruth => Some(Context::Steps),
+            Pane::Graph => Some(match self.graph_mode {
+                GraphMode::Whole => Context::WholeGraph,
+                GraphMode::Neighbourhood => Context::Graph,
+            }),
+            Pane::Prompt => Some(Context::Prompt),
             _ => None,
         };
-        if let Some(list) = pane_list {
-            if let Some(cmds) = self.step_command(list, key.code) {
-                return cmds;
-            }
-        }
-        match key.code {
-            KeyCode::Char('q') => self.quit = true,
-            KeyCode::Tab => self.focus_step(1),
-            KeyCode::BackTab => self.focus_step(-1),
-            KeyCode::Char('?') => self.overlay = Some(Overlay::Help),
-            KeyCode::Char('z') => self.zoom = !self.zoom,
-            KeyCode::Esc => {
+        pane.into_iter().chain([Context::Panes]).collect()
+    }
+
+    fn on_command_key(&mut self, key: KeyEvent) -> Vec<Cmd> {
+        let Some(action) = keymap::action(&self.pane_contexts(), &key) else {
+            return Vec::new();
+        };
+        let list = match self.focus {
+            Pane::Plan => StepList::Plan,
+            _ => StepList::GroundTruth,
+        };
+        match action {
+            Action::EditStep
+            | Action::InsertAfter
+            | Action::InsertBefore
+            | Action::DeleteStep
+            | Action::StepDown
+            | Action::StepUp => return self.step_command(list, action),
+            Action::Quit => self.quit = true,
+            Action::NextPane => self.focus_step(1),
+            Action::PreviousPane => self.focus_step(-1),
+            Action::Help => self.overlay = Some(Overlay::Help),
+            Action::Zoom => self.zoom = !self.zoom,
+            Action::Escape => {
                 if self.zoom {
                     self.zoom = false;
                 } else if !self.search.is_empty() {
@@ -1843,61 +1899,62 @@ impl App {
                     self.status = None;
                 }
             }
-            KeyCode::Char('/') => {
+            Action::Search => {
                 self.editing = Editing::Search(single_line_editor(&self.search));
             }
-            KeyCode::Char('n') => self.jump_to_search(),
-            KeyCode::Down | KeyCode::Char('j') => self.move_selection(self.focus, 1),
-            KeyCode::Up | KeyCode::Char('k') => self.move_selection(self.focus, -1),
-            KeyCode::PageDown => self.move_selection(self.focus, 10),
-            KeyCode::PageUp => self.move_selection(self.focus, -10),
-            KeyCode::Right | KeyCode::Char('l') if self.focus == Pane::Graph => self.graph_enter(),
-            KeyCode::Enter if self.focus == Pane::Graph => self.graph_enter(),
-            KeyCode::Left | KeyCode::Char('h') | KeyCode::Backspace
-                if self.focus == Pane::Graph =>
-            {
-                self.graph_back()
-            }
-            KeyCode::Char(']') if self.focus == Pane::Graph => {
-                let n = self.graph.nodes.len().max(1);
+            Action::NextHit => self.jump_to_search(),
+            Action::Move(delta) => self.move_selection(self.focus, delta),
+            Action::GraphEnter => self.graph_enter(),
+            Action::GraphBack => self.graph_back(),
+            Action::GraphNode(step) => {
+                let n = self.graph.nodes.len().max(1) as isize;
                 self.graph_cursor = GraphCursor {
-                    node: (self.graph_cursor.node + 1) % n,
+                    node: (self.graph_cursor.node as isize + step).rem_euclid(n) as usize,
                     ..GraphCursor::default()
                 };
             }
-            KeyCode::Char('[') if self.focus == Pane::Graph => {
-                let n = self.graph.nodes.len().max(1);
-                self.graph_cursor = GraphCursor {
-                    node: (self.graph_cursor.node + n - 1) % n,
-                    ..GraphCursor::default()
+            Action::GraphSelect(step) => {
+                if step > 0 {
+                    self.graph_view.select_next();
+                } else {
+                    self.graph_view.select_prev();
+                }
+            }
+            Action::GraphStep(direction) => {
+                self.graph_view.step(direction);
+            }
+            Action::GraphZoom(step) => {
+                if step > 0 {
+                    self.graph_view.zoom_in();
+                } else {
+                    self.graph_view.zoom_out();
+                }
+            }
+            Action::GraphMode => {
+                self.graph_mode = match self.graph_mode {
+                    GraphMode::Whole => GraphMode::Neighbourhood,
+                    GraphMode::Neighbourhood => GraphMode::Whole,
                 };
             }
-            KeyCode::Right | KeyCode::Char('l') if self.focus == Pane::Prompt => {
-                self.move_selection(Pane::Prompt, 1)
-            }
-            KeyCode::Left | KeyCode::Char('h') if self.focus == Pane::Prompt => {
-                self.move_selection(Pane::Prompt, -1)
-            }
-            KeyCode::Right | KeyCode::Char('l') => self.focus_step(1),
-            KeyCode::Left | KeyCode::Char('h') => self.focus_step(-1),
-            KeyCode::Enter | KeyCode::Char('e') if self.focus == Pane::Prompt => {
+            Action::PromptStep(step) => self.move_selection(Pane::Prompt, step),
+            Action::EditPrompt => {
                 self.prompt_editor
                     .move_cursor(ratatui_textarea::CursorMove::Bottom);
                 self.prompt_editor
                     .move_cursor(ratatui_textarea::CursorMove::End);
                 self.editing = Editing::Prompt;
             }
-            KeyCode::Char(c @ '1'..='3') if self.focus == Pane::Prompt => {
-                if let Some(&agent) = roles(self.approach).get((c as u8 - b'1') as usize) {
+            Action::PromptOf(position) => {
+                if let Some(&agent) = roles(self.approach).get(position) {
                     self.store_prompt_editor();
                     self.prompt_agent = agent;
                     self.load_prompt_editor();
                 }
             }
-            KeyCode::Char('r') => return self.start_run(false),
-            KeyCode::Char('R') => return self.start_run(true),
-            KeyCode::Char('x') => return self.cancel_run(),
-            KeyCode::Char('g') => {
+            Action::Run => return self.start_run(false),
+            Action::RunAll => return self.start_run(true),
+            Action::CancelRun => return self.cancel_run(),
+            Action::ChooseGroundTruth => {
                 let choices = self.ground_truth_choices();
                 let selected = choices
                     .iter()
@@ -1915,8 +1972,8 @@ impl App {
                     .unwrap_or(0);
                 self.overlay = Some(Overlay::GroundTruthPicker { selected });
             }
-            KeyCode::Char('a') => return self.cycle_approach(),
-            KeyCode::Char('p') => {
+            Action::NextApproach => return self.cycle_approach(),
+            Action::PublishedPlan => {
                 self.load_published_plan();
                 if self.plan.is_empty() {
                     self.set_status(
@@ -1926,7 +1983,7 @@ impl App {
                 }
                 return vec![self.rescore()];
             }
-            KeyCode::Char('m') => {
+            Action::ModelForm => {
                 let agent = if self.focus == Pane::Prompt {
                     self.prompt_agent
                 } else {
@@ -1938,11 +1995,11 @@ impl App {
                 };
                 self.open_model_form(agent);
             }
-            KeyCode::Char('i') => {
+            Action::ToggleImage => {
                 self.image_enabled = !self.image_enabled;
                 self.session_dirty = true;
             }
-            KeyCode::Char('t') => {
+            Action::NextTheme => {
                 if !self.no_color && !self.themes.is_empty() {
                     let i = self
                         .themes
@@ -1956,14 +2013,14 @@ impl App {
                     self.set_status("NO_COLOR is set: themes are off", Severity::Info);
                 }
             }
-            KeyCode::Char('f') => self.overlay = Some(Overlay::Actions),
-            KeyCode::Char('H') => {
+            Action::Actions => self.overlay = Some(Overlay::Actions),
+            Action::History => {
                 self.overlay = Some(Overlay::Runs {
                     selected: self.runs.len().saturating_sub(1),
                     marked: None,
                 })
             }
-            _ => {}
+            Action::Accept | Action::Leave | Action::RunFromEditor => {}
         }
         Vec::new()
     }

@@ -7,9 +7,13 @@
 pub mod agents;
 pub mod annotate;
 pub mod app;
+pub mod component;
 pub mod graph_layout;
 pub mod graph_view;
+pub mod help;
+pub mod keymap;
 pub mod scoring;
+pub mod snapshot;
 pub mod terminal_query;
 pub mod theme;
 pub mod ui;
@@ -18,7 +22,7 @@ use std::collections::{BTreeMap, HashMap};
 use std::io::Stdout;
 use std::path::PathBuf;
 use std::sync::{Arc, RwLock};
-use std::time::Duration;
+use std::time::{Duration, Instant};
 
 use crossterm::event::{
     DisableBracketedPaste, DisableMouseCapture, EnableBracketedPaste, EnableMouseCapture, Event,
@@ -41,6 +45,7 @@ use crate::session::{self, Restored, Session};
 use agents::Pipeline;
 use app::{App, AppInit, Cmd, ModelStatus, Msg, Severity};
 use scoring::{ModelSlot, ScorerLoader, SharedModels};
+use snapshot::{Snapshot, SnapshotPacer, SNAPSHOT_EVERY};
 
 /// How long scoring waits for typing to settle.
 pub const SCORE_DEBOUNCE: Duration = Duration::from_millis(25);
@@ -250,7 +255,11 @@ pub fn run(options: Options) -> Result<(), TuiError> {
         .worker_threads(2)
         .enable_all()
         .build()?;
-    rt.block_on(run_async(options))
+    let result = rt.block_on(run_async(options));
+    // The session is saved by now; a model still loading on a blocking
+    // thread must not hold the exit up (dropping the runtime would wait).
+    rt.shutdown_background();
+    result
 }
 
 fn load_start(
@@ -407,11 +416,22 @@ async fn run_async(options: Options) -> Result<(), TuiError> {
     prepare_image(&mut app, &picker);
     terminal.draw(|f| ui::render(f, &app))?;
 
-    while let Some(msg) = msg_rx.recv().await {
-        let mut pending = vec![msg];
+    let mut pacer = SnapshotPacer::new(SNAPSHOT_EVERY);
+    let mut wake: Option<Instant> = None;
+    loop {
+        let first = match wake {
+            Some(at) => tokio::select! {
+                msg = msg_rx.recv() => msg.map(Some),
+                () = tokio::time::sleep_until(at.into()) => Some(None),
+            },
+            None => msg_rx.recv().await.map(Some),
+        };
+        let Some(first) = first else { break };
+        let mut pending: Vec<Msg> = first.into_iter().collect();
         while let Ok(more) = msg_rx.try_recv() {
             pending.push(more);
         }
+        let was_editing = app.is_editing();
         for msg in pending {
             if let Msg::Resize(w, h) = msg {
                 terminal.resize(Rect::new(0, 0, w, h))?;
@@ -422,8 +442,17 @@ async fn run_async(options: Options) -> Result<(), TuiError> {
         }
         if app.session_dirty {
             app.session_dirty = false;
-            save_tx.send_replace(Some(app.to_session()));
+            pacer.changed();
         }
+        let committed = was_editing && !app.is_editing();
+        wake = match pacer.poll(committed, Instant::now()) {
+            Snapshot::Take => {
+                save_tx.send_replace(Some(app.to_session()));
+                None
+            }
+            Snapshot::WaitUntil(at) => Some(at),
+            Snapshot::Idle => None,
+        };
         if app.quit {
             break;
         }

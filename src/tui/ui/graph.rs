@@ -1,4 +1,5 @@
-//! The knowledge graph, drawn around one node: the node in a box, the edges
+//! The Knowledge Graph pane: the whole graph ([`GraphWidget`]) or, as a
+//! mode, the graph drawn around one node: the node in a box, the edges
 //! coming in on the left and going out on the right, each neighbour one key
 //! away; the other nodes listed below.
 
@@ -10,7 +11,8 @@ use ratatui::Frame;
 use super::pane_block;
 use super::panes::agent_badge;
 use crate::agents::AgentRole;
-use crate::tui::app::{App, Pane};
+use crate::tui::app::{App, GraphMode, Pane};
+use crate::tui::graph_view::GraphWidget;
 
 /// Draws the Knowledge Graph pane.
 pub(super) fn render(frame: &mut Frame, app: &App, area: Rect) {
@@ -28,6 +30,11 @@ pub(super) fn render(frame: &mut Frame, app: &App, area: Rect) {
             .wrap(Wrap { trim: true }),
             inner,
         );
+        return;
+    }
+    if app.graph_mode == GraphMode::Whole {
+        let widget = GraphWidget::new(&app.graph_view, t).focused(app.focus == Pane::Graph);
+        frame.render_widget(widget, inner);
         return;
     }
     let node = app.graph_cursor.node.min(g.nodes.len() - 1);

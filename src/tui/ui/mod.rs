@@ -2,7 +2,7 @@
 
 mod graph;
 pub mod layout;
-mod overlays;
+pub(crate) mod overlays;
 mod panes;
 
 use ratatui::layout::{Alignment, Rect};
@@ -12,6 +12,7 @@ use ratatui::widgets::{Block, Borders, Paragraph, Wrap};
 use ratatui::Frame;
 
 use super::app::{App, Editing, ModelStatus, Pane, Severity};
+use super::keymap;
 use layout::{pane_rects, Screen, MIN_HEIGHT, MIN_WIDTH};
 
 /// The visible window of a list of items `item_height` rows tall that keeps
@@ -176,11 +177,11 @@ fn render_tabs(frame: &mut Frame, app: &App, area: Rect) {
 
 fn render_status(frame: &mut Frame, app: &App, area: Rect) {
     let t = &app.theme;
-    let mode = match &app.editing {
-        Editing::Step { .. } => "EDIT step: Enter keeps · Esc cancels",
-        Editing::Prompt => "EDIT prompt: Esc done · Ctrl-R runs",
-        Editing::Search(_) => "SEARCH: Enter jumps · Esc clears",
-        Editing::None => "? keys · Tab pane · r run · g ground truth · q quit",
+    let context = app.editing.context();
+    let hints = keymap::hints(context);
+    let mode = match context.mode() {
+        Some(mode) => format!("{mode}: {hints}"),
+        None => hints,
     };
     let mut spans = vec![Span::styled(format!(" {mode} "), t.accent)];
     if let Editing::Search(_) = &app.editing {

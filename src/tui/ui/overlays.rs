@@ -8,58 +8,13 @@ use ratatui::Frame;
 
 use crate::session::RunRecord;
 use crate::tui::app::{App, Overlay};
+use crate::tui::component::Component;
+use crate::tui::help::Help;
 use crate::tui::scoring::Pg2sOutcome;
+use crate::tui::theme::Theme;
 
-/// Every key, as (keys, what they do), shown by `?`.
-pub const KEYS: &[(&str, &str)] = &[
-    ("q, Ctrl-C", "quit (the session is saved)"),
-    ("Tab, Shift-Tab, ←/→, h/l", "next or previous pane"),
-    (
-        "↑/↓, j/k, PgUp/PgDn",
-        "select a step, a neighbour, or scroll",
-    ),
-    (
-        "Enter, e",
-        "edit the selected step or the prompt; in the graph, go to the neighbour",
-    ),
-    ("Esc", "close, stop editing, leave zoom, clear the search"),
-    ("/ then n", "search every pane, then jump to the next hit"),
-    ("?", "this help"),
-    ("z", "zoom the focused pane"),
-    ("o, O", "insert a step after or before the selected one"),
-    ("d, Delete", "delete the selected step"),
-    ("J, K", "move the selected step down or up"),
-    (
-        "g",
-        "choose a ground truth: demo, dataset task, step file, or type one",
-    ),
-    ("p", "load the task's published plan for the approach"),
-    ("a", "next approach (table ones when the task has a table)"),
-    ("r, R", "run the agents whose inputs changed; re-run all"),
-    ("x", "cancel the run in flight"),
-    (
-        "1 2 3 (Prompt pane)",
-        "prompt of SKM, GKM, Planner; Ctrl-R runs while editing",
-    ),
-    (
-        "m",
-        "provider, model, temperature and token limit of an agent",
-    ),
-    (
-        "[ ] ← Backspace (graph)",
-        "other nodes; back to the previous node",
-    ),
-    ("f", "framed actions and their matches (S_goal)"),
-    (
-        "H",
-        "run history: space marks, c compares, Enter loads the plan",
-    ),
-    ("i", "scene image on or off (for slow links)"),
-    ("t", "next theme (NO_COLOR turns colour off)"),
-    ("mouse", "click focuses and selects; the wheel scrolls"),
-];
-
-fn centred(area: Rect, width: u16, height: u16) -> Rect {
+/// A `width`×`height` box in the middle of `area` (smaller when it must be).
+pub(crate) fn centred(area: Rect, width: u16, height: u16) -> Rect {
     let w = width.min(area.width.saturating_sub(2));
     let h = height.min(area.height.saturating_sub(2));
     Rect::new(
@@ -71,11 +26,16 @@ fn centred(area: Rect, width: u16, height: u16) -> Rect {
 }
 
 fn frame_box<'a>(app: &App, title: &'a str) -> Block<'a> {
+    themed_box(&app.theme, title)
+}
+
+/// The frame of an overlay, titled `title`, in `theme`'s colours.
+pub(crate) fn themed_box<'a>(theme: &Theme, title: &'a str) -> Block<'a> {
     Block::default()
         .borders(Borders::ALL)
-        .border_style(app.theme.focus)
-        .style(app.theme.base)
-        .title(Span::styled(format!(" {title} "), app.theme.title))
+        .border_style(theme.focus)
+        .style(theme.base)
+        .title(Span::styled(format!(" {title} "), theme.title))
 }
 
 /// Clears a centred `width`×`height` box, draws its frame titled `title`,
@@ -94,23 +54,7 @@ pub(super) fn render_overlay(frame: &mut Frame, app: &App, area: Rect) {
     let Some(overlay) = &app.overlay else { return };
     let t = &app.theme;
     match overlay {
-        Overlay::Help => {
-            let rect = centred(area, 96, KEYS.len() as u16 + 4);
-            let lines: Vec<Line> = KEYS
-                .iter()
-                .map(|(k, what)| {
-                    Line::from(vec![
-                        Span::styled(format!("{k:<26}"), t.accent),
-                        Span::styled(*what, t.base),
-                    ])
-                })
-                .collect();
-            frame.render_widget(Clear, rect);
-            frame.render_widget(
-                Paragraph::new(lines).block(frame_box(app, "Keys (any key closes)")),
-                rect,
-            );
-        }
+        Overlay::Help => Help.draw(frame, area, t),
         Overlay::GroundTruthPicker { selected } => {
             let choices = app.ground_truth_choices();
             let rect = centred(area, 90, choices.len() as u16 + 2);
