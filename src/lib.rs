@@ -7,6 +7,7 @@
 #![warn(missing_docs)]
 
 pub mod agents;
+pub mod agree;
 pub mod annotate;
 pub mod cli;
 pub mod corrupt;
@@ -17,5 +18,6 @@ pub mod models;
 pub mod nlp;
 pub mod plan;
 pub mod session;
+pub mod stats;
 pub mod store;
 pub mod tui;

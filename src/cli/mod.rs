@@ -2,6 +2,7 @@
 //! program may read the output.
 
 mod annotate;
+mod agree;
 mod cache;
 mod completions;
 mod corrupt;
@@ -62,6 +63,8 @@ pub enum Command {
     Plan(plan::PlanArgs),
     /// Plan and score every task of a dataset; write the paper's Table 3.
     Eval(eval::EvalArgs),
+    /// How far PG2S, S_plan, S_goal and KAS agree with human judgements.
+    Agree(agree::AgreeArgs),
     /// Show, prune or clear the embedding and response caches.
     Cache(cache::CacheArgs),
     /// Write a dataset's plans or an items file plus seeded corruptions of every plan.
@@ -216,6 +219,7 @@ pub fn run() -> anyhow::Result<ExitCode> {
         Some(Command::Embed(args)) => embed::run(&args),
         Some(Command::Plan(args)) => plan::run(&args),
         Some(Command::Eval(args)) => eval::run(&args),
+        Some(Command::Agree(args)) => agree::run(&args),
         Some(Command::Cache(args)) => cache::run(&args),
         Some(Command::Corrupt(args)) => corrupt::run(&args),
         Some(Command::Annotate(args)) => annotate::run(args),
