@@ -1,8 +1,8 @@
 //! The command line: one subcommand a module, each with `--json` where a
 //! program may read the output.
 
-mod annotate;
 mod agree;
+mod annotate;
 mod cache;
 mod completions;
 mod corrupt;
