@@ -2,6 +2,7 @@
 //! program may read the output.
 
 mod agree;
+mod annotate;
 mod cache;
 mod completions;
 mod corrupt;
@@ -68,6 +69,8 @@ pub enum Command {
     Cache(cache::CacheArgs),
     /// Write a dataset's plans or an items file plus seeded corruptions of every plan.
     Corrupt(corrupt::CorruptArgs),
+    /// Judge plans blind, one screen per item (or pair); --export writes CSV.
+    Annotate(annotate::AnnotateArgs),
     /// Write a shell completion script on standard output.
     Completions(completions::CompletionsArgs),
     /// Write the man page (roff) on standard output.
@@ -232,6 +235,7 @@ pub fn run() -> anyhow::Result<ExitCode> {
         Some(Command::Agree(args)) => agree::run(&args),
         Some(Command::Cache(args)) => cache::run(&args),
         Some(Command::Corrupt(args)) => corrupt::run(&args),
+        Some(Command::Annotate(args)) => annotate::run(args),
         Some(Command::Completions(args)) => completions::completions(&args),
         Some(Command::Man) => completions::man(),
         None => tui::run(cli.tui),
