@@ -4,7 +4,10 @@
 //! Data flows one way: a dataset or scene goes to the agents, the agents make a
 //! plan, the metrics judge the plan, and the views show all of it.
 
+#![warn(missing_docs)]
+
 pub mod agents;
+pub mod agree;
 pub mod annotate;
 pub mod cli;
 pub mod corrupt;
@@ -15,5 +18,6 @@ pub mod models;
 pub mod nlp;
 pub mod plan;
 pub mod session;
+pub mod stats;
 pub mod store;
 pub mod tui;

@@ -91,6 +91,8 @@ fn mapvlm(args: &[&str], pack: &Path, hf_home: &Path, extra: &[(&str, &str)]) ->
         .args(args)
         .env("MAPVLM_MODELS", pack)
         .env("HF_HOME", hf_home)
+        // The embedding cache and anything else of the user's stays apart.
+        .env("XDG_CACHE_HOME", hf_home.join("xdg-cache"))
         .env_remove("HF_HUB_CACHE")
         .env_remove("HF_TOKEN")
         .env_remove("HF_HUB_OFFLINE")

@@ -524,7 +524,6 @@ impl AnnotationWriter {
 
 /// Takes (`true`) or releases (`false`) the exclusive advisory lock that
 /// writers of one annotations file share.
-#[cfg(unix)]
 fn lock(file: &File, take: bool) -> std::io::Result<()> {
     use rustix::fs::{flock, FlockOperation};
     let op = if take {
@@ -533,13 +532,6 @@ fn lock(file: &File, take: bool) -> std::io::Result<()> {
         FlockOperation::Unlock
     };
     flock(file, op).map_err(std::io::Error::from)
-}
-
-/// Without advisory locks, appending one whole line in one `write` is what
-/// keeps lines apart.
-#[cfg(not(unix))]
-fn lock(_file: &File, _take: bool) -> std::io::Result<()> {
-    Ok(())
 }
 
 /// The annotations file that goes with an items file by default:

@@ -77,6 +77,9 @@ pub fn run(args: &CorruptArgs) -> anyhow::Result<ExitCode> {
     let vocabulary = Vocabulary::load(vocabulary_dir.as_deref())?;
     let dir = crate::models::models_dir(args.models.models_dir.as_deref());
     super::models::ensure_pack(&dir, &super::say, &crate::models::Progress::stderr())?;
+    if args.models.paper {
+        super::models::ensure_paper_vectors(&dir, &super::say, &crate::models::Progress::stderr())?;
+    }
     let (parser, vectors) = std::thread::scope(|s| {
         let parser = s.spawn(|| -> anyhow::Result<EnPipeline> {
             let path = crate::models::verified_model_path(&dir, crate::models::EN_CORE_WEB_SM)?;

@@ -1,6 +1,8 @@
 //! The command line: one subcommand a module, each with `--json` where a
 //! program may read the output.
 
+mod agree;
+mod annotate;
 mod cache;
 mod completions;
 mod corrupt;
@@ -61,10 +63,14 @@ pub enum Command {
     Plan(plan::PlanArgs),
     /// Plan and score every task of a dataset; write the paper's Table 3.
     Eval(eval::EvalArgs),
+    /// How far PG2S, S_plan, S_goal and KAS agree with human judgements.
+    Agree(agree::AgreeArgs),
     /// Show, prune or clear the embedding and response caches.
     Cache(cache::CacheArgs),
     /// Write a dataset's plans or an items file plus seeded corruptions of every plan.
     Corrupt(corrupt::CorruptArgs),
+    /// Judge plans blind, one screen per item (or pair); --export writes CSV.
+    Annotate(annotate::AnnotateArgs),
     /// Write a shell completion script on standard output.
     Completions(completions::CompletionsArgs),
     /// Write the man page (roff) on standard output.
@@ -96,8 +102,12 @@ pub struct ModelArgs {
     pub models_dir: Option<PathBuf>,
     /// Word vectors in word2vec binary or text format, instead of the pack's GloVe
     /// (e.g. GoogleNews-vectors-negative300.bin for the paper's configuration).
-    #[arg(long, value_name = "FILE")]
+    #[arg(long, value_name = "FILE", conflicts_with = "paper")]
     pub vectors: Option<PathBuf>,
+    /// The paper's configuration: word2vec GoogleNews 300-d vectors (gensim
+    /// KeyedVectors from the Hugging Face Hub, fetched once into the pack).
+    #[arg(long)]
+    pub paper: bool,
     /// Neither read nor write the embedding cache ($XDG_CACHE_HOME/mapvlm/embeddings).
     #[arg(long)]
     pub no_embedding_cache: bool,
@@ -162,6 +172,9 @@ fn load_scorer(
 ) -> anyhow::Result<Pg2sScorer> {
     let dir = crate::models::models_dir(args.models_dir.as_deref());
     models::ensure_pack(&dir, report, progress)?;
+    if args.paper {
+        models::ensure_paper_vectors(&dir, report, progress)?;
+    }
     let (vectors, parser) = std::thread::scope(|s| {
         let vectors = s.spawn(|| load_vectors(args, &dir));
         let parser = s.spawn(|| load_parser(&dir));
@@ -182,6 +195,12 @@ fn load_scorer(
 fn load_vectors(args: &ModelArgs, dir: &Path) -> anyhow::Result<WordVectorTable> {
     Ok(match &args.vectors {
         Some(file) => WordVectorTable::load_word2vec(file)?,
+        None if args.paper => {
+            let folder = crate::models::model_path(dir, crate::models::WORD2VEC_GOOGLE_NEWS)?;
+            WordVectorTable::load_keyed_vectors(
+                &folder.join(crate::models::WORD2VEC_GOOGLE_NEWS_FILE),
+            )?
+        }
         None => WordVectorTable::load_glove_pack(&crate::models::verified_model_path(
             dir,
             crate::models::GLOVE_6B_50D,
@@ -213,8 +232,10 @@ pub fn run() -> anyhow::Result<ExitCode> {
         Some(Command::Embed(args)) => embed::run(&args),
         Some(Command::Plan(args)) => plan::run(&args),
         Some(Command::Eval(args)) => eval::run(&args),
+        Some(Command::Agree(args)) => agree::run(&args),
         Some(Command::Cache(args)) => cache::run(&args),
         Some(Command::Corrupt(args)) => corrupt::run(&args),
+        Some(Command::Annotate(args)) => annotate::run(args),
         Some(Command::Completions(args)) => completions::completions(&args),
         Some(Command::Man) => completions::man(),
         None => tui::run(cli.tui),

@@ -53,6 +53,10 @@ pub struct FetchArgs {
     /// cache); its files are verified and linked, not copied.
     #[arg(long, value_name = "DIR")]
     pub from: Option<PathBuf>,
+    /// Also fetch the paper's word vectors, word2vec GoogleNews 300-d, from
+    /// the Hugging Face Hub (fse/word2vec-google-news-300, 3.6 GB).
+    #[arg(long)]
+    pub paper: bool,
 }
 
 /// Runs `mapvlm models ...`.
@@ -91,6 +95,27 @@ pub(super) fn ensure_pack(
     Ok(())
 }
 
+/// Fetches the paper's word vectors into `dir` when they are not there yet
+/// (for `score --paper` and `eval --paper` on first use).
+pub(super) fn ensure_paper_vectors(
+    dir: &Path,
+    report: &dyn Fn(String),
+    progress: &Progress,
+) -> anyhow::Result<()> {
+    let spec = models::paper_word2vec();
+    if models::quick_status(dir, &spec) == QuickStatus::Missing {
+        report(format!(
+            "{} (the paper's vectors) is not in the model pack at {}; fetching it once",
+            spec.folder,
+            dir.display()
+        ));
+        let sources = Sources::from_env(Source::Auto);
+        models::obtain_model(dir, &spec, &sources, progress, report)
+            .with_context(|| format!("fetching {}", spec.folder))?;
+    }
+    Ok(())
+}
+
 fn fetch(dir: &Path, args: &FetchArgs) -> anyhow::Result<ExitCode> {
     let mut sources = Sources::from_env(args.source);
     if let Some(from) = &args.from {
@@ -102,7 +127,11 @@ fn fetch(dir: &Path, args: &FetchArgs) -> anyhow::Result<ExitCode> {
         sources.from = Some(from.clone());
     }
     let report = |line: String| eprintln!("mapvlm: {line}");
-    for spec in models::default_pack() {
+    let mut specs = models::default_pack();
+    if args.paper {
+        specs.push(models::paper_word2vec());
+    }
+    for spec in specs {
         let started = Instant::now();
         let outcome = models::obtain_model(dir, &spec, &sources, &Progress::stderr(), &report)
             .with_context(|| format!("fetching {}", spec.folder))?;

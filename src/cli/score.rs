@@ -1,6 +1,7 @@
 //! `mapvlm score`: KAS and PG2S of plan pairs, with the explanation of every
 //! point lost, for people and (with `--json`) for programs.
 
+use std::collections::HashMap;
 use std::fmt::Write as _;
 use std::path::{Path, PathBuf};
 use std::process::ExitCode;
@@ -9,6 +10,7 @@ use anyhow::bail;
 use clap::{Args, ValueEnum};
 use serde_json::{json, Value};
 
+use crate::agree::MetricValues;
 use crate::dataset::{open_pairs, read_text, Pair};
 use crate::metrics::kas::{kas, KasReport};
 use crate::metrics::pg2s::{Pg2sReport, Pg2sScorer, Pg2sSettings};
@@ -141,6 +143,38 @@ pub fn run(args: &ScoreArgs) -> anyhow::Result<ExitCode> {
     } else {
         ExitCode::FAILURE
     })
+}
+
+/// The four metric values of every item (in the order of
+/// [`crate::agree::METRICS`]), scored with the model pack and the default
+/// settings, for `agree` without `--scores`.
+pub(super) fn metric_values(
+    items: &mut [Pair],
+    models: &super::ModelArgs,
+) -> anyhow::Result<HashMap<String, MetricValues>> {
+    for item in items.iter_mut() {
+        bound_pair(item);
+    }
+    let scorer = super::load_scorer(
+        models,
+        Pg2sSettings::default(),
+        &super::say,
+        &crate::models::Progress::stderr(),
+    )?;
+    warm_up(&scorer, items)?;
+    items
+        .iter()
+        .map(|item| {
+            let p = scorer
+                .score(&item.gt, &item.pred)
+                .map_err(|e| anyhow::anyhow!("scoring {}: {e}", item.id))?;
+            let k = kas(&item.gt, &item.pred);
+            Ok((
+                item.id.clone(),
+                [p.pg2s(), Some(p.s_plan), p.s_goal(), k.kas],
+            ))
+        })
+        .collect()
 }
 
 /// Embeds every distinct step of every pair in one batched call, so that the

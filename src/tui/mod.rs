@@ -5,6 +5,7 @@
 //! waits on I/O.
 
 pub mod agents;
+pub mod annotate;
 pub mod app;
 pub mod component;
 pub mod graph_layout;
@@ -91,7 +92,7 @@ fn restore_terminal() {
 }
 
 /// Restores the terminal when dropped, so every way out of [`run`] restores it.
-struct TerminalGuard;
+pub(crate) struct TerminalGuard;
 
 impl Drop for TerminalGuard {
     fn drop(&mut self) {
@@ -99,7 +100,8 @@ impl Drop for TerminalGuard {
     }
 }
 
-fn setup_terminal() -> Result<(TerminalGuard, Terminal<CrosstermBackend<Stdout>>), TuiError> {
+pub(crate) fn setup_terminal(
+) -> Result<(TerminalGuard, Terminal<CrosstermBackend<Stdout>>), TuiError> {
     let previous = std::panic::take_hook();
     std::panic::set_hook(Box::new(move |info| {
         restore_terminal();

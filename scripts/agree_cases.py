@@ -1,0 +1,134 @@
+#!/usr/bin/env python3
+"""Compare `mapvlm agree --json` with the Python reference on generated cases
+that the golden file does not have: ties, missing values, constant columns,
+one or two items, one annotator, unscored items, superseded and withdrawn
+judgements.
+
+usage: scripts/agree_cases.py PYTHON_WITH_SCIPY [MAPVLM] [--keep DIR]
+
+PYTHON_WITH_SCIPY is an interpreter with numpy, scipy and krippendorff
+(e.g. a venv made with `python3 -m venv /tmp/stats && /tmp/stats/bin/pip
+install scipy krippendorff numpy`). MAPVLM defaults to target/release/mapvlm.
+The reference is read from ../shared/reference/agree_ref.py beside the
+repository. Point estimates must agree to 1e-9 and counts exactly; the
+bootstrap intervals and the p-value are not in the reference.
+"""
+import json, os, random, subprocess, sys, tempfile
+
+ROOT = os.path.dirname(os.path.dirname(os.path.abspath(__file__)))
+REFERENCE = os.path.join(ROOT, "..", "shared", "reference", "agree_ref.py")
+METRICS = ["pg2s", "s_plan", "s_goal", "kas"]
+KINDS = ["drop", "reorder", "object-swap"]
+
+
+def case(rng, n, annotators, *, grid=10, kas_missing=0.2, constant=None,
+         constant_human=False, unscored=0.0, share=0.7):
+    items, scores, lines = [], [], []
+    sources = [f"t{i}" for i in range(n)]
+    for i, sid in enumerate(sources):
+        items.append({"id": sid, "gt": ["A."], "pred": ["B."]})
+        if rng.random() < 0.5 and n > 1:
+            kind = rng.choice(KINDS)
+            items.append({"id": f"{sid}~{kind}", "gt": ["A."], "pred": ["C."],
+                          "source": sid, "corruption": {"kind": kind, "seed": 0, "edits": []}})
+    t = 1700000000
+    for it in items:
+        if rng.random() < unscored:
+            continue
+        s = {"id": it["id"]}
+        for m in METRICS:
+            v = round(rng.randrange(grid + 1) / grid, 6)
+            if m == constant:
+                v = 0.5
+            if m == "kas" and rng.random() < kas_missing:
+                v = None
+            s[m] = v
+        scores.append(s)
+        for a in annotators:
+            if rng.random() > share:
+                continue
+            t += 1
+            # constant_human: every item's mean is 3, the ratings are not all 3
+            level = lambda: (2 if annotators.index(a) % 2 == 0 else 4) if constant_human else rng.randint(1, 5)
+            r = level()
+            lines.append({"item": it["id"], "annotator": a, "rating": r, "at": t})
+            if rng.random() < 0.15:  # superseded
+                t += 1
+                lines.append({"item": it["id"], "annotator": a,
+                              "rating": level(), "at": t})
+            if rng.random() < 0.05 and not constant_human:  # withdrawn
+                t += 1
+                lines.append({"item": it["id"], "annotator": a, "withdrawn": True, "at": t})
+    if annotators:
+        lines.append({"item": "no-such-item", "annotator": annotators[0], "rating": 2, "at": t + 1})
+    return items, scores, lines
+
+
+def close(ref, ours, path, problems):
+    if isinstance(ref, dict):
+        if not isinstance(ours, dict):
+            problems.append(f"{path}: {ours!r} is not an object")
+            return
+        for k, v in ref.items():
+            close(v, ours.get(k, "<missing>"), f"{path}.{k}", problems)
+    elif isinstance(ref, list):
+        if ref != ours:
+            problems.append(f"{path}: {ours!r} != {ref!r}")
+    elif ref is None:
+        if ours is not None:
+            problems.append(f"{path}: {ours!r}, the reference has null")
+    elif isinstance(ref, int):  # counts: exactly
+        if type(ours) is not int or ref != ours:
+            problems.append(f"{path}: {ours!r} != {ref!r}")
+    else:
+        if not isinstance(ours, (int, float)) or abs(float(ours) - float(ref)) > 1e-9:
+            problems.append(f"{path}: {ours!r} != {ref!r}")
+
+
+def main():
+    python = sys.argv[1]
+    mapvlm = sys.argv[2] if len(sys.argv) > 2 and not sys.argv[2].startswith("--") else os.path.join(ROOT, "target", "release", "mapvlm")
+    rng = random.Random(20261201)
+    three = ["ana", "bo", "chen"]
+    cases = {
+        "ties": dict(n=40, annotators=three, grid=4),
+        "fine": dict(n=120, annotators=three, grid=1000, share=0.5),
+        "one_item": dict(n=1, annotators=three),
+        "two_items": dict(n=2, annotators=["ana", "bo"], share=1.0),
+        "constant_metric": dict(n=25, annotators=three, constant="s_goal"),
+        "constant_human": dict(n=25, annotators=["ana", "bo"], constant_human=True, share=1.0),
+        "one_annotator": dict(n=30, annotators=["ana"]),
+        "unscored": dict(n=30, annotators=three, unscored=0.3, kas_missing=0.6),
+        "large": dict(n=600, annotators=three, grid=20, share=0.6),
+    }
+    failed = 0
+    with tempfile.TemporaryDirectory() as tmp:
+        for name, spec in cases.items():
+            items, scores, lines = case(rng, **spec)
+            paths = {}
+            for part, rows in (("items", items), ("scores", scores), ("annotations", lines)):
+                paths[part] = os.path.join(tmp, f"{name}.{part}.jsonl")
+                with open(paths[part], "w") as f:
+                    f.writelines(json.dumps(r) + "\n" for r in rows)
+            ref = subprocess.run([python, REFERENCE, paths["items"], paths["scores"], paths["annotations"]],
+                                 capture_output=True, text=True)
+            if ref.returncode != 0:
+                print(f"{name}: the reference failed ({ref.stderr.strip().splitlines()[-1]}); skipped")
+                continue
+            ours = subprocess.run([mapvlm, "agree", "--items", paths["items"], "--scores", paths["scores"],
+                                   "--annotations", paths["annotations"], "--json", "--bootstrap", "200",
+                                   "--permutations", "200"], capture_output=True, text=True)
+            problems = []
+            try:
+                close(json.loads(ref.stdout), json.loads(ours.stdout), name, problems)
+            except json.JSONDecodeError:
+                problems.append(f"{name}: not JSON: {ours.stderr.strip()}")
+            failed += bool(problems)
+            print(f"{name}: {'ok' if not problems else 'DIFFERS'}")
+            for p in problems:
+                print("  " + p)
+    sys.exit(1 if failed else 0)
+
+
+if __name__ == "__main__":
+    main()

@@ -1,0 +1,145 @@
+//! The `--json` document of `agree`, in the shape of `annotate.md` §4: an
+//! undefined statistic is `null` at its own key, with its reason in a
+//! `reasons` map beside it.
+
+use serde_json::{json, Map, Value};
+
+use super::{Agreement, Detection, HumanAgreement, InterAnnotator, Interval};
+use crate::stats::Estimate;
+
+/// The whole document.
+pub fn to_json(agreement: &Agreement) -> Value {
+    let mut doc = Map::new();
+    if let Some(human) = &agreement.human {
+        human_json(human, &mut doc);
+    }
+    let corruption: Map<String, Value> = agreement
+        .corruption
+        .iter()
+        .map(|(kind, row)| {
+            let cells = row
+                .iter()
+                .map(|(m, cell)| (m.clone(), detection(cell)))
+                .collect();
+            (kind.clone(), Value::Object(cells))
+        })
+        .collect();
+    doc.insert("corruption".into(), Value::Object(corruption));
+    let s = agreement.settings;
+    doc.insert(
+        "settings".into(),
+        json!({"bootstrap": s.bootstrap.resamples, "permutations": s.permutations, "seed": s.bootstrap.seed}),
+    );
+    Value::Object(doc)
+}
+
+fn human_json(h: &HumanAgreement, doc: &mut Map<String, Value>) {
+    doc.insert("items".into(), json!(h.items));
+    doc.insert("annotators".into(), json!(h.annotators));
+    let metrics: Map<String, Value> = h
+        .metrics
+        .iter()
+        .map(|m| {
+            let c = &m.correlations;
+            let mut obj = Fields::default();
+            obj.map.insert("n".into(), json!(c.n));
+            obj.estimate("kendall_tau_b", c.kendall_tau_b);
+            obj.estimate("spearman", c.spearman);
+            obj.estimate("pearson", c.pearson);
+            obj.estimate("pairwise_accuracy", c.pairwise_accuracy);
+            let mut ci = Fields::default();
+            ci.interval("kendall_tau_b", m.ci95.kendall_tau_b);
+            ci.interval("spearman", m.ci95.spearman);
+            ci.interval("pearson", m.ci95.pearson);
+            ci.interval("pairwise_accuracy", m.ci95.pairwise_accuracy);
+            obj.map.insert("ci95".into(), ci.done());
+            (m.metric.to_string(), obj.done())
+        })
+        .collect();
+    doc.insert("metrics".into(), Value::Object(metrics));
+    let mut test = Fields::default();
+    match &h.pg2s_vs_kas {
+        Ok(t) => {
+            test.map.insert("p_value".into(), json!(t.p_value));
+            test.map.insert("difference".into(), json!(t.difference));
+            test.map.insert("n".into(), json!(t.n));
+            test.map
+                .insert("permutations".into(), json!(t.permutations));
+        }
+        Err(why) => test.estimate("p_value", Err(*why)),
+    }
+    doc.insert("pg2s_vs_kas".into(), test.done());
+    doc.insert(
+        "inter_annotator".into(),
+        inter_annotator(&h.inter_annotator),
+    );
+    let pairwise: Map<String, Value> = h
+        .pairwise
+        .iter()
+        .map(|p| {
+            let mut obj = Fields::default();
+            obj.map.insert("n".into(), json!(p.n));
+            obj.estimate("agreement", p.agreement);
+            (p.metric.to_string(), obj.done())
+        })
+        .collect();
+    doc.insert("pairwise".into(), Value::Object(pairwise));
+}
+
+fn inter_annotator(ia: &InterAnnotator) -> Value {
+    let mut obj = Fields::default();
+    obj.estimate("krippendorff_alpha_ordinal", ia.ordinal);
+    obj.estimate("krippendorff_alpha_interval", ia.interval);
+    obj.map
+        .insert("shared_items".into(), json!(ia.shared_items));
+    let pairs: Vec<Value> = ia
+        .by_pair
+        .iter()
+        .map(|(a, b, n)| json!({"annotators": [a, b], "shared_items": n}))
+        .collect();
+    obj.map.insert("shared_by_pair".into(), Value::Array(pairs));
+    obj.done()
+}
+
+fn detection(d: &Detection) -> Value {
+    json!({"n": d.n, "detected": d.detected, "tied": d.tied, "reversed": d.reversed})
+}
+
+/// An object being built, with the reasons of its `null` fields.
+#[derive(Default)]
+struct Fields {
+    map: Map<String, Value>,
+    reasons: Map<String, Value>,
+}
+
+impl Fields {
+    fn estimate(&mut self, key: &str, value: Estimate) {
+        let v = match value {
+            Ok(x) => json!(x),
+            Err(why) => {
+                self.reasons.insert(key.into(), json!(why.to_string()));
+                Value::Null
+            }
+        };
+        self.map.insert(key.into(), v);
+    }
+
+    fn interval(&mut self, key: &str, value: Interval) {
+        let v = match value {
+            Ok([lo, hi]) => json!([lo, hi]),
+            Err(why) => {
+                self.reasons.insert(key.into(), json!(why.to_string()));
+                Value::Null
+            }
+        };
+        self.map.insert(key.into(), v);
+    }
+
+    fn done(mut self) -> Value {
+        if !self.reasons.is_empty() {
+            self.map
+                .insert("reasons".into(), Value::Object(self.reasons));
+        }
+        Value::Object(self.map)
+    }
+}

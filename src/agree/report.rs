@@ -1,0 +1,225 @@
+//! The readable report of `agree`: tables of the agreement with people,
+//! between annotators and of corruption detection, and a scatter plot of
+//! each metric against the human score drawn in text.
+
+use std::fmt::Write as _;
+
+use super::{Agreement, Detection, HumanAgreement, Interval, MetricAgreement, METRICS};
+use crate::stats::Estimate;
+
+/// Columns and rows of each text scatter plot.
+const PLOT_WIDTH: usize = 48;
+const PLOT_HEIGHT: usize = 10;
+
+/// The whole report.
+pub fn render(agreement: &Agreement) -> String {
+    let mut out = String::new();
+    match &agreement.human {
+        Some(h) => human_section(h, agreement, &mut out),
+        None => out.push_str("No annotations given: only corruption detection is reported.\n\n"),
+    }
+    corruption_section(agreement, &mut out);
+    if let Some(h) = &agreement.human {
+        for m in &h.metrics {
+            out.push('\n');
+            out.push_str(&scatter(m));
+        }
+    }
+    out
+}
+
+fn human_section(h: &HumanAgreement, agreement: &Agreement, out: &mut String) {
+    let s = agreement.settings;
+    let _ = writeln!(
+        out,
+        "Agreement with people: {} rated items, {} annotators ({})",
+        h.items,
+        h.annotators.len(),
+        h.annotators.join(", ")
+    );
+    let _ = writeln!(
+        out,
+        "95% intervals: percentile bootstrap, {} resamples, seed {}\n",
+        s.bootstrap.resamples, s.bootstrap.seed
+    );
+    let _ = writeln!(
+        out,
+        "{:<8} {:>6}  {:<22} {:<22} {:<22} pairwise accuracy",
+        "metric", "n", "Kendall tau-b", "Spearman rho", "Pearson r"
+    );
+    let mut notes = Vec::new();
+    for m in &h.metrics {
+        let c = &m.correlations;
+        let mut cell = |name: &str, e: Estimate, ci: Interval| {
+            if let Err(why) = e {
+                notes.push(format!("{} {name}: {why}", m.metric));
+            }
+            with_interval(e, ci)
+        };
+        let row = [
+            cell("tau-b", c.kendall_tau_b, m.ci95.kendall_tau_b),
+            cell("Spearman", c.spearman, m.ci95.spearman),
+            cell("Pearson", c.pearson, m.ci95.pearson),
+            cell(
+                "pairwise accuracy",
+                c.pairwise_accuracy,
+                m.ci95.pairwise_accuracy,
+            ),
+        ];
+        let line = format!(
+            "{:<8} {:>6}  {:<22} {:<22} {:<22} {:<22}",
+            m.metric, c.n, row[0], row[1], row[2], row[3]
+        );
+        let _ = writeln!(out, "{}", line.trim_end());
+    }
+    for note in &notes {
+        let _ = writeln!(out, "  – {note}");
+    }
+    match &h.pg2s_vs_kas {
+        Ok(t) => {
+            let _ = writeln!(
+                out,
+                "\nPG2S against KAS on tau-b: difference {:+.3} over {} items, p = {:.3} ({} paired permutations)",
+                t.difference, t.n, t.p_value, t.permutations
+            );
+        }
+        Err(why) => {
+            let _ = writeln!(out, "\nPG2S against KAS on tau-b: no test ({why})");
+        }
+    }
+    let ia = &h.inter_annotator;
+    let _ = writeln!(
+        out,
+        "\nBetween annotators: Krippendorff's alpha ordinal {}, interval {}; {} items rated by two or more",
+        value(ia.ordinal),
+        value(ia.interval),
+        ia.shared_items
+    );
+    for (a, b, n) in &ia.by_pair {
+        let _ = writeln!(out, "  {a} & {b}: {n} shared items");
+    }
+    let _ = writeln!(
+        out,
+        "\nPairwise preferences (the metric prefers the same plan):"
+    );
+    for p in &h.pairwise {
+        let _ = writeln!(
+            out,
+            "  {:<8} {:>6} preferences  {}",
+            p.metric,
+            p.n,
+            value(p.agreement)
+        );
+    }
+    out.push('\n');
+}
+
+fn corruption_section(agreement: &Agreement, out: &mut String) {
+    if agreement.corruption.is_empty() {
+        out.push_str("Corruption detection: no corrupted item whose source is scored.\n");
+        return;
+    }
+    let _ = writeln!(
+        out,
+        "Corruption detection: source higher / tied / corruption higher (of n)"
+    );
+    let columns: Vec<&str> = METRICS.iter().copied().chain(["human"]).collect();
+    let _ = write!(out, "{:<14}", "kind");
+    for c in &columns {
+        let _ = write!(out, " {c:<16}");
+    }
+    out.truncate(out.trim_end().len());
+    out.push('\n');
+    for (kind, row) in &agreement.corruption {
+        let _ = write!(out, "{kind:<14}");
+        for c in &columns {
+            let text = row.get(*c).map_or_else(|| "–".to_string(), detection);
+            let _ = write!(out, " {text:<16}");
+        }
+        out.truncate(out.trim_end().len());
+        out.push('\n');
+    }
+}
+
+fn detection(d: &Detection) -> String {
+    format!("{}/{}/{} of {}", d.detected, d.tied, d.reversed, d.n)
+}
+
+fn value(e: Estimate) -> String {
+    match e {
+        Ok(x) => format!("{x:.3}"),
+        Err(why) => format!("n/a ({why})"),
+    }
+}
+
+fn with_interval(e: Estimate, ci: Interval) -> String {
+    match (e, ci) {
+        (Ok(x), Ok([lo, hi])) => format!("{x:.3} [{lo:.3}, {hi:.3}]"),
+        (Ok(x), Err(_)) => format!("{x:.3}"),
+        (Err(_), _) => "n/a".to_string(),
+    }
+}
+
+/// A text scatter plot of one metric (rows, top = highest) against the
+/// human score (columns); a cell shows how many items fall in it.
+fn scatter(m: &MetricAgreement) -> String {
+    let mut out = String::new();
+    let _ = writeln!(
+        out,
+        "{} against the human score (n {}, tau-b {})",
+        m.metric,
+        m.points.len(),
+        value(m.correlations.kendall_tau_b)
+    );
+    if m.points.is_empty() {
+        out.push_str("  (no items)\n");
+        return out;
+    }
+    let range = |f: fn(&(f64, f64)) -> f64| {
+        let lo = m.points.iter().map(f).fold(f64::INFINITY, f64::min);
+        let hi = m.points.iter().map(f).fold(f64::NEG_INFINITY, f64::max);
+        (lo, hi)
+    };
+    let (h_lo, h_hi) = range(|p| p.0);
+    let (v_lo, v_hi) = range(|p| p.1);
+    let cell = |x: f64, lo: f64, hi: f64, cells: usize| -> usize {
+        if hi > lo {
+            (((x - lo) / (hi - lo)) * (cells - 1) as f64).round() as usize
+        } else {
+            cells / 2
+        }
+    };
+    let mut grid = vec![[0u32; PLOT_WIDTH]; PLOT_HEIGHT];
+    for &(h, v) in &m.points {
+        let row = PLOT_HEIGHT - 1 - cell(v, v_lo, v_hi, PLOT_HEIGHT);
+        grid[row][cell(h, h_lo, h_hi, PLOT_WIDTH)] += 1;
+    }
+    for (r, row) in grid.iter().enumerate() {
+        let label = match r {
+            0 => format!("{v_hi:>7.3}"),
+            r if r == PLOT_HEIGHT - 1 => format!("{v_lo:>7.3}"),
+            _ => " ".repeat(7),
+        };
+        let dots: String = row
+            .iter()
+            .map(|&n| match n {
+                0 => ' ',
+                1 => '·',
+                2..=3 => '•',
+                _ => '●',
+            })
+            .collect();
+        let _ = writeln!(out, "{label} │{}", dots.trim_end());
+    }
+    let _ = writeln!(out, "{} └{}", " ".repeat(7), "─".repeat(PLOT_WIDTH));
+    let left = format!("{h_lo:.2}");
+    let right = format!("{h_hi:.2}");
+    let gap = PLOT_WIDTH.saturating_sub(left.len() + right.len());
+    let _ = writeln!(
+        out,
+        "{}  {left}{}{right}  human",
+        " ".repeat(7),
+        " ".repeat(gap)
+    );
+    out
+}

@@ -1,0 +1,198 @@
+//! `mapvlm agree`: how far PG2S, S_plan, S_goal and KAS agree with people
+//! (`annotate.md` §4), as a report, as JSON and as a figure.
+
+use std::collections::{BTreeMap, HashMap};
+use std::io::Write as _;
+use std::path::PathBuf;
+use std::process::ExitCode;
+
+use anyhow::bail;
+use clap::Args;
+
+use crate::agree::scores::load_scores;
+use crate::agree::{analyse, json, plot, report, Judged, Settings};
+use crate::annotate::{Annotations, Current, Preference};
+use crate::dataset::{open_pairs, Pair};
+use crate::stats::bootstrap::Bootstrap;
+
+/// The most resamples or permutations one run may ask for.
+const MAX_RESAMPLES: usize = 100_000;
+
+/// Arguments of `mapvlm agree`.
+#[derive(Debug, Args)]
+pub struct AgreeArgs {
+    /// The items file (a pairs file; `source` and `corruption` are read).
+    #[arg(long, value_name = "FILE")]
+    pub items: PathBuf,
+    /// The scores of the items (`mapvlm score --pairs ITEMS --json`); without
+    /// it the items are scored now, with the model pack.
+    #[arg(long, value_name = "FILE")]
+    pub scores: Option<PathBuf>,
+    /// Annotations files, read in the order given (a later line supersedes an
+    /// earlier one for the same item and annotator); without any, only the
+    /// corruption table is reported.
+    #[arg(long, value_name = "FILE", num_args = 1..)]
+    pub annotations: Vec<PathBuf>,
+    /// Print one JSON document instead of the report.
+    #[arg(long)]
+    pub json: bool,
+    /// Also draw the scatter plots into this figure (.svg or .png).
+    #[arg(long, value_name = "FILE.svg|FILE.png")]
+    pub plot: Option<PathBuf>,
+    /// Bootstrap resamples for the 95% intervals.
+    #[arg(long, default_value_t = 1000, value_name = "N")]
+    pub bootstrap: usize,
+    /// Permutations of the PG2S-against-KAS test.
+    #[arg(long, default_value_t = 1000, value_name = "N")]
+    pub permutations: usize,
+    /// Seed of the bootstrap and permutation streams (ChaCha20).
+    #[arg(long, default_value_t = 0, value_name = "N")]
+    pub seed: u64,
+    /// Model settings, for scoring the items without --scores.
+    #[command(flatten)]
+    pub models: super::ModelArgs,
+}
+
+/// Runs `mapvlm agree`.
+pub fn run(args: &AgreeArgs) -> anyhow::Result<ExitCode> {
+    for (flag, n) in [
+        ("--bootstrap", args.bootstrap),
+        ("--permutations", args.permutations),
+    ] {
+        if n > MAX_RESAMPLES {
+            bail!("{flag} {n} is more than {MAX_RESAMPLES}; ask for fewer");
+        }
+    }
+    let mut bad_lines = 0usize;
+    let mut items = read_items(args, &mut bad_lines)?;
+    let scores = match &args.scores {
+        Some(path) => {
+            let (scores, errors) = load_scores(path)?;
+            for e in &errors {
+                eprintln!("mapvlm: {e}; that line was skipped");
+            }
+            bad_lines += errors.len();
+            scores
+        }
+        None => super::score::metric_values(&mut items, &args.models)?,
+    };
+    let judged = if args.annotations.is_empty() {
+        None
+    } else {
+        Some(read_judgements(args, &items, &mut bad_lines)?)
+    };
+    let settings = Settings {
+        bootstrap: Bootstrap {
+            resamples: args.bootstrap,
+            seed: args.seed,
+        },
+        permutations: args.permutations,
+    };
+    let agreement = analyse(&items, &scores, judged.as_ref(), settings);
+    if let Some(path) = &args.plot {
+        match &agreement.human {
+            Some(human) => plot::write_figure(human, path)?,
+            None => bail!("--plot needs --annotations: the figure plots metrics against people"),
+        }
+    }
+    let text = if args.json {
+        format!("{:#}\n", json::to_json(&agreement))
+    } else {
+        report::render(&agreement)
+    };
+    if std::io::stdout().lock().write_all(text.as_bytes()).is_err() {
+        return Ok(ExitCode::FAILURE);
+    }
+    Ok(if bad_lines == 0 {
+        ExitCode::SUCCESS
+    } else {
+        ExitCode::FAILURE
+    })
+}
+
+/// The items, one per id (a later line with the same id replaces an
+/// earlier one, with a warning); unreadable lines are reported and counted.
+fn read_items(args: &AgreeArgs, bad_lines: &mut usize) -> anyhow::Result<Vec<Pair>> {
+    let mut items: Vec<Pair> = Vec::new();
+    let mut index: HashMap<String, usize> = HashMap::new();
+    for line in open_pairs(&args.items)? {
+        match line {
+            Ok(item) => match index.get(&item.id) {
+                Some(&i) => {
+                    eprintln!(
+                        "mapvlm: {}: item {:?} appears twice; the later line is used",
+                        args.items.display(),
+                        item.id
+                    );
+                    items[i] = item;
+                }
+                None => {
+                    index.insert(item.id.clone(), items.len());
+                    items.push(item);
+                }
+            },
+            Err(e) => {
+                eprintln!("mapvlm: {e}; that line was skipped");
+                *bad_lines += 1;
+            }
+        }
+    }
+    if items.is_empty() {
+        bail!(
+            "{}: no items; an items file has one {{\"id\", \"gt\", \"pred\"}} a line",
+            args.items.display()
+        );
+    }
+    Ok(items)
+}
+
+/// The current judgements of all annotations files, those of items that
+/// are not in the items file reported and left out.
+fn read_judgements(
+    args: &AgreeArgs,
+    items: &[Pair],
+    bad_lines: &mut usize,
+) -> anyhow::Result<Judged> {
+    let mut lines = Vec::new();
+    for path in &args.annotations {
+        let file = Annotations::load(path)?;
+        for e in &file.errors {
+            eprintln!("mapvlm: {e}; that line was skipped");
+        }
+        *bad_lines += file.errors.len();
+        lines.extend(file.lines.into_iter().map(|(_, j)| j));
+    }
+    let known: HashMap<&str, ()> = items.iter().map(|i| (i.id.as_str(), ())).collect();
+    let mut unknown: BTreeMap<String, usize> = BTreeMap::new();
+    let current = Current::of(lines.iter().filter(|j| {
+        let ids: Vec<&str> = match &j.subject {
+            crate::annotate::Subject::Item(id) => vec![id],
+            crate::annotate::Subject::Pair(l, r) => vec![l, r],
+        };
+        let missing: Vec<&&str> = ids.iter().filter(|id| !known.contains_key(**id)).collect();
+        for id in &missing {
+            *unknown.entry((**id).to_string()).or_default() += 1;
+        }
+        missing.is_empty()
+    }));
+    for (id, n) in &unknown {
+        eprintln!(
+            "mapvlm: {n} judgement line(s) name item {id:?}, which is not in {}; left out",
+            args.items.display()
+        );
+    }
+    Ok(Judged {
+        ratings: current
+            .ratings()
+            .map(|(item, who, r)| (item.to_string(), who.to_string(), f64::from(r)))
+            .collect(),
+        preferences: current
+            .preferences()
+            .filter_map(|(left, right, _, p)| match p {
+                Preference::Left => Some((left.to_string(), right.to_string())),
+                Preference::Right => Some((right.to_string(), left.to_string())),
+                Preference::Neither => None,
+            })
+            .collect(),
+    })
+}

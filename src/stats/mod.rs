@@ -1,0 +1,61 @@
+//! Agreement statistics, written once for the whole product: rank
+//! correlations as scipy computes them, pairwise accuracy, percentile
+//! bootstrap intervals, a paired permutation test and Krippendorff's alpha.
+//!
+//! Every statistic that can be undefined (too few items, a constant column)
+//! returns [`Undefined`] with the reason instead of NaN, so a report can
+//! print `null` and say why.
+
+pub mod bootstrap;
+pub mod correlation;
+pub mod krippendorff;
+pub mod permutation;
+pub mod rank;
+pub mod rng;
+
+/// Why a statistic has no value.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, thiserror::Error)]
+pub enum Undefined {
+    /// Fewer than two observations.
+    #[error("fewer than two items")]
+    TooFewItems,
+    /// One of the two columns has a single value, so nothing can be ranked.
+    #[error("the {0} column is constant")]
+    Constant(Column),
+    /// Every pair of items ties on the human score.
+    #[error("no two items have different human scores")]
+    NoDifferingPairs,
+    /// No unit was judged by two or more coders.
+    #[error("no item was rated by two or more annotators")]
+    NoSharedUnits,
+    /// Every pairable value is the same, so there is no disagreement to expect.
+    #[error("every rating is the same")]
+    NoVariation,
+    /// No resample or permutation gave a defined value.
+    #[error("undefined on every resample")]
+    NoResample,
+    /// A pairwise comparison had nothing to compare.
+    #[error("no preference between two scored items")]
+    NoPreferences,
+}
+
+/// Which column of a paired statistic a reason is about.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub enum Column {
+    /// The first column (a metric's values).
+    First,
+    /// The second column (the human scores).
+    Second,
+}
+
+impl std::fmt::Display for Column {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        f.write_str(match self {
+            Column::First => "metric",
+            Column::Second => "human",
+        })
+    }
+}
+
+/// A statistic's value, or why it has none.
+pub type Estimate = Result<f64, Undefined>;

@@ -1,0 +1,280 @@
+//! `mapvlm agree` as a user runs it: the golden set through the real binary
+//! (point estimates to 1e-9, counts exactly), the report as a snapshot, the
+//! figure in both formats, and bad input named by file and line.
+
+mod common;
+
+use std::path::{Path, PathBuf};
+use std::process::{Command, Output};
+
+use serde_json::Value;
+
+fn mapvlm(args: &[&str]) -> Output {
+    Command::new(env!("CARGO_BIN_EXE_mapvlm"))
+        .args(args)
+        .output()
+        .unwrap_or_else(|e| panic!("running mapvlm: {e}"))
+}
+
+fn golden(part: &str) -> String {
+    common::shared()
+        .join(format!("golden/agree.dev.{part}"))
+        .to_string_lossy()
+        .into_owned()
+}
+
+/// `agree` on the golden items, scores and annotations, plus `extra`.
+fn agree_golden(extra: &[&str]) -> Output {
+    let (items, scores, annotations) = (
+        golden("items.jsonl"),
+        golden("scores.jsonl"),
+        golden("annotations.jsonl"),
+    );
+    let mut args = vec![
+        "agree",
+        "--items",
+        &items,
+        "--scores",
+        &scores,
+        "--annotations",
+        &annotations,
+    ];
+    args.extend_from_slice(extra);
+    mapvlm(&args)
+}
+
+fn text(bytes: &[u8]) -> String {
+    String::from_utf8_lossy(bytes).into_owned()
+}
+
+/// Every field of `expected` is in `actual`: numbers with a fraction to
+/// 1e-9, whole numbers exactly, `null` as `null`.
+fn assert_matches(expected: &Value, actual: &Value, path: &str) {
+    match expected {
+        Value::Object(fields) => {
+            for (key, want) in fields {
+                let got = actual
+                    .get(key)
+                    .unwrap_or_else(|| panic!("{path}.{key} is missing"));
+                assert_matches(want, got, &format!("{path}.{key}"));
+            }
+        }
+        Value::Number(n) if n.is_u64() || n.is_i64() => {
+            assert_eq!(actual, expected, "{path}: a count must be exact");
+        }
+        Value::Number(n) => {
+            let (want, got) = (n.as_f64().unwrap_or(f64::NAN), actual.as_f64());
+            let got = got.unwrap_or_else(|| panic!("{path}: {actual} is not a number"));
+            assert!((want - got).abs() <= 1e-9, "{path}: {got} != {want}");
+        }
+        _ => assert_eq!(actual, expected, "{path}"),
+    }
+}
+
+#[test]
+fn the_golden_set_gives_the_expected_document_and_nothing_else_on_stdout() {
+    let out = agree_golden(&["--json"]);
+    assert!(out.status.success(), "{}", text(&out.stderr));
+    let doc: Value = serde_json::from_slice(&out.stdout)
+        .unwrap_or_else(|e| panic!("stdout is not one JSON document: {e}"));
+    let path = common::shared().join("golden/agree.dev.expected.json");
+    let expected: Value = serde_json::from_str(
+        &std::fs::read_to_string(&path).unwrap_or_else(|e| panic!("{}: {e}", path.display())),
+    )
+    .unwrap_or_else(|e| panic!("{e}"));
+    assert_matches(&expected, &doc, "agree");
+    // The parts the reference leaves to the random streams are present.
+    let ci = &doc["metrics"]["pg2s"]["ci95"]["kendall_tau_b"];
+    let (lo, hi) = (
+        ci[0].as_f64().unwrap_or(2.0),
+        ci[1].as_f64().unwrap_or(-2.0),
+    );
+    let tau = doc["metrics"]["pg2s"]["kendall_tau_b"]
+        .as_f64()
+        .unwrap_or(f64::NAN);
+    assert!(lo < tau && tau < hi, "{lo} < {tau} < {hi}");
+    let p = doc["pg2s_vs_kas"]["p_value"].as_f64().unwrap_or(-1.0);
+    assert!(p > 0.0 && p <= 1.0, "{p}");
+    // No pairwise judgements in the golden set: null, with the reason.
+    assert_eq!(doc["pairwise"]["pg2s"]["n"], 0);
+    assert_eq!(doc["pairwise"]["pg2s"]["agreement"], Value::Null);
+    assert!(doc["pairwise"]["pg2s"]["reasons"]["agreement"].is_string());
+    let err = text(&out.stderr);
+    assert!(err.contains("\"no-such-item\""), "{err}");
+    // The same seed gives the same document; another gives other intervals.
+    assert_eq!(agree_golden(&["--json"]).stdout, out.stdout);
+    let other: Value = serde_json::from_slice(&agree_golden(&["--json", "--seed", "9"]).stdout)
+        .unwrap_or_else(|e| panic!("{e}"));
+    assert_ne!(
+        other["metrics"]["pg2s"]["ci95"],
+        doc["metrics"]["pg2s"]["ci95"]
+    );
+    assert_eq!(
+        other["metrics"]["pg2s"]["kendall_tau_b"],
+        doc["metrics"]["pg2s"]["kendall_tau_b"]
+    );
+}
+
+#[test]
+fn the_report_of_the_golden_set() {
+    let out = agree_golden(&[]);
+    assert!(out.status.success(), "{}", text(&out.stderr));
+    insta::assert_snapshot!("agree_report_golden", text(&out.stdout));
+}
+
+#[test]
+fn figures_are_written_as_svg_and_png_with_the_embedded_font() {
+    let dir = tempfile::tempdir().unwrap_or_else(|e| panic!("{e}"));
+    let svg = dir.path().join("agree.svg");
+    let out = agree_golden(&["--plot", &svg.to_string_lossy(), "--bootstrap", "10"]);
+    assert!(out.status.success(), "{}", text(&out.stderr));
+    let doc = std::fs::read_to_string(&svg).unwrap_or_else(|e| panic!("{e}"));
+    assert!(doc.starts_with("<svg"), "{}", &doc[..80.min(doc.len())]);
+    for label in ["kas (τb = 0.198, n = 123)", "mean human rating", "<circle"] {
+        assert!(doc.contains(label), "{label:?} not in the SVG");
+    }
+    let png = dir.path().join("agree.png");
+    let out = agree_golden(&["--plot", &png.to_string_lossy(), "--bootstrap", "10"]);
+    assert!(out.status.success(), "{}", text(&out.stderr));
+    let image = image::open(&png).unwrap_or_else(|e| panic!("{e}"));
+    assert_eq!((image.width(), image.height()), (1200, 900));
+    let rgb = image.to_rgb8();
+    let dark = rgb.pixels().filter(|p| p.0.iter().all(|&c| c < 80)).count();
+    assert!(
+        dark > 2000,
+        "the title and labels are drawn ({dark} dark pixels)"
+    );
+    let out = agree_golden(&["--plot", &dir.path().join("agree.pdf").to_string_lossy()]);
+    assert!(!out.status.success());
+    assert!(
+        text(&out.stderr).contains(".svg or .png"),
+        "{}",
+        text(&out.stderr)
+    );
+}
+
+fn write(dir: &Path, name: &str, text: &str) -> PathBuf {
+    let path = dir.join(name);
+    std::fs::write(&path, text).unwrap_or_else(|e| panic!("{e}"));
+    path
+}
+
+#[test]
+fn bad_lines_are_named_and_the_rest_still_counts() {
+    let dir = tempfile::tempdir().unwrap_or_else(|e| panic!("{e}"));
+    let items = write(
+        dir.path(),
+        "items.jsonl",
+        concat!(
+            "{\"id\": \"a\", \"gt\": [\"A.\"], \"pred\": [\"A.\"]}\n",
+            "{\"id\": \"b\", \"gt\": [\"A.\"], \"pred\": [\"B.\"]}\n",
+            "{\"id\": \"b~drop\", \"gt\": [\"A.\"], \"pred\": [], \"source\": \"b\", \"corruption\": {\"kind\": \"drop\", \"seed\": 1, \"edits\": []}}\n",
+            "not json\n",
+        ),
+    );
+    let scores = write(
+        dir.path(),
+        "scores.jsonl",
+        concat!(
+            "{\"id\": \"a\", \"pg2s\": 0.9, \"s_plan\": 1.0, \"s_goal\": 0.8, \"kas\": 1.0}\n",
+            "{\"id\": \"b\", \"pg2s\": 0.5, \"s_plan\": 0.5, \"s_goal\": 0.5, \"kas\": null}\n",
+            "{\"id\": \"b~drop\", \"pg2s\": 0.5, \"s_plan\": 0.2, \"s_goal\": 0.8, \"kas\": null}\n",
+        ),
+    );
+    let annotations = write(
+        dir.path(),
+        "ann.jsonl",
+        concat!(
+            "{\"item\": \"a\", \"annotator\": \"ana\", \"rating\": 5, \"at\": 1}\n",
+            "{\"item\": \"b\", \"annotator\": \"ana\", \"rating\": 3, \"at\": 2}\n",
+            "{\"item\": \"b~drop\", \"annotator\": \"ana\", \"rating\": 1, \"at\": 3}\n",
+            "{\"item\": \"a\", \"annotator\": \"ana\", \"rating\": 9, \"at\": 4}\n",
+            "{\"pair\": [\"a\", \"b\"], \"annotator\": \"bo\", \"preference\": \"left\", \"at\": 5}\n",
+            "{\"pair\": [\"b~drop\", \"b\"], \"annotator\": \"bo\", \"preference\": \"left\", \"at\": 6}\n",
+            "{\"pair\": [\"a\", \"zz\"], \"annotator\": \"bo\", \"preference\": \"right\", \"at\": 7}\n",
+        ),
+    );
+    let out = mapvlm(&[
+        "agree",
+        "--items",
+        &items.to_string_lossy(),
+        "--scores",
+        &scores.to_string_lossy(),
+        "--annotations",
+        &annotations.to_string_lossy(),
+        "--json",
+        "--bootstrap",
+        "50",
+    ]);
+    let err = text(&out.stderr);
+    assert!(
+        !out.status.success(),
+        "bad lines make the exit code non-zero"
+    );
+    assert!(!err.contains("panicked"), "{err}");
+    assert!(err.contains("items.jsonl:4:"), "{err}");
+    assert!(
+        err.contains("ann.jsonl:4:") && err.contains("rating 9"),
+        "{err}"
+    );
+    assert!(err.contains("\"zz\""), "{err}");
+    let doc: Value = serde_json::from_slice(&out.stdout).unwrap_or_else(|e| panic!("{e}"));
+    assert_eq!(doc["items"], 3);
+    assert_eq!(doc["annotators"], serde_json::json!(["ana"]));
+    assert_eq!(doc["metrics"]["pg2s"]["n"], 3);
+    assert_eq!(doc["metrics"]["kas"]["n"], 1);
+    assert_eq!(doc["metrics"]["kas"]["kendall_tau_b"], Value::Null);
+    assert_eq!(
+        doc["metrics"]["kas"]["reasons"]["kendall_tau_b"],
+        "fewer than two items"
+    );
+    assert_eq!(
+        doc["inter_annotator"]["krippendorff_alpha_ordinal"],
+        Value::Null
+    );
+    assert_eq!(doc["pg2s_vs_kas"]["p_value"], Value::Null);
+    // a > b by PG2S (agrees); b~drop = b by PG2S (a tie is not agreement).
+    assert_eq!(
+        doc["pairwise"]["pg2s"],
+        serde_json::json!({"n": 2, "agreement": 0.5})
+    );
+    // s_goal: 0.8 > 0.5 and 0.8 > 0.5: both agree.
+    assert_eq!(doc["pairwise"]["s_goal"]["agreement"], 1.0);
+    assert_eq!(doc["pairwise"]["kas"]["n"], 0);
+    let drop = &doc["corruption"]["drop"];
+    assert_eq!(
+        drop["pg2s"],
+        serde_json::json!({"n": 1, "detected": 0, "tied": 1, "reversed": 0})
+    );
+    assert_eq!(drop["s_goal"]["reversed"], 1);
+    assert_eq!(drop["human"]["detected"], 1);
+    assert!(drop.get("kas").is_none());
+}
+
+#[test]
+fn without_annotations_only_the_corruption_table_is_reported() {
+    let items = golden("items.jsonl");
+    let scores = golden("scores.jsonl");
+    let out = mapvlm(&["agree", "--items", &items, "--scores", &scores, "--json"]);
+    assert!(out.status.success(), "{}", text(&out.stderr));
+    let doc: Value = serde_json::from_slice(&out.stdout).unwrap_or_else(|e| panic!("{e}"));
+    assert!(doc.get("metrics").is_none());
+    assert_eq!(doc["corruption"]["reorder"]["kas"]["detected"], 8);
+    let out = mapvlm(&["agree", "--items", &items, "--scores", &scores]);
+    assert!(text(&out.stdout).contains("No annotations given"));
+    let out = mapvlm(&[
+        "agree",
+        "--items",
+        &items,
+        "--scores",
+        &scores,
+        "--bootstrap",
+        "100000000",
+    ]);
+    assert!(!out.status.success());
+    assert!(
+        text(&out.stderr).contains("--bootstrap"),
+        "{}",
+        text(&out.stderr)
+    );
+}
