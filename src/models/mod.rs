@@ -19,7 +19,7 @@ pub use hf_cache::{find_snapshot, hub_cache_dir, repo_dir, CacheLookup, CachedSn
 pub use hub::HubSettings;
 pub use link::LinkedFrom;
 pub use sources::{obtain_model, Source, Sources};
-pub(crate) use verify::{hex, STAMP_FILE};
+pub(crate) use verify::hex;
 pub use verify::{
     quick_status, sha256_file, stamped_sha256, verified_spec_path, verify_model, Problem,
     QuickStatus, Status,

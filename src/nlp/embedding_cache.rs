@@ -15,10 +15,8 @@ use std::path::Path;
 use std::sync::atomic::{AtomicU64, Ordering};
 use std::sync::{Arc, Mutex, PoisonError};
 
-use serde::Deserialize;
-
 use crate::metrics::{ModelError, SentenceEncoder};
-use crate::models::{default_pack, quick_status, QuickStatus};
+use crate::models::{default_pack, quick_status, stamped_sha256, QuickStatus};
 use crate::nlp::mpnet::REVISION;
 use crate::store::DiskStore;
 use crate::store::EntryKey;
@@ -196,13 +194,6 @@ fn split_u32(bytes: &[u8]) -> Option<(usize, &[u8])> {
     Some((value as usize, rest))
 }
 
-/// One key file as the verification stamp records it.
-#[derive(Deserialize)]
-struct StampedFile {
-    path: String,
-    sha256: String,
-}
-
 /// The identity of model `folder` in the pack `models_dir` as its
 /// verification stamp records it (each key file's path and SHA-256), when the
 /// stamp is current; `None` for a model that is not verified as it is now,
@@ -212,15 +203,13 @@ pub fn stamped_identity(models_dir: &Path, folder: &str) -> Option<String> {
     if quick_status(models_dir, &spec) != QuickStatus::Verified {
         return None;
     }
-    let stamp = std::fs::read(models_dir.join(folder).join(crate::models::STAMP_FILE)).ok()?;
-    let files: Vec<StampedFile> = serde_json::from_slice(&stamp).ok()?;
-    Some(
-        files
-            .iter()
-            .map(|f| format!("{}={}", f.path, f.sha256))
-            .collect::<Vec<_>>()
-            .join(";"),
-    )
+    let model = models_dir.join(folder);
+    let files = spec
+        .key_files
+        .iter()
+        .map(|f| stamped_sha256(&model, &f.path).map(|sha| format!("{}={sha}", f.path)))
+        .collect::<Option<Vec<_>>>()?;
+    Some(files.join(";"))
 }
 
 #[cfg(test)]
