@@ -18,6 +18,7 @@ pub mod models;
 pub mod nlp;
 pub mod plan;
 pub mod session;
+pub mod shard;
 pub mod stats;
 pub mod store;
 pub mod tui;
