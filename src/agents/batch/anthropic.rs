@@ -7,7 +7,9 @@
 use serde_json::{json, Value};
 use tokio_util::sync::CancellationToken;
 
-use super::{completion, jsonl_lines, BatchStatus, Outcome};
+use super::{
+    completion, get_json, read_outcomes, request_count, string_field, BatchStatus, Outcome,
+};
 use crate::agents::anthropic::{answer_of, request_body, API_VERSION};
 use crate::agents::pipeline::PendingRequest;
 use crate::agents::provider::HttpEndpoint;
@@ -54,11 +56,7 @@ pub async fn submit(
     let created = endpoint
         .read_json(endpoint.send(create, cancel).await?, cancel)
         .await?;
-    created
-        .get("id")
-        .and_then(Value::as_str)
-        .map(str::to_string)
-        .ok_or_else(|| endpoint.invalid("no `id` in the answer about the created batch".into()))
+    string_field(endpoint, &created, "id", "the created batch")
 }
 
 /// The batch's status.
@@ -68,24 +66,9 @@ pub async fn status(
     cancel: &CancellationToken,
 ) -> Result<BatchStatus, AgentError> {
     let url = endpoint.url(&format!("v1/messages/batches/{id}"));
-    let get = || authorised(endpoint, endpoint.client.get(&url));
-    let value = endpoint
-        .read_json(endpoint.send(get, cancel).await?, cancel)
-        .await?;
-    let state = value
-        .get("processing_status")
-        .and_then(Value::as_str)
-        .ok_or_else(|| {
-            endpoint.invalid("no `processing_status` in the answer about the batch".into())
-        })?
-        .to_string();
-    let counts = value.get("request_counts");
-    let count = |field: &str| {
-        counts
-            .and_then(|c| c.get(field))
-            .and_then(Value::as_u64)
-            .unwrap_or(0)
-    };
+    let value = get_json(endpoint, &url, authorised, cancel).await?;
+    let state = string_field(endpoint, &value, "processing_status", "the batch")?;
+    let count = |field: &str| request_count(&value, field);
     let done = ["succeeded", "errored", "canceled", "expired"]
         .iter()
         .map(|field| count(field))
@@ -124,12 +107,8 @@ pub async fn results(
             )));
         }
         let get = || authorised(endpoint, endpoint.client.get(url));
-        for line in jsonl_lines(endpoint, endpoint.send(get, cancel).await?, cancel).await? {
-            let Some(id) = line.get("custom_id").and_then(Value::as_str) else {
-                continue;
-            };
-            outcomes.push((id.to_string(), outcome(endpoint, &line, model)));
-        }
+        let response = endpoint.send(get, cancel).await?;
+        outcomes.extend(read_outcomes(endpoint, response, model, outcome, cancel).await?);
     }
     Ok(outcomes)
 }

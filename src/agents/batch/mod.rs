@@ -389,24 +389,66 @@ fn completion(endpoint: &HttpEndpoint, text: &str, usage: Usage, model: &str) ->
     }
 }
 
-/// The JSON lines of a results file (blank lines skipped).
-async fn jsonl_lines(
+/// Each line of a results file (JSONL, blank lines skipped) with a
+/// `custom_id`, read by the provider's `outcome` as an answer or a failure.
+async fn read_outcomes(
     endpoint: &HttpEndpoint,
     response: reqwest::Response,
+    model: &str,
+    outcome: fn(&HttpEndpoint, &Value, &str) -> Outcome,
     cancel: &CancellationToken,
-) -> Result<Vec<Value>, AgentError> {
+) -> Result<Vec<(String, Outcome)>, AgentError> {
     let text = cancellable(cancel, response.text())
         .await?
         .map_err(|err| endpoint.transport_error(&err))?;
-    text.lines()
-        .enumerate()
-        .filter(|(_, line)| !line.trim().is_empty())
-        .map(|(number, line)| {
-            serde_json::from_str(line).map_err(|err| {
-                endpoint.invalid(format!("line {} of the batch results: {err}", number + 1))
-            })
-        })
-        .collect()
+    let mut outcomes = Vec::new();
+    for (number, line) in text.lines().enumerate() {
+        if line.trim().is_empty() {
+            continue;
+        }
+        let line: Value = serde_json::from_str(line).map_err(|err| {
+            endpoint.invalid(format!("line {} of the batch results: {err}", number + 1))
+        })?;
+        if let Some(id) = line.get("custom_id").and_then(Value::as_str) {
+            outcomes.push((id.to_string(), outcome(endpoint, &line, model)));
+        }
+    }
+    Ok(outcomes)
+}
+
+/// GETs `url` with the provider's headers (`authorised`) and reads the
+/// JSON answer.
+async fn get_json(
+    endpoint: &HttpEndpoint,
+    url: &str,
+    authorised: fn(&HttpEndpoint, reqwest::RequestBuilder) -> reqwest::RequestBuilder,
+    cancel: &CancellationToken,
+) -> Result<Value, AgentError> {
+    let get = || authorised(endpoint, endpoint.client.get(url));
+    let response = endpoint.send(get, cancel).await?;
+    endpoint.read_json(response, cancel).await
+}
+
+/// The string `field` of a provider's answer about `what`.
+fn string_field(
+    endpoint: &HttpEndpoint,
+    value: &Value,
+    field: &str,
+    what: &str,
+) -> Result<String, AgentError> {
+    value
+        .get(field)
+        .and_then(Value::as_str)
+        .map(str::to_string)
+        .ok_or_else(|| endpoint.invalid(format!("no `{field}` in the answer about {what}")))
+}
+
+/// One of a batch's `request_counts` (0 when absent).
+fn request_count(value: &Value, field: &str) -> u64 {
+    value
+        .pointer(&format!("/request_counts/{field}"))
+        .and_then(Value::as_u64)
+        .unwrap_or(0)
 }
 
 /// Checks a poll interval in seconds against [`POLL_BOUNDS`].

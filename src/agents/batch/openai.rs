@@ -6,7 +6,9 @@
 use serde_json::{json, Value};
 use tokio_util::sync::CancellationToken;
 
-use super::{completion, jsonl_lines, BatchStatus, Outcome};
+use super::{
+    completion, get_json, read_outcomes, request_count, string_field, BatchStatus, Outcome,
+};
 use crate::agents::openai::{answer_of, request_body};
 use crate::agents::pipeline::PendingRequest;
 use crate::agents::provider::HttpEndpoint;
@@ -87,18 +89,9 @@ pub async fn status(
     cancel: &CancellationToken,
 ) -> Result<BatchStatus, AgentError> {
     let url = endpoint.url(&format!("batches/{id}"));
-    let get = || authorised(endpoint, endpoint.client.get(&url));
-    let value = endpoint
-        .read_json(endpoint.send(get, cancel).await?, cancel)
-        .await?;
+    let value = get_json(endpoint, &url, authorised, cancel).await?;
     let state = string_field(endpoint, &value, "status", "the batch")?;
-    let counts = value.get("request_counts");
-    let count = |field: &str| {
-        counts
-            .and_then(|c| c.get(field))
-            .and_then(Value::as_u64)
-            .unwrap_or(0)
-    };
+    let count = |field: &str| request_count(&value, field);
     let results = ["output_file_id", "error_file_id"]
         .iter()
         .filter_map(|field| value.get(*field).and_then(Value::as_str))
@@ -138,12 +131,8 @@ pub async fn results(
     for file_id in &status.results {
         let url = endpoint.url(&format!("files/{file_id}/content"));
         let get = || authorised(endpoint, endpoint.client.get(&url));
-        for line in jsonl_lines(endpoint, endpoint.send(get, cancel).await?, cancel).await? {
-            let Some(id) = line.get("custom_id").and_then(Value::as_str) else {
-                continue;
-            };
-            outcomes.push((id.to_string(), outcome(endpoint, &line, model)));
-        }
+        let response = endpoint.send(get, cancel).await?;
+        outcomes.extend(read_outcomes(endpoint, response, model, outcome, cancel).await?);
     }
     Ok(outcomes)
 }
@@ -171,17 +160,4 @@ fn outcome(endpoint: &HttpEndpoint, line: &Value, model: &str) -> Outcome {
         Some((text, usage)) => completion(endpoint, text, usage, model),
         None => Outcome::Failed("no choices[0].message in the answer".into()),
     }
-}
-
-fn string_field(
-    endpoint: &HttpEndpoint,
-    value: &Value,
-    field: &str,
-    what: &str,
-) -> Result<String, AgentError> {
-    value
-        .get(field)
-        .and_then(Value::as_str)
-        .map(str::to_string)
-        .ok_or_else(|| endpoint.invalid(format!("no `{field}` in the answer about {what}")))
 }
