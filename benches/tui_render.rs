@@ -1,5 +1,7 @@
-//! How long one frame of the workbench takes to render at 200×60, and how
-//! long the update of one keystroke in the step editor takes.
+//! How long one frame of the workbench takes to render at 200×60, how long
+//! the first frame takes (the workbench built from nothing, then drawn), and
+//! how long the update of one keystroke in the step editor takes with its
+//! frame.
 
 use criterion::{criterion_group, criterion_main, Criterion};
 use crossterm::event::{KeyCode, KeyEvent, KeyModifiers};
@@ -40,6 +42,14 @@ fn render(c: &mut Criterion) {
     let mut terminal = Terminal::new(TestBackend::new(200, 60)).unwrap_or_else(|e| panic!("{e}"));
     c.bench_function("render demo frame 200x60", |b| {
         b.iter(|| {
+            terminal
+                .draw(|f| render::render(f, &app))
+                .unwrap_or_else(|e| panic!("{e}"));
+        })
+    });
+    c.bench_function("first frame 200x60 (App::new + render)", |b| {
+        b.iter(|| {
+            let (app, _cmds) = App::new(AppInit::demo((200, 60), "bench"));
             terminal
                 .draw(|f| render::render(f, &app))
                 .unwrap_or_else(|e| panic!("{e}"));

@@ -385,15 +385,27 @@ fn published_plans_score_as_in_mapvlm_score() {
 }
 
 #[test]
-fn a_start_notice_is_not_hidden_by_the_demo_run() {
-    let (app, _) = App::new(AppInit {
+fn a_start_notice_stays_until_dismissed() {
+    let moved_to = "/tmp/state/session.json.corrupt-1764547200";
+    let (app, cmds) = App::new(AppInit {
         notice: Some((
-            "the session file could not be read; it was moved aside".into(),
+            format!("the session file could not be read; it was moved to {moved_to}"),
             mapvlm::workbench::app::Severity::Warn,
         )),
         ..AppInit::demo((200, 60), "none")
     });
-    assert!(app.status.unwrap().0.contains("moved aside"));
+    let mut h = Harness {
+        app,
+        models: unavailable(),
+        pipeline: AgentsPipeline::offline(Pace::Instant).unwrap(),
+    };
+    h.run(cmds);
+    h.keys("jjt");
+    let screen = h.screen();
+    assert!(screen.contains("run 1 finished") || screen.contains("theme:"));
+    assert!(screen.contains(moved_to), "{screen}");
+    h.key(KeyCode::Esc);
+    assert!(!h.screen().contains(moved_to));
 }
 
 /// Every key a user might press: printable characters, Ctrl+letter and the

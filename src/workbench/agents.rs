@@ -17,9 +17,9 @@ use crate::agents::config::{self, AgentLayer, ConfigFile, FlagLayers, Settings};
 use crate::agents::pipeline::{self, PlanInput, Runner, Source};
 use crate::agents::prompts::{template_name, PromptSet, Template};
 use crate::agents::replay::{Pace, Recording};
-use crate::agents::{anthropic, openai, AgentRole, Approach, ProviderKind};
+use crate::agents::{anthropic, openai, AgentRole, Approach, ProviderKind, Usage};
 use crate::demo;
-use crate::workbench::session::{AgentSettings, Usage};
+use crate::workbench::session::AgentSettings;
 
 /// What happened to one agent of a run.
 #[derive(Debug, Clone, PartialEq)]
@@ -491,10 +491,7 @@ fn translate(
         } => AgentEvent::Finished {
             agent: role,
             output: outputs.remove(&role).unwrap_or_default(),
-            usage: Usage {
-                input: usage.input_tokens,
-                output: usage.output_tokens,
-            },
+            usage,
             duration_ms: elapsed_ms,
         },
         pipeline::AgentEvent::Failed { role, error } => AgentEvent::Failed {

@@ -162,6 +162,9 @@ pub struct App {
     pub search: String,
     /// The latest status message.
     pub status: Option<(String, Severity)>,
+    /// A message from the start (e.g. where an unreadable session file was
+    /// moved) that stays in the status bar until Esc dismisses it.
+    pub notice: Option<(String, Severity)>,
     /// The Scene pane.
     pub scene: ScenePane,
     /// Scroll offsets of the text panes.
@@ -243,14 +246,14 @@ impl App {
             models: init.models,
             graph: GraphPane::default(),
             search: String::new(),
-            status: init.notice,
+            status: None,
+            notice: init.notice,
             scene: ScenePane::demo(),
             scroll: BTreeMap::new(),
             quit: false,
             session_dirty: false,
             saved: None,
         };
-        let notice = app.status.clone();
         let mut cmds = Vec::new();
         match init.session {
             Some(session) => cmds.extend(app.restore(session)),
@@ -258,9 +261,6 @@ impl App {
                 Some(task) => cmds.extend(app.switch_task(&task)),
                 None => cmds.extend(app.start_run(false)),
             },
-        }
-        if notice.is_some() {
-            app.status = notice;
         }
         app.load_prompt_editor();
         cmds.push(app.rescore());

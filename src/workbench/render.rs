@@ -99,14 +99,20 @@ fn render_status(frame: &mut Frame, app: &App, area: Rect) {
     if let Editing::Search(_) = &app.editing {
         spans.push(Span::styled(format!("/{}", app.search), t.highlight));
     }
-    if let Some((text, severity)) = &app.status {
+    let shown = app
+        .notice
+        .as_ref()
+        .map(|(text, severity)| (format!("{text} (Esc dismisses)"), *severity))
+        .into_iter()
+        .chain(app.status.clone());
+    for (text, severity) in shown {
         let style = match severity {
             Severity::Info => t.muted,
             Severity::Warn => t.warn,
             Severity::Error => t.bad,
         };
         spans.push(Span::styled("│ ", t.border));
-        spans.push(Span::styled(text.clone(), style));
+        spans.push(Span::styled(text, style));
     }
     frame.render_widget(Paragraph::new(Line::from(spans)).style(t.base), area);
 }

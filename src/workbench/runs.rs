@@ -3,7 +3,7 @@
 
 use std::collections::BTreeMap;
 
-use crate::agents::{AgentRole, Approach};
+use crate::agents::{AgentRole, Approach, Usage};
 use crate::plan::parse_steps;
 use crate::workbench::agents::{self, planning_role, role_label, roles, AgentEvent, RunRequest};
 use crate::workbench::app::{unix_now, App, Severity};
@@ -11,9 +11,7 @@ use crate::workbench::editing::Editing;
 use crate::workbench::message::Cmd;
 use crate::workbench::panes::steps::StepList;
 use crate::workbench::scoring::{Pg2sOutcome, ScoreOutcome};
-use crate::workbench::session::{
-    AgentRecord, AgentSettings, PlanSource, RunRecord, ScoreRecord, Usage,
-};
+use crate::workbench::session::{AgentRecord, AgentSettings, PlanSource, RunRecord, ScoreRecord};
 
 /// What an agent is doing.
 #[derive(Debug, Clone, PartialEq, Eq)]

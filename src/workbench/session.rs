@@ -9,10 +9,10 @@ use std::path::{Path, PathBuf};
 
 use serde::{Deserialize, Serialize};
 
-use crate::agents::{AgentRole, Approach};
+use crate::agents::{AgentRole, Approach, Usage};
 
 /// The format version written into every session file.
-pub const SESSION_VERSION: u32 = 1;
+pub const SESSION_VERSION: u32 = 2;
 
 /// The provider, model and sampling settings of one agent.
 #[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
@@ -68,15 +68,6 @@ pub enum PlanSource {
         /// The approach whose plan it is.
         approach: Approach,
     },
-}
-
-/// Token use of one agent call.
-#[derive(Debug, Clone, Copy, Default, PartialEq, Eq, Serialize, Deserialize)]
-pub struct Usage {
-    /// Tokens sent.
-    pub input: u64,
-    /// Tokens written.
-    pub output: u64,
 }
 
 /// One agent's part of a run.
@@ -144,7 +135,7 @@ impl RunRecord {
     pub fn total_tokens(&self) -> u64 {
         self.agents
             .iter()
-            .map(|a| a.usage.input + a.usage.output)
+            .map(|a| a.usage.input_tokens + a.usage.output_tokens)
             .sum()
     }
 }
@@ -268,20 +259,71 @@ pub fn save(path: &Path, session: &Session) -> Result<(), SessionError> {
     Ok(())
 }
 
+/// Brings a session file's JSON saved by an earlier version up to
+/// [`SESSION_VERSION`], one version at a time, so an upgrade keeps the
+/// user's run history. A file from a newer version is refused.
+fn migrate(mut value: serde_json::Value) -> Result<serde_json::Value, String> {
+    let version = value.get("version").and_then(serde_json::Value::as_u64);
+    let Some(mut version) = version else {
+        return Err("not a session file (no version)".to_string());
+    };
+    if version > u64::from(SESSION_VERSION) {
+        return Err(format!(
+            "version {version} was written by a newer mapvlm than this one (version {SESSION_VERSION})"
+        ));
+    }
+    while version < u64::from(SESSION_VERSION) {
+        match version {
+            1 => v1_to_v2(&mut value),
+            _ => return Err(format!("version {version} is too old to read")),
+        }
+        version += 1;
+        value["version"] = version.into();
+    }
+    Ok(value)
+}
+
+/// Version 2 counts tokens as the providers do (`input_tokens`,
+/// `output_tokens`), where version 1 had `input` and `output`.
+fn v1_to_v2(value: &mut serde_json::Value) {
+    let runs = value
+        .get_mut("runs")
+        .and_then(serde_json::Value::as_array_mut);
+    for run in runs.into_iter().flatten() {
+        let agents = run
+            .get_mut("agents")
+            .and_then(serde_json::Value::as_array_mut);
+        for agent in agents.into_iter().flatten() {
+            if let Some(usage) = agent
+                .get_mut("usage")
+                .and_then(serde_json::Value::as_object_mut)
+            {
+                for (old, new) in [("input", "input_tokens"), ("output", "output_tokens")] {
+                    if let Some(count) = usage.remove(old) {
+                        usage.insert(new.to_string(), count);
+                    }
+                }
+            }
+        }
+    }
+}
+
 /// Reads the session at `path`. A file that is not a session of this
-/// version is renamed to `<name>.corrupt-<unix seconds>` and reported.
+/// version (after [`migrate`]) is renamed to `<name>.corrupt-<unix seconds>` and reported.
 pub fn restore(path: &Path) -> Result<Restored, SessionError> {
     let bytes = match std::fs::read(path) {
         Ok(b) => b,
         Err(e) if e.kind() == std::io::ErrorKind::NotFound => return Ok(Restored::Fresh),
         Err(e) => return Err(io_error(path)(e)),
     };
-    let reason = match serde_json::from_slice::<Session>(&bytes) {
-        Ok(s) if s.version == SESSION_VERSION => return Ok(Restored::Loaded(Box::new(s))),
-        Ok(s) => format!(
-            "version {} is not the version {SESSION_VERSION} this build reads",
-            s.version
-        ),
+    let reason = match serde_json::from_slice::<serde_json::Value>(&bytes) {
+        Ok(value) => match migrate(value) {
+            Ok(value) => match serde_json::from_value::<Session>(value) {
+                Ok(s) => return Ok(Restored::Loaded(Box::new(s))),
+                Err(e) => format!("not a session file ({e})"),
+            },
+            Err(reason) => reason,
+        },
         Err(e) => format!("not a session file ({e})"),
     };
     let stamp = std::time::SystemTime::now()
@@ -333,6 +375,50 @@ mod tests {
         }
         let left: Vec<_> = std::fs::read_dir(path.parent().unwrap()).unwrap().collect();
         assert_eq!(left.len(), 1, "no temporary file is left behind");
+    }
+
+    #[test]
+    fn a_session_saved_by_version_1_loads_with_its_run_history() {
+        let fixture = concat!(
+            env!("CARGO_MANIFEST_DIR"),
+            "/tests/fixtures/session-v1.json"
+        );
+        let old: serde_json::Value =
+            serde_json::from_str(&std::fs::read_to_string(fixture).unwrap()).unwrap();
+        assert_eq!(old["version"], 1);
+        let dir = tempfile::tempdir().unwrap();
+        let path = dir.path().join("session.json");
+        std::fs::copy(fixture, &path).unwrap();
+        let Restored::Loaded(s) = restore(&path).unwrap() else {
+            panic!("the version 1 session was not loaded");
+        };
+        assert_eq!(s.version, SESSION_VERSION);
+        assert_eq!(s.runs.len(), old["runs"].as_array().unwrap().len());
+        assert!(s.runs.len() >= 2);
+        for (run, old_run) in s.runs.iter().zip(old["runs"].as_array().unwrap()) {
+            assert_eq!(run.plan.len(), old_run["plan"].as_array().unwrap().len());
+            for (agent, old_agent) in run.agents.iter().zip(old_run["agents"].as_array().unwrap()) {
+                assert_eq!(agent.usage.input_tokens, old_agent["usage"]["input"]);
+                assert_eq!(agent.usage.output_tokens, old_agent["usage"]["output"]);
+            }
+        }
+        assert!(path.exists(), "the file stays where it was");
+    }
+
+    #[test]
+    fn a_session_from_a_newer_version_is_set_aside_with_the_reason() {
+        let dir = tempfile::tempdir().unwrap();
+        let path = dir.path().join("session.json");
+        let mut newer = serde_json::to_value(sample()).unwrap();
+        newer["version"] = (SESSION_VERSION + 1).into();
+        std::fs::write(&path, newer.to_string()).unwrap();
+        match restore(&path).unwrap() {
+            Restored::SetAside { moved_to, reason } => {
+                assert!(moved_to.exists());
+                assert!(reason.contains("newer mapvlm"), "{reason}");
+            }
+            other => panic!("{other:?}"),
+        }
     }
 
     #[test]

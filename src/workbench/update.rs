@@ -130,7 +130,9 @@ impl App {
             Action::Help => self.overlay = Some(Overlay::Help),
             Action::Zoom => self.zoom = !self.zoom,
             Action::Escape => {
-                if self.zoom {
+                if self.notice.is_some() {
+                    self.notice = None;
+                } else if self.zoom {
                     self.zoom = false;
                 } else if !self.search.is_empty() {
                     self.search.clear();

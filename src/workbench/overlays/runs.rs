@@ -167,8 +167,8 @@ pub(crate) fn run_lines<'a>(app: &App, run: &'a RunRecord, other: &RunRecord) ->
                     a.settings.model,
                     a.settings.temperature,
                     a.duration_ms,
-                    a.usage.input,
-                    a.usage.output
+                    a.usage.input_tokens,
+                    a.usage.output_tokens
                 ),
                 t.muted,
             ),

@@ -108,7 +108,7 @@ pub(crate) fn agent_badge<'a>(app: &App, agent: AgentRole) -> Span<'a> {
             format!(
                 "{} ms · {} tok",
                 v.duration_ms,
-                v.usage.input + v.usage.output
+                v.usage.input_tokens + v.usage.output_tokens
             ),
             t.good,
         ),
