@@ -4,7 +4,6 @@
 
 mod common;
 
-
 use serde_json::Value;
 
 /// Cosines are float32 sums whose order differs from PyTorch's.

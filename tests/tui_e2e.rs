@@ -180,7 +180,9 @@ fn a_kill_while_typing_loses_at_most_the_last_second() {
     tmux.wait_for(E2E, "the step editor", |s| s.contains("EDIT step"));
     tmux.keys(E2E, &["End"]);
     tmux.keys(E2E, &["-l", " typed before the kill"]);
-    tmux.wait_for(E2E, "the typed text", |s| s.contains("typed before the kill"));
+    tmux.wait_for(E2E, "the typed text", |s| {
+        s.contains("typed before the kill")
+    });
     std::thread::sleep(Duration::from_millis(1000));
     let pid = tmux.cmd(&["display-message", "-p", "-t", E2E, "#{pane_pid}"]);
     let status = Command::new("kill")

@@ -23,7 +23,8 @@ pub fn mapvlm_command() -> Command {
 /// The model pack the user has, wherever the environment points.
 pub fn pack_dir() -> PathBuf {
     static PACK: OnceLock<PathBuf> = OnceLock::new();
-    PACK.get_or_init(|| mapvlm::models::models_dir(None)).clone()
+    PACK.get_or_init(|| mapvlm::models::models_dir(None))
+        .clone()
 }
 
 /// The cache folder of the test binaries, inside Cargo's temporary folder
