@@ -3,9 +3,9 @@
 
 use criterion::{criterion_group, criterion_main, Criterion};
 use mapvlm::agents::graph::{Edge, KnowledgeGraph};
-use mapvlm::tui::graph_layout::{layout, Zoom};
-use mapvlm::tui::graph_view::{GraphView, GraphWidget};
-use mapvlm::tui::theme::load_themes;
+use mapvlm::workbench::graph_layout::{layout, Zoom};
+use mapvlm::workbench::graph_view::{GraphView, GraphWidget};
+use mapvlm::workbench::theme::load_themes;
 use ratatui::backend::TestBackend;
 use ratatui::Terminal;
 

@@ -4,10 +4,11 @@
 use criterion::{criterion_group, criterion_main, Criterion};
 use crossterm::event::{KeyCode, KeyEvent, KeyModifiers};
 use mapvlm::agents::replay::Pace;
-use mapvlm::tui::agents::{run_blocking, AgentsPipeline};
-use mapvlm::tui::app::{App, AppInit, Cmd, Msg};
-use mapvlm::tui::scoring::{score_now, ModelSlot};
-use mapvlm::tui::{prepare_image, ui};
+use mapvlm::workbench::agents::{run_blocking, AgentsPipeline};
+use mapvlm::workbench::app::{App, AppInit};
+use mapvlm::workbench::message::{Cmd, Msg};
+use mapvlm::workbench::scoring::{score_now, ModelSlot};
+use mapvlm::workbench::{prepare_image, render};
 use ratatui::backend::TestBackend;
 use ratatui::Terminal;
 use ratatui_image::picker::Picker;
@@ -40,7 +41,7 @@ fn render(c: &mut Criterion) {
     c.bench_function("render demo frame 200x60", |b| {
         b.iter(|| {
             terminal
-                .draw(|f| ui::render(f, &app))
+                .draw(|f| render::render(f, &app))
                 .unwrap_or_else(|e| panic!("{e}"));
         })
     });
@@ -57,7 +58,7 @@ fn render(c: &mut Criterion) {
                 KeyModifiers::NONE,
             )));
             terminal
-                .draw(|f| ui::render(f, &app))
+                .draw(|f| render::render(f, &app))
                 .unwrap_or_else(|e| panic!("{e}"));
         })
     });

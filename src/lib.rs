@@ -17,7 +17,6 @@ pub mod metrics;
 pub mod models;
 pub mod nlp;
 pub mod plan;
-pub mod session;
 pub mod stats;
 pub mod store;
-pub mod tui;
+pub mod workbench;

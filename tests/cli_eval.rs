@@ -99,14 +99,7 @@ fn published_plans_give_table_3_for_all_30_tasks_and_4_approaches() {
 #[tokio::test(flavor = "multi_thread")]
 async fn a_live_eval_plans_each_task_once_and_resumes() {
     let home = tempfile::tempdir().unwrap();
-    let data = home.path().join("data");
-    std::fs::create_dir_all(&data).unwrap();
-    scene(&data);
-    let tasks = [
-        r#"{"id": "t-1", "task": "Put the mug in the sink", "image": "scene.png", "ground_truth": ["Walk to the sink.", "Put the mug in the sink."]}"#,
-        r#"{"id": "t-2", "task": "Wash the mug", "image": "scene.png", "ground_truth": ["Walk to the sink.", "Wash the mug."]}"#,
-    ];
-    std::fs::write(data.join("tasks.jsonl"), tasks.join("\n")).unwrap();
+    let data = two_tasks(home.path());
     let server = MockServer::start().await;
     let provider = ProviderKind::Openai;
     answer(
@@ -122,24 +115,7 @@ async fn a_live_eval_plans_each_task_once_and_resumes() {
     .await;
     let out = home.path().join("eval");
     let base = format!("{}/v1", server.uri());
-    let args: Vec<String> = [
-        "eval",
-        "--dataset",
-        data.to_str().unwrap(),
-        "--approaches",
-        "single-image",
-        "--metrics",
-        "kas",
-        "--out",
-        out.to_str().unwrap(),
-        "--base-url",
-        &base,
-        "--no-cache",
-        "--concurrency",
-        "2",
-    ]
-    .map(str::to_string)
-    .to_vec();
+    let args = eval_args(&data, &out, &base, &["--no-cache", "--concurrency", "2"]);
     let home_path = home.path().to_path_buf();
     let run = {
         let (args, home_path) = (args.clone(), home_path.clone());
@@ -186,4 +162,134 @@ async fn a_live_eval_plans_each_task_once_and_resumes() {
     );
     let csv = std::fs::read_to_string(out.join("table3.csv")).unwrap();
     assert_eq!(csv.lines().count(), 4);
+}
+
+/// Two single-image tasks on one scene, under `home/data`.
+fn two_tasks(home: &Path) -> std::path::PathBuf {
+    let data = home.join("data");
+    std::fs::create_dir_all(&data).unwrap();
+    scene(&data);
+    let tasks = [
+        r#"{"id": "t-1", "task": "Put the mug in the sink", "image": "scene.png", "ground_truth": ["Walk to the sink.", "Put the mug in the sink."]}"#,
+        r#"{"id": "t-2", "task": "Wash the mug", "image": "scene.png", "ground_truth": ["Walk to the sink.", "Wash the mug."]}"#,
+    ];
+    std::fs::write(data.join("tasks.jsonl"), tasks.join("\n")).unwrap();
+    data
+}
+
+/// A config file pricing `test-model` at 2 and 8 dollars per million tokens.
+fn priced_config(home: &Path) {
+    let dir = home.join("config/mapvlm");
+    std::fs::create_dir_all(&dir).unwrap();
+    std::fs::write(
+        dir.join("config.toml"),
+        "[prices.openai.\"test-model\"]\ninput_per_million = 2.0\noutput_per_million = 8.0\n",
+    )
+    .unwrap();
+}
+
+async fn run_blocking(args: Vec<String>, home: &Path) -> Output {
+    let home = home.to_path_buf();
+    tokio::task::spawn_blocking(move || {
+        mapvlm(&args.iter().map(String::as_str).collect::<Vec<_>>(), &home)
+    })
+    .await
+    .unwrap()
+}
+
+fn eval_args(data: &Path, out: &Path, base: &str, extra: &[&str]) -> Vec<String> {
+    let mut args: Vec<String> = [
+        "eval",
+        "--dataset",
+        data.to_str().unwrap(),
+        "--approaches",
+        "single-image",
+        "--metrics",
+        "kas",
+        "--out",
+        out.to_str().unwrap(),
+        "--base-url",
+        base,
+        "--model",
+        "test-model",
+    ]
+    .map(str::to_string)
+    .to_vec();
+    args.extend(extra.iter().map(|s| s.to_string()));
+    args
+}
+
+/// Runs `eval` of `data` at `base` into `home/dir` with `extra` flags:
+/// whether it succeeded, and its stderr.
+async fn eval_into(
+    home: &Path,
+    data: &Path,
+    base: &str,
+    dir: &str,
+    extra: &[&str],
+) -> (bool, String) {
+    let run = run_blocking(eval_args(data, &home.join(dir), base, extra), home).await;
+    (
+        run.status.success(),
+        String::from_utf8_lossy(&run.stderr).into_owned(),
+    )
+}
+
+/// A task's result JSON under `home/dir`.
+fn task_json(home: &Path, dir: &str, file: &str) -> Value {
+    let text = std::fs::read_to_string(home.join(dir).join("tasks").join(file)).unwrap();
+    serde_json::from_str(&text).unwrap()
+}
+
+#[tokio::test(flavor = "multi_thread")]
+async fn eval_reports_tokens_and_cost_per_task_and_cached_answers_cost_nothing() {
+    let home = tempfile::tempdir().unwrap();
+    let data = two_tasks(home.path());
+    priced_config(home.path());
+    let server = MockServer::start().await;
+    let provider = ProviderKind::Openai;
+    let plan = whole(provider, "1. Walk to the sink.\n2. Wash the mug.");
+    answer(&server, provider, PLANNER_MARK, plan).await;
+    let base = format!("{}/v1", server.uri());
+    let requests = || async { server.received_requests().await.unwrap().len() };
+
+    let (ok, stderr) = eval_into(
+        home.path(),
+        &data,
+        &base,
+        "refused",
+        &["--max-cost", "0.0001"],
+    )
+    .await;
+    assert!(!ok, "{stderr}");
+    assert!(stderr.contains("estimate (rough"), "{stderr}");
+    assert!(stderr.contains("exceeds --max-cost 0.0001"), "{stderr}");
+    assert_eq!(requests().await, 0, "refused before any request");
+
+    let (ok, stderr) = eval_into(home.path(), &data, &base, "paid", &["--max-cost", "1"]).await;
+    assert!(ok, "{stderr}");
+    assert_eq!(requests().await, 2);
+    let result = task_json(home.path(), "paid", "t-1.single-image.json");
+    let agent = &result["cost"]["agents"][0];
+    assert_eq!(agent["role"], "single");
+    assert_eq!(agent["billing"], "interactive");
+    assert_eq!(agent["usage"]["input_tokens"], 100);
+    assert_eq!(agent["usage"]["output_tokens"], 20);
+    let usd = (100.0 * 2.0 + 20.0 * 8.0) / 1e6;
+    assert!((result["cost"]["usd"].as_f64().unwrap() - usd).abs() < 1e-12);
+    let total = stderr.lines().find(|l| l.starts_with("total")).unwrap();
+    let fields: Vec<&str> = total.split_whitespace().collect();
+    assert_eq!(
+        fields,
+        ["total", "2", "0", "200", "40", "0.0007"],
+        "{stderr}"
+    );
+
+    let (ok, stderr) = eval_into(home.path(), &data, &base, "cached", &["--max-cost", "0"]).await;
+    assert!(ok, "{stderr}");
+    assert!(stderr.contains("0 requests to send, 2 cached"), "{stderr}");
+    assert_eq!(requests().await, 2, "answers from the cache");
+    let result = task_json(home.path(), "cached", "t-2.single-image.json");
+    assert_eq!(result["cost"]["agents"][0]["billing"], "cached");
+    assert_eq!(result["cost"]["usd"].as_f64(), Some(0.0));
 }

@@ -10,12 +10,14 @@ use mapvlm::agents::replay::Pace;
 use mapvlm::agents::AgentRole;
 use mapvlm::metrics::pg2s::{Pg2sScorer, Pg2sSettings};
 use mapvlm::metrics::{ModelError, SentenceEncoder};
-use mapvlm::tui::agents::{run_blocking, AgentEvent, AgentsPipeline};
-use mapvlm::tui::app::{App, AppInit, Cmd, Msg, Pane};
-use mapvlm::tui::keymap::{self, Action, Context, BINDINGS};
-use mapvlm::tui::scoring::{score_now, ModelSlot, Pg2sOutcome};
-use mapvlm::tui::theme::{load_themes, Theme};
-use mapvlm::tui::{prepare_image, ui};
+use mapvlm::workbench::agents::{run_blocking, AgentEvent, AgentsPipeline};
+use mapvlm::workbench::app::{App, AppInit};
+use mapvlm::workbench::keymap::{self, Action, Context, BINDINGS};
+use mapvlm::workbench::message::{Cmd, Msg};
+use mapvlm::workbench::panes::Pane;
+use mapvlm::workbench::scoring::{score_now, ModelSlot, Pg2sOutcome};
+use mapvlm::workbench::theme::{load_themes, Theme};
+use mapvlm::workbench::{prepare_image, render};
 use ratatui::backend::TestBackend;
 use ratatui::Terminal;
 use ratatui_image::picker::Picker;
@@ -118,7 +120,7 @@ impl Harness {
         let (w, h) = self.app.size;
         prepare_image(&mut self.app, &Picker::halfblocks());
         let mut terminal = Terminal::new(TestBackend::new(w, h)).unwrap();
-        terminal.draw(|f| ui::render(f, &self.app)).unwrap();
+        terminal.draw(|f| render::render(f, &self.app)).unwrap();
         terminal
     }
 
@@ -385,7 +387,7 @@ fn a_start_notice_is_not_hidden_by_the_demo_run() {
     let (app, _) = App::new(AppInit {
         notice: Some((
             "the session file could not be read; it was moved aside".into(),
-            mapvlm::tui::app::Severity::Warn,
+            mapvlm::workbench::app::Severity::Warn,
         )),
         ..AppInit::demo((200, 60), "none")
     });

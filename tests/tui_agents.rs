@@ -20,12 +20,15 @@ use mapvlm::agents::replay::{Pace, Recording};
 use mapvlm::agents::{AgentRole, Approach, ProviderKind};
 use mapvlm::demo;
 use mapvlm::plan::parse_steps;
-use mapvlm::session::AgentSettings;
-use mapvlm::tui::agents::{
+use mapvlm::workbench::agents::{
     demo_scene_file, replay_settings, run_blocking, AgentEvent, AgentsPipeline, Pipeline,
     ProviderConfig, DEMO_MODEL,
 };
-use mapvlm::tui::app::{AgentStatus, App, AppInit, Cmd, Msg, Pane};
+use mapvlm::workbench::app::{App, AppInit};
+use mapvlm::workbench::message::{Cmd, Msg};
+use mapvlm::workbench::panes::Pane;
+use mapvlm::workbench::runs::AgentStatus;
+use mapvlm::workbench::session::AgentSettings;
 use serde_json::Value;
 use tokio_util::sync::CancellationToken;
 use wiremock::{MockServer, Request, Respond, ResponseTemplate};

@@ -9,6 +9,7 @@ use std::time::Duration;
 
 use serde::Deserialize;
 
+use super::cost::Price;
 use super::images::DEFAULT_MAX_EDGE;
 use super::provider::HttpSettings;
 use super::{anthropic, openai, AgentRole, ProviderKind, Secret};
@@ -119,6 +120,13 @@ pub struct ConfigFile {
     pub connect_timeout_secs: Option<f64>,
     /// Retries after 429 or 5xx.
     pub max_retries: Option<u32>,
+    /// Prices per provider and model for the cost ledger:
+    /// `[prices.openai."gpt-4o"]` with `input_per_million` and
+    /// `output_per_million` in US dollars (and, optionally, the batch prices).
+    #[serde(default)]
+    pub prices: BTreeMap<String, BTreeMap<String, Price>>,
+    /// Seconds between two polls of a provider batch (`eval --batch`).
+    pub batch_poll_secs: Option<f64>,
 }
 
 impl ConfigFile {

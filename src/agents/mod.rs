@@ -5,6 +5,7 @@
 pub mod anthropic;
 pub mod cache;
 pub mod config;
+pub mod cost;
 pub mod graph;
 pub mod images;
 pub mod openai;
@@ -51,7 +52,7 @@ impl fmt::Debug for Secret {
 }
 
 /// Which wire protocol an agent's provider speaks.
-#[derive(Debug, Clone, Copy, PartialEq, Eq, Hash, Serialize, Deserialize)]
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Hash, PartialOrd, Ord, Serialize, Deserialize)]
 #[serde(rename_all = "lowercase")]
 pub enum ProviderKind {
     /// The OpenAI-compatible Chat Completions API (OpenAI, vLLM, llama.cpp,

@@ -15,6 +15,7 @@ use tokio_util::sync::CancellationToken;
 use super::anthropic::Anthropic;
 use super::cache::{request_key, CachedAnswer, ResponseCache};
 use super::config::{AgentSettings, Settings};
+use super::cost::estimate_usage;
 use super::graph::{parse_triples, triples_schema, KnowledgeGraph, ParsedTriples};
 use super::images::prepare_image;
 use super::openai::OpenAi;
@@ -141,6 +142,31 @@ impl PlanRecord {
     }
 }
 
+/// A request an approach will send, known before it is sent.
+#[derive(Debug, Clone)]
+pub struct PendingRequest {
+    /// The agent sending it.
+    pub role: AgentRole,
+    /// Its provider.
+    pub provider: ProviderKind,
+    /// Its cache key (the `custom_id` of a provider batch).
+    pub key: String,
+    /// The request.
+    pub request: ChatRequest,
+    /// Whether its answer costs nothing (cached or recorded).
+    pub free: bool,
+}
+
+/// What an approach can send next (see [`Runner::next_stage`]).
+#[derive(Debug, Clone)]
+pub struct Stage {
+    /// The requests whose prompts are known now.
+    pub requests: Vec<PendingRequest>,
+    /// The Planner, while its prompt waits on the miners: its provider,
+    /// model and a rough upper bound of its tokens.
+    pub planner_later: Option<(ProviderKind, String, Usage)>,
+}
+
 /// Where answers come from.
 #[derive(Debug, Clone)]
 pub enum Source {
@@ -235,22 +261,14 @@ impl Runner {
                 self.run_agent(&prepared, AgentRole::Skm, events, cancel),
                 self.run_agent(&prepared, AgentRole::Gkm, events, cancel),
             );
-            let mut values = prepared.values.clone();
-            if let Some(text) = &skm.output {
-                let parsed = parse_triples(text);
-                let graph = KnowledgeGraph::from_triples(&parsed.triples);
-                let triples = if graph.edges.is_empty() {
-                    text.clone()
-                } else {
-                    graph.to_lines()
-                };
-                values.insert("skm", text.clone());
-                values.insert("triples", triples);
+            let (values, triples) = planner_values(
+                &prepared.values,
+                skm.output.as_deref(),
+                gkm.output.as_deref(),
+            );
+            if let Some((parsed, graph)) = triples {
                 record.triples = Some(parsed);
                 record.graph = Some(graph);
-            }
-            if let Some(text) = &gkm.output {
-                values.insert("gkm", text.clone());
             }
             let failed = [&skm, &gkm]
                 .into_iter()
@@ -398,11 +416,7 @@ impl Runner {
                 text: text.to_string(),
             });
         };
-        let cache = self
-            .cache
-            .as_ref()
-            .filter(|_| matches!(self.source, Source::Live));
-        let hit = cache.and_then(|c| c.get(&key));
+        let hit = self.cached(&key);
         let recorded = self
             .answers
             .as_ref()
@@ -458,6 +472,92 @@ impl Runner {
         record
     }
 
+    /// The cached answer to the request keyed `key` (live runs only).
+    fn cached(&self, key: &str) -> Option<CachedAnswer> {
+        self.cache
+            .as_ref()
+            .filter(|_| matches!(self.source, Source::Live))
+            .and_then(|c| c.get(key))
+    }
+
+    /// The response cache live runs read and write, if any.
+    pub fn cache(&self) -> Option<&ResponseCache> {
+        self.cache
+            .as_ref()
+            .filter(|_| matches!(self.source, Source::Live))
+    }
+
+    /// Whether the request keyed `key` will cost nothing: its answer is in
+    /// the cache or in a recording.
+    fn is_free(&self, key: &str) -> bool {
+        matches!(self.source, Source::Replay(..))
+            || self.cached(key).is_some()
+            || self
+                .answers
+                .as_ref()
+                .is_some_and(|(recording, _)| recording.answers.contains_key(key))
+    }
+
+    fn pending(
+        &self,
+        prepared: &Prepared<'_>,
+        role: AgentRole,
+    ) -> Result<PendingRequest, AgentError> {
+        let provider = self.settings.agent(role).provider;
+        let (request, _, _) = self.request(prepared, role)?;
+        let key = request_key(provider, &request);
+        Ok(PendingRequest {
+            role,
+            provider,
+            free: self.is_free(&key),
+            key,
+            request,
+        })
+    }
+
+    /// The requests `approach` can send now for `input`, before any is
+    /// sent: the single agent's; or the miners'; or, once both miners'
+    /// answers are in the cache, the Planner's. While the Planner waits on
+    /// the miners, a rough upper bound of its tokens comes instead (its
+    /// prompt without their answers, plus their token limits). Estimates and
+    /// provider batches are made from this.
+    pub fn next_stage(&self, approach: Approach, input: &PlanInput) -> Result<Stage, AgentError> {
+        let prepared = self.prepare(approach, input)?;
+        if !approach.is_multi_agent() {
+            return Ok(Stage {
+                requests: vec![self.pending(&prepared, AgentRole::Single)?],
+                planner_later: None,
+            });
+        }
+        let miners = vec![
+            self.pending(&prepared, AgentRole::Skm)?,
+            self.pending(&prepared, AgentRole::Gkm)?,
+        ];
+        let answers: Option<Vec<String>> = miners
+            .iter()
+            .map(|m| self.cached(&m.key).map(|a| a.completion.text))
+            .collect();
+        if let Some([skm, gkm]) = answers.as_deref() {
+            let (values, _) = planner_values(&prepared.values, Some(skm), Some(gkm));
+            let planner = Prepared { values, ..prepared };
+            return Ok(Stage {
+                requests: vec![self.pending(&planner, AgentRole::Planner)?],
+                planner_later: None,
+            });
+        }
+        let (blank, _, _) = self.request(&prepared, AgentRole::Planner)?;
+        let mut usage = estimate_usage(&blank);
+        usage.input_tokens += miners
+            .iter()
+            .map(|m| u64::from(m.request.max_tokens))
+            .sum::<u64>();
+        let settings = self.settings.agent(AgentRole::Planner);
+        Ok(Stage {
+            requests: miners,
+            planner_later: Some((settings.provider, settings.model.clone(), usage)),
+        })
+    }
+
     fn provider(&self, settings: &AgentSettings) -> Result<SharedProvider, AgentError> {
         let http = self.settings.http.clone();
         let key = settings.api_key.clone();
@@ -496,6 +596,37 @@ impl Runner {
             }
         }
     }
+}
+
+/// The Planner's prompt values: the task's, plus the miners' answers and
+/// SKM's triples as graph lines (its raw answer when no triple parsed); and
+/// the parsed triples with their graph.
+fn planner_values<'a>(
+    values: &BTreeMap<&'a str, String>,
+    skm: Option<&str>,
+    gkm: Option<&str>,
+) -> (
+    BTreeMap<&'a str, String>,
+    Option<(ParsedTriples, KnowledgeGraph)>,
+) {
+    let mut values = values.clone();
+    let mut triples = None;
+    if let Some(text) = skm {
+        let parsed = parse_triples(text);
+        let graph = KnowledgeGraph::from_triples(&parsed.triples);
+        let lines = if graph.edges.is_empty() {
+            text.to_string()
+        } else {
+            graph.to_lines()
+        };
+        values.insert("skm", text.to_string());
+        values.insert("triples", lines);
+        triples = Some((parsed, graph));
+    }
+    if let Some(text) = gkm {
+        values.insert("gkm", text.to_string());
+    }
+    (values, triples)
 }
 
 fn blank_record(

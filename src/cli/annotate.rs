@@ -12,9 +12,9 @@ use crate::annotate::{
     default_annotations_path, export_csv, AnnotationWriter, Annotations, Current,
 };
 use crate::dataset::open_pairs;
-use crate::tui::annotate::state::Setup;
-use crate::tui::annotate::{self, Options};
-use crate::tui::theme;
+use crate::workbench::annotate::state::Setup;
+use crate::workbench::annotate::{self, Options};
+use crate::workbench::theme;
 
 /// Arguments of `mapvlm annotate`.
 #[derive(Debug, Args)]

@@ -18,6 +18,7 @@ use tokio_util::sync::CancellationToken;
 use super::plan::{runtime, AgentArgs};
 use super::score::Metric;
 use crate::agents::cache::{check_writable, write_atomic};
+use crate::agents::cost::{estimate_plans, Billing, PlanCost};
 use crate::agents::pipeline::{PlanInput, PlanRecord, Runner};
 use crate::agents::Approach;
 use crate::dataset::{Dataset, Task};
@@ -85,6 +86,9 @@ pub struct TaskResult {
     pub pg2s: Option<f64>,
     /// The whole run, when a model made the plan.
     pub record: Option<PlanRecord>,
+    /// Tokens and cost of the run that made the plan, per agent.
+    #[serde(default)]
+    pub cost: Option<PlanCost>,
 }
 
 struct Job<'a> {
@@ -251,6 +255,7 @@ fn new_result(
         s_goal: None,
         pg2s: None,
         record,
+        cost: None,
     }
 }
 
@@ -273,7 +278,18 @@ fn score(result: &mut TaskResult, scorer: Option<&Pg2sScorer>) -> anyhow::Result
 /// Makes the plans of `jobs`, at most `--concurrency` at once, each scored
 /// and written as soon as it is made.
 fn make_plans(args: &EvalArgs, jobs: Vec<Job<'_>>, done: &mut Finished) -> anyhow::Result<()> {
+    let mut ledger = args.agents.ledger()?;
     let (runner, recording) = args.agents.runner()?;
+    let inputs: Vec<PlanInput> = jobs.iter().map(|job| plan_input(job.task)).collect();
+    let estimate = estimate_plans(
+        &runner,
+        jobs.iter()
+            .zip(&inputs)
+            .map(|(job, input)| (job.approach, input)),
+        Billing::Interactive,
+        ledger.prices(),
+    );
+    args.agents.check_estimate(&estimate)?;
     let runner = Arc::new(runner);
     let cancel = CancellationToken::new();
     let runtime = runtime(&cancel)?;
@@ -284,17 +300,12 @@ fn make_plans(args: &EvalArgs, jobs: Vec<Job<'_>>, done: &mut Finished) -> anyho
     );
     let limit = Arc::new(Semaphore::new(args.concurrency.max(1)));
     let mut running = tokio::task::JoinSet::new();
-    for (index, job) in jobs.iter().enumerate() {
+    for (index, (job, input)) in jobs.iter().zip(inputs).enumerate() {
         let runner: Arc<Runner> = runner.clone();
         let limit = limit.clone();
         let cancel = cancel.clone();
         let progress = progress.clone();
         let approach = job.approach;
-        let input = PlanInput {
-            task: job.task.task.clone(),
-            image: job.task.image.clone(),
-            table: job.task.table.clone(),
-        };
         let label = format!("{} {approach}", job.task.id);
         running.spawn_on(
             async move {
@@ -317,22 +328,37 @@ fn make_plans(args: &EvalArgs, jobs: Vec<Job<'_>>, done: &mut Finished) -> anyho
         let (id, approach) = (&job.task.id, job.approach);
         match record {
             Err(err) => progress.suspend(|| done.fail(id, approach, &err.to_string())),
-            Ok(record) => match record.first_error() {
-                Some((role, error)) => {
-                    let reason = format!("{role} failed: {error}");
-                    progress.suspend(|| done.fail(id, approach, &reason));
+            Ok(record) => {
+                let cost = ledger.add_plan(&record, Billing::Interactive);
+                match record.first_error() {
+                    Some((role, error)) => {
+                        let reason = format!("{role} failed: {error}");
+                        progress.suspend(|| done.fail(id, approach, &reason));
+                    }
+                    None => {
+                        let steps = record.steps.clone();
+                        let mut result =
+                            new_result(job.task, approach, "model", steps, Some(record));
+                        result.cost = Some(cost);
+                        progress.suspend(|| done.add(&job.file, result));
+                    }
                 }
-                None => {
-                    let steps = record.steps.clone();
-                    let result = new_result(job.task, approach, "model", steps, Some(record));
-                    progress.suspend(|| done.add(&job.file, result));
-                }
-            },
+            }
         }
     }
     progress.finish_and_clear();
+    eprint!("{}", ledger.table());
     args.agents.save_recording(recording)?;
     Ok(())
+}
+
+/// What a plan for `task` is made from.
+fn plan_input(task: &Task) -> PlanInput {
+    PlanInput {
+        task: task.task.clone(),
+        image: task.image.clone(),
+        table: task.table.clone(),
+    }
 }
 
 fn safe_name(id: &str) -> String {

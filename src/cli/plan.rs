@@ -14,6 +14,7 @@ use tokio_util::sync::CancellationToken;
 
 use crate::agents::cache::{check_writable, ResponseCache};
 use crate::agents::config::{ConfigFile, FlagLayers, Settings};
+use crate::agents::cost::{check_max_cost, estimate_plans, Billing, Estimate, Ledger, PriceTable};
 use crate::agents::pipeline::{AgentEvent, PlanInput, Runner, Source};
 use crate::agents::prompts::PromptSet;
 use crate::agents::provider::Notifier;
@@ -73,6 +74,10 @@ pub struct AgentArgs {
     /// With --replay, send everything at once instead of at the recorded pace.
     #[arg(long, requires = "replay")]
     pub instant: bool,
+    /// Refuse to send anything when the estimated cost exceeds USD dollars
+    /// (prices from [prices] in the config file).
+    #[arg(long, value_name = "USD")]
+    pub max_cost: Option<f64>,
 }
 
 impl AgentArgs {
@@ -84,13 +89,7 @@ impl AgentArgs {
             )?;
         }
         let env = |name: &str| std::env::var(name).ok();
-        let file = match &self.config {
-            Some(path) => ConfigFile::load(path, true)?,
-            None => match ConfigFile::default_path(&env) {
-                Some(path) => ConfigFile::load(&path, false)?,
-                None => ConfigFile::default(),
-            },
-        };
+        let file = self.config_file()?;
         let mut flags = FlagLayers {
             max_image_edge: self.max_image_edge,
             timeout_secs: self.timeout,
@@ -134,6 +133,37 @@ impl AgentArgs {
             runner = runner.with_recorder(recording.clone());
         }
         Ok((runner, recording))
+    }
+
+    /// The config file these options name, or the default one (a missing
+    /// default file is an empty config).
+    pub fn config_file(&self) -> anyhow::Result<ConfigFile> {
+        let env = |name: &str| std::env::var(name).ok();
+        Ok(match &self.config {
+            Some(path) => ConfigFile::load(path, true)?,
+            None => match ConfigFile::default_path(&env) {
+                Some(path) => ConfigFile::load(&path, false)?,
+                None => ConfigFile::default(),
+            },
+        })
+    }
+
+    /// An empty cost ledger with the config file's prices; `--max-cost`
+    /// checked.
+    pub fn ledger(&self) -> anyhow::Result<Ledger> {
+        check_max_cost(self.max_cost).map_err(anyhow::Error::msg)?;
+        let prices = PriceTable::from_config(&self.config_file()?.prices)?;
+        Ok(Ledger::new(prices))
+    }
+
+    /// Prints `estimate` on stderr (unless it counts no request: the input
+    /// is unusable, and says so itself) and refuses the run, before any
+    /// request, when it exceeds `--max-cost`.
+    pub fn check_estimate(&self, estimate: &Estimate) -> anyhow::Result<()> {
+        if estimate.requests + estimate.cached > 0 {
+            eprintln!("mapvlm: {}", estimate.line());
+        }
+        estimate.check(self.max_cost).map_err(anyhow::Error::msg)
     }
 
     /// Writes the recording, if one was asked for.
@@ -189,12 +219,20 @@ pub fn runtime(cancel: &CancellationToken) -> anyhow::Result<tokio::runtime::Run
 
 /// Runs `mapvlm plan`.
 pub fn run(args: &PlanArgs) -> anyhow::Result<ExitCode> {
+    let mut ledger = args.agents.ledger()?;
     let (runner, recording) = args.agents.runner()?;
     let input = PlanInput {
         task: args.task.clone(),
         image: args.image.clone(),
         table: args.table.clone(),
     };
+    let estimate = estimate_plans(
+        &runner,
+        [(args.approach, &input)],
+        Billing::Interactive,
+        ledger.prices(),
+    );
+    args.agents.check_estimate(&estimate)?;
     let cancel = CancellationToken::new();
     let runtime = runtime(&cancel)?;
     let (events, mut received) = unbounded_channel();
@@ -211,6 +249,8 @@ pub fn run(args: &PlanArgs) -> anyhow::Result<ExitCode> {
     let _ = runtime.block_on(printer);
     args.agents.save_recording(recording)?;
     let record = record?;
+    ledger.add_plan(&record, Billing::Interactive);
+    eprint!("{}", ledger.table());
     let mut out = std::io::stdout().lock();
     if args.json {
         serde_json::to_writer_pretty(&mut out, &record)?;

@@ -13,8 +13,8 @@ use crate::agents::config::ConfigFile;
 use crate::agents::prompts::PromptSet;
 use crate::agents::replay::Pace;
 use crate::metrics::pg2s::Pg2sSettings;
-use crate::tui::agents::{prompt_texts, AgentsPipeline, ProviderConfig};
-use crate::tui::{self, Options};
+use crate::workbench::agents::{prompt_texts, AgentsPipeline, ProviderConfig};
+use crate::workbench::{self, Options};
 
 /// Arguments of the workbench.
 #[derive(Debug, Args)]
@@ -96,6 +96,6 @@ pub fn run(args: TuiArgs) -> anyhow::Result<ExitCode> {
             .halfblocks
             .then(ratatui_image::picker::Picker::halfblocks),
     };
-    tui::run(options)?;
+    workbench::run(options)?;
     Ok(ExitCode::SUCCESS)
 }

@@ -1,0 +1,519 @@
+//! The seam between the workbench and the agents: what a run asks for, the
+//! events a run reports while it streams, and [`AgentsPipeline`], which runs
+//! a request with [`crate::agents::pipeline::Runner`]: live providers from
+//! the config file and the environment, the response cache, and the demo's
+//! recording for the agents set to the `replay` provider.
+
+use std::collections::BTreeMap;
+use std::path::PathBuf;
+use std::sync::{Arc, OnceLock};
+
+use tokio::sync::mpsc::{self, UnboundedSender};
+use tokio::task::JoinHandle;
+use tokio_util::sync::CancellationToken;
+
+use crate::agents::cache::{write_atomic, ResponseCache};
+use crate::agents::config::{self, AgentLayer, ConfigFile, FlagLayers, Settings};
+use crate::agents::pipeline::{self, PlanInput, Runner, Source};
+use crate::agents::prompts::{template_name, PromptSet, Template};
+use crate::agents::replay::{Pace, Recording};
+use crate::agents::{anthropic, openai, AgentRole, Approach, ProviderKind};
+use crate::demo;
+use crate::workbench::session::{AgentSettings, Usage};
+
+/// What happened to one agent of a run.
+#[derive(Debug, Clone, PartialEq)]
+pub enum AgentEvent {
+    /// The agent was called.
+    Started(AgentRole),
+    /// The agent wrote more text.
+    Token {
+        /// The agent writing.
+        agent: AgentRole,
+        /// The new text, to append.
+        text: String,
+    },
+    /// The agent finished.
+    Finished {
+        /// The agent.
+        agent: AgentRole,
+        /// Its whole output.
+        output: String,
+        /// Its token use.
+        usage: Usage,
+        /// Its wall time in milliseconds.
+        duration_ms: u64,
+    },
+    /// The agent failed; the run stops.
+    Failed {
+        /// The agent.
+        agent: AgentRole,
+        /// Why, in one line.
+        error: String,
+    },
+}
+
+/// Everything a pipeline needs to run the agents of one approach.
+#[derive(Debug, Clone, PartialEq)]
+pub struct RunRequest {
+    /// The run's id; every event is sent with it.
+    pub run: u64,
+    /// The approach.
+    pub approach: Approach,
+    /// The task text.
+    pub task: String,
+    /// The agents whose inputs changed; the others' answers are expected
+    /// from the response cache or the recording.
+    pub agents: Vec<AgentRole>,
+    /// The prompt template text of every agent of the approach.
+    pub prompts: BTreeMap<AgentRole, String>,
+    /// The settings of every agent of the approach.
+    pub settings: BTreeMap<AgentRole, AgentSettings>,
+    /// Whether the task is the built-in demo (its scene is drawn, not read).
+    pub demo: bool,
+    /// The scene image, when the task has one.
+    pub image: Option<PathBuf>,
+    /// The environment table, when the task has one.
+    pub table: Option<PathBuf>,
+}
+
+/// Runs agents in the background and reports [`AgentEvent`]s.
+pub trait Pipeline: Send + Sync {
+    /// Why the request cannot run, in words a user can act on; `Ok` when it can.
+    fn check(&self, request: &RunRequest) -> Result<(), String>;
+    /// Starts the run on the current tokio runtime; aborting the handle
+    /// cancels it.
+    fn spawn(
+        &self,
+        request: RunRequest,
+        events: UnboundedSender<(u64, AgentEvent)>,
+    ) -> JoinHandle<()>;
+}
+
+/// The provider name of the demo's recorded answers.
+pub const REPLAY_PROVIDER: &str = "replay";
+
+/// The model name the demo's answers are recorded under.
+pub const DEMO_MODEL: &str = "demo-recording";
+
+/// Where a `replay` agent would be sent if its answer were not recorded
+/// ([`AgentsPipeline`] refuses such runs first): a host that never resolves.
+const REPLAY_BASE_URL: &str = "http://replay.invalid/v1";
+
+/// The settings the demo's agents start with: its recording.
+pub fn demo_settings() -> AgentSettings {
+    AgentSettings {
+        provider: REPLAY_PROVIDER.to_string(),
+        model: DEMO_MODEL.to_string(),
+        temperature: 0.0,
+        max_tokens: 1024,
+    }
+}
+
+/// The run settings of an agent answered from a recording: the request
+/// keys are those of the recording, whichever endpoint made it.
+pub fn replay_settings(model: &str, temperature: f32, max_tokens: u32) -> config::AgentSettings {
+    config::AgentSettings {
+        provider: ProviderKind::Openai,
+        base_url: REPLAY_BASE_URL.to_string(),
+        model: model.to_string(),
+        api_key: None,
+        temperature,
+        max_tokens,
+        stream: true,
+        json_output: false,
+    }
+}
+
+/// The name the workbench shows for an agent.
+pub fn role_label(role: AgentRole) -> &'static str {
+    match role {
+        AgentRole::Skm => "SKM",
+        AgentRole::Gkm => "GKM",
+        AgentRole::Planner => "Planner",
+        AgentRole::Single => "Single",
+    }
+}
+
+/// The agents an approach runs, in pipeline order.
+pub fn roles(approach: Approach) -> &'static [AgentRole] {
+    if approach.is_multi_agent() {
+        &[AgentRole::Skm, AgentRole::Gkm, AgentRole::Planner]
+    } else {
+        &[AgentRole::Single]
+    }
+}
+
+/// The agent that writes the plan in an approach.
+pub fn planning_role(approach: Approach) -> AgentRole {
+    if approach.is_multi_agent() {
+        AgentRole::Planner
+    } else {
+        AgentRole::Single
+    }
+}
+
+/// The text of every template of `set`, by template name, as the prompt
+/// editor shows it.
+pub fn prompt_texts(set: &PromptSet) -> BTreeMap<String, String> {
+    set.iter().map(|t| (t.name.clone(), t.text())).collect()
+}
+
+fn built_in_prompts() -> Option<&'static PromptSet> {
+    static BUILT_IN: OnceLock<Option<PromptSet>> = OnceLock::new();
+    BUILT_IN.get_or_init(|| PromptSet::load(None).ok()).as_ref()
+}
+
+/// Whether the demo's recording has an answer for `role` with the template
+/// `text` in `approach`: the recording was made with the built-in templates
+/// of the multi-image approach.
+pub fn is_recorded_prompt(approach: Approach, role: AgentRole, text: &str) -> bool {
+    let name = template_name(approach, role);
+    let recorded = built_in_prompts().and_then(|set| set.get(approach, role).ok());
+    let edited = Template::parse(&name, "the workbench", text).ok();
+    approach == Approach::MultiImage
+        && matches!((recorded, edited), (Some(r), Some(e)) if r.system == e.system && r.user == e.user)
+}
+
+/// The demo's recording.
+pub fn demo_recording() -> Result<Recording, String> {
+    serde_json::from_str(demo::RECORDING)
+        .map_err(|e| format!("the demo's recording cannot be read ({e}); this is a bug"))
+}
+
+/// What a user must do to run an agent for real.
+pub fn provider_needed(agent: AgentRole, why: &str) -> String {
+    let agent = role_label(agent);
+    format!(
+        "{why}: {agent} needs a provider. Press m to set {agent}'s provider and model \
+         (e.g. openai, gpt-4o) and export the provider's API key (e.g. OPENAI_API_KEY) before starting mapvlm"
+    )
+}
+
+fn key_needed(role: AgentRole, provider: ProviderKind, config_path: Option<&PathBuf>) -> String {
+    let (key_var, url_var) = match provider {
+        ProviderKind::Openai => ("OPENAI_API_KEY", "OPENAI_BASE_URL"),
+        ProviderKind::Anthropic => ("ANTHROPIC_API_KEY", "ANTHROPIC_BASE_URL"),
+    };
+    let file = config_path.map_or_else(
+        || "the config file".to_string(),
+        |p| p.display().to_string(),
+    );
+    format!(
+        "{} uses {} but no API key is set: export {key_var} before starting mapvlm, \
+         or set api_key under [agents.{}] or [defaults] in {file} (a local server: set {url_var})",
+        role_label(role),
+        provider.name(),
+        role.name()
+    )
+}
+
+/// Reads an environment variable.
+pub type EnvReader = Box<dyn Fn(&str) -> Option<String> + Send + Sync>;
+
+/// Where the live agents' provider settings come from: the config file and
+/// the environment, read when the workbench starts.
+pub struct ProviderConfig {
+    /// The config file's contents.
+    pub file: ConfigFile,
+    /// The config file's path, named in messages.
+    pub path: Option<PathBuf>,
+    /// The environment variables (API keys and base URLs).
+    pub env: EnvReader,
+}
+
+/// A [`Pipeline`] over the real agents: each run gets settings from the
+/// request's provider, model, temperature and token limit on top of the
+/// config file and the environment (keys never come from the session), the
+/// request's prompt templates, the response cache (unchanged agents cost
+/// nothing) and the demo's recording for the `replay` agents.
+pub struct AgentsPipeline {
+    config: ProviderConfig,
+    cache: Option<ResponseCache>,
+    demo: Arc<Recording>,
+    pace: Pace,
+}
+
+impl AgentsPipeline {
+    /// A pipeline reading providers from `config`, caching in `cache`, and
+    /// replaying the demo at `pace`.
+    pub fn new(
+        config: ProviderConfig,
+        cache: Option<ResponseCache>,
+        pace: Pace,
+    ) -> Result<Self, String> {
+        Ok(Self {
+            config,
+            cache,
+            demo: Arc::new(demo_recording()?),
+            pace,
+        })
+    }
+
+    /// The demo alone: no config file, no environment, no cache; agents set
+    /// to a live provider are refused for want of a key.
+    pub fn offline(pace: Pace) -> Result<Self, String> {
+        Self::new(
+            ProviderConfig {
+                file: ConfigFile::default(),
+                path: None,
+                env: Box::new(|_| None),
+            },
+            None,
+            pace,
+        )
+    }
+
+    fn is_replay(request: &RunRequest, role: AgentRole) -> bool {
+        request
+            .settings
+            .get(&role)
+            .is_none_or(|s| s.provider == REPLAY_PROVIDER)
+    }
+
+    fn settings(&self, request: &RunRequest) -> Result<Settings, String> {
+        let mut flags = FlagLayers::default();
+        for (&role, chosen) in &request.settings {
+            if chosen.provider == REPLAY_PROVIDER {
+                continue;
+            }
+            let provider = chosen.provider.parse::<ProviderKind>().map_err(|e| {
+                format!(
+                    "{}: {e}, or `{REPLAY_PROVIDER}` for the demo's recording",
+                    role_label(role)
+                )
+            })?;
+            flags.per_agent.insert(
+                role,
+                AgentLayer {
+                    provider: Some(provider),
+                    model: Some(chosen.model.clone()),
+                    temperature: Some(chosen.temperature),
+                    max_tokens: Some(chosen.max_tokens),
+                    ..AgentLayer::default()
+                },
+            );
+        }
+        let mut settings = Settings::resolve(&self.config.file, &*self.config.env, &flags)
+            .map_err(|e| e.to_string())?;
+        for (&role, chosen) in &request.settings {
+            if chosen.provider == REPLAY_PROVIDER {
+                settings.agents.insert(
+                    role,
+                    replay_settings(&chosen.model, chosen.temperature, chosen.max_tokens),
+                );
+            }
+        }
+        Ok(settings)
+    }
+
+    fn prompts(request: &RunRequest) -> Result<PromptSet, String> {
+        let mut set = built_in_prompts()
+            .cloned()
+            .ok_or("the built-in prompt templates cannot be read; this is a bug")?;
+        for (&role, text) in &request.prompts {
+            let name = template_name(request.approach, role);
+            let template =
+                Template::parse(&name, "the workbench", text).map_err(|e| e.to_string())?;
+            set = set.with(template);
+        }
+        Ok(set)
+    }
+
+    fn check_replay(request: &RunRequest, role: AgentRole) -> Result<(), String> {
+        let why = if !request.demo {
+            "the replay provider only has the demo's recording, not this task".to_string()
+        } else if request.approach != Approach::MultiImage {
+            format!(
+                "the demo was recorded with the multi-image approach, not {}",
+                request.approach
+            )
+        } else if request.settings.get(&role) != Some(&demo_settings()) {
+            format!(
+                "the demo was recorded with {DEMO_MODEL}, temperature 0 and 1024 tokens, not {}'s settings",
+                role_label(role)
+            )
+        } else if !request
+            .prompts
+            .get(&role)
+            .is_some_and(|text| is_recorded_prompt(request.approach, role, text))
+        {
+            format!(
+                "{}'s prompt was edited and the demo's recording has no answer for it",
+                role_label(role)
+            )
+        } else if role == AgentRole::Planner
+            && [AgentRole::Skm, AgentRole::Gkm]
+                .iter()
+                .any(|&miner| !Self::is_replay(request, miner))
+        {
+            "the planner reads SKM and GKM, which no longer come from the demo's recording"
+                .to_string()
+        } else {
+            return Ok(());
+        };
+        Err(provider_needed(role, &why))
+    }
+}
+
+impl Pipeline for AgentsPipeline {
+    fn check(&self, request: &RunRequest) -> Result<(), String> {
+        Self::prompts(request)?;
+        let settings = self.settings(request)?;
+        for &role in roles(request.approach) {
+            if Self::is_replay(request, role) {
+                Self::check_replay(request, role)?;
+                continue;
+            }
+            let agent = settings.agent(role);
+            let default_url = match agent.provider {
+                ProviderKind::Openai => openai::DEFAULT_BASE_URL,
+                ProviderKind::Anthropic => anthropic::DEFAULT_BASE_URL,
+            };
+            if agent.api_key.is_none() && agent.base_url.trim_end_matches('/') == default_url {
+                return Err(key_needed(role, agent.provider, self.config.path.as_ref()));
+            }
+        }
+        Ok(())
+    }
+
+    fn spawn(
+        &self,
+        request: RunRequest,
+        events: UnboundedSender<(u64, AgentEvent)>,
+    ) -> JoinHandle<()> {
+        let prepared = self
+            .settings(&request)
+            .and_then(|settings| Ok((settings, Self::prompts(&request)?)));
+        let cache = self.cache.clone();
+        let answers = (self.demo.clone(), self.pace);
+        tokio::spawn(async move {
+            let run = request.run;
+            let first = roles(request.approach)[0];
+            let fail = |error: String| {
+                let _ = events.send((
+                    run,
+                    AgentEvent::Failed {
+                        agent: first,
+                        error,
+                    },
+                ));
+            };
+            let (settings, prompts) = match prepared {
+                Ok(parts) => parts,
+                Err(error) => return fail(error),
+            };
+            let image = match (request.demo, request.approach.uses_image()) {
+                (true, true) => match demo_scene_file() {
+                    Ok(path) => Some(path),
+                    Err(error) => return fail(error),
+                },
+                _ => request.image.clone(),
+            };
+            let mut runner =
+                Runner::new(settings, prompts, Source::Live).with_answers(answers.0, answers.1);
+            if let Some(cache) = cache {
+                runner = runner.with_cache(cache);
+            }
+            let input = PlanInput {
+                task: request.task.clone(),
+                image,
+                table: request.table.clone(),
+            };
+            let cancel = CancellationToken::new();
+            let _cancel_on_abort = cancel.clone().drop_guard();
+            let (tx, mut rx) = mpsc::unbounded_channel();
+            let plan = async move {
+                let result = runner.plan(request.approach, &input, &tx, &cancel).await;
+                drop(tx);
+                result
+            };
+            let forward = async {
+                let mut outputs: BTreeMap<AgentRole, String> = BTreeMap::new();
+                while let Some(event) = rx.recv().await {
+                    let event = translate(event, &mut outputs, &request);
+                    if events.send((run, event)).is_err() {
+                        return;
+                    }
+                }
+            };
+            let (result, ()) = tokio::join!(plan, forward);
+            if let Err(error) = result {
+                fail(error.to_string());
+            }
+        })
+    }
+}
+
+/// Checks and runs `request` to its end on a runtime of its own, returning
+/// its events in order: for headless use, tests and benchmarks.
+pub fn run_blocking(
+    pipeline: &dyn Pipeline,
+    request: RunRequest,
+) -> Result<Vec<AgentEvent>, String> {
+    pipeline.check(&request)?;
+    let runtime = tokio::runtime::Builder::new_current_thread()
+        .enable_all()
+        .build()
+        .map_err(|e| format!("no runtime for the run ({e})"))?;
+    let (tx, mut rx) = mpsc::unbounded_channel();
+    runtime
+        .block_on(async { pipeline.spawn(request, tx).await })
+        .map_err(|e| format!("the run stopped ({e})"))?;
+    let mut events = Vec::new();
+    while let Ok((_, event)) = rx.try_recv() {
+        events.push(event);
+    }
+    Ok(events)
+}
+
+/// Turns an event of the agents' pipeline into the workbench's, gathering
+/// each agent's tokens so that `Finished` carries the whole output.
+fn translate(
+    event: pipeline::AgentEvent,
+    outputs: &mut BTreeMap<AgentRole, String>,
+    request: &RunRequest,
+) -> AgentEvent {
+    match event {
+        pipeline::AgentEvent::Started { role } => {
+            outputs.insert(role, String::new());
+            AgentEvent::Started(role)
+        }
+        pipeline::AgentEvent::Token { role, text } => {
+            outputs.entry(role).or_default().push_str(&text);
+            AgentEvent::Token { agent: role, text }
+        }
+        pipeline::AgentEvent::Finished {
+            role,
+            usage,
+            elapsed_ms,
+            ..
+        } => AgentEvent::Finished {
+            agent: role,
+            output: outputs.remove(&role).unwrap_or_default(),
+            usage: Usage {
+                input: usage.input_tokens,
+                output: usage.output_tokens,
+            },
+            duration_ms: elapsed_ms,
+        },
+        pipeline::AgentEvent::Failed { role, error } => AgentEvent::Failed {
+            agent: role,
+            error: if AgentsPipeline::is_replay(request, role) {
+                provider_needed(role, "the demo's recording has no answer for this request")
+            } else {
+                error
+            },
+        },
+    }
+}
+
+/// Writes the demo's scene to a PNG file in the temporary folder, where the
+/// agents read it, and returns its path.
+pub fn demo_scene_file() -> Result<PathBuf, String> {
+    let bytes =
+        demo::scene_png().map_err(|e| format!("the demo's scene cannot be encoded ({e})"))?;
+    let path = std::env::temp_dir().join("mapvlm-demo-scene.png");
+    write_atomic(&path, &bytes).map_err(|e| e.to_string())?;
+    Ok(path)
+}

@@ -1,0 +1,244 @@
+//! The annotation screen (`annotate.md` §3): blind judgement of plans, one
+//! component of the TUI with its own state ([`state`]), drawing ([`view`])
+//! and key table ([`keys`]), sharing the workbench's theme, terminal set-up
+//! and image handling.
+//!
+//! Reading the scene image and appending judgements happen off the loop:
+//! images on blocking tasks, judgements on one writer thread that keeps
+//! them in order and flushes each to disk before reporting back.
+
+pub mod keys;
+pub mod state;
+pub mod view;
+
+use std::path::Path;
+use std::sync::Arc;
+use std::time::{Duration, Instant};
+
+use crossterm::event::Event;
+use ratatui::layout::Rect;
+use ratatui_image::picker::Picker;
+use ratatui_image::Resize;
+use tokio::sync::mpsc;
+
+use crate::annotate::{AnnotationWriter, Judgement, Verdict};
+use crate::workbench::terminal_query::{query_picker, QUERY_TIMEOUT};
+use crate::workbench::theme::Theme;
+use crate::workbench::TuiError;
+use state::{Clock, Cmd, Judging, Msg, Scene, Setup};
+
+/// What the annotation screen is opened with.
+pub struct Options {
+    /// The items, guidelines and judgements the screen starts from.
+    pub setup: Setup,
+    /// The writer of the annotations file, opened already.
+    pub writer: AnnotationWriter,
+    /// The theme.
+    pub theme: Theme,
+    /// How images are drawn: `None` asks the terminal.
+    pub picker: Option<Picker>,
+}
+
+/// How the sitting ended.
+#[derive(Debug, Clone, PartialEq, Eq)]
+pub struct Outcome {
+    /// Units judged, of all.
+    pub judged: usize,
+    /// Units in all.
+    pub total: usize,
+    /// Lines that could not be written (already shown on screen).
+    pub failures: Vec<String>,
+}
+
+fn unix_now() -> u64 {
+    std::time::SystemTime::now()
+        .duration_since(std::time::UNIX_EPOCH)
+        .map_or(0, |d| d.as_secs())
+}
+
+/// Starts the writer thread: it appends each line in the order sent and
+/// reports a failure back as [`Msg::NotSaved`].
+fn spawn_writer(
+    mut writer: AnnotationWriter,
+    msgs: mpsc::UnboundedSender<Msg>,
+) -> (
+    std::sync::mpsc::Sender<(Judgement, Option<Verdict>)>,
+    std::thread::JoinHandle<()>,
+) {
+    let (tx, rx) = std::sync::mpsc::channel::<(Judgement, Option<Verdict>)>();
+    let handle = std::thread::spawn(move || {
+        for (judgement, previous) in rx {
+            if let Err(e) = writer.append(&judgement) {
+                let _ = msgs.send(Msg::NotSaved {
+                    subject: judgement.subject,
+                    previous,
+                    error: e.to_string(),
+                });
+            }
+        }
+    });
+    (tx, handle)
+}
+
+fn spawn_input(msgs: mpsc::UnboundedSender<Msg>, resized: mpsc::UnboundedSender<(u16, u16)>) {
+    std::thread::spawn(move || loop {
+        let msg = match crossterm::event::read() {
+            Ok(Event::Key(key)) => Msg::Key(key),
+            Ok(Event::Resize(w, h)) => {
+                if resized.send((w, h)).is_err() {
+                    return;
+                }
+                continue;
+            }
+            Ok(_) => continue,
+            Err(_) => {
+                // The terminal is gone: stop (a zero size).
+                let _ = resized.send((0, 0));
+                return;
+            }
+        };
+        if msgs.send(msg).is_err() {
+            return;
+        }
+    });
+}
+
+fn spawn_signal_watch(quit: mpsc::UnboundedSender<(u16, u16)>) {
+    use tokio::signal::unix::{signal, SignalKind};
+    for kind in [SignalKind::terminate(), SignalKind::hangup()] {
+        let quit = quit.clone();
+        if let Ok(mut stream) = signal(kind) {
+            tokio::spawn(async move {
+                if stream.recv().await.is_some() {
+                    // A zero size is the loop's sign to stop.
+                    let _ = quit.send((0, 0));
+                }
+            });
+        }
+    }
+}
+
+/// Encodes the scene image for the area the screen shows it in, once per
+/// image and area.
+fn prepare_image(screen: &mut Judging, picker: &Picker, area: Rect) {
+    let Some(wanted) = view::image_area(area, screen) else {
+        return;
+    };
+    if screen.image.as_ref().is_some_and(|(at, _)| *at == wanted) {
+        return;
+    }
+    let Scene::Loaded(_, image) = &screen.scene else {
+        return;
+    };
+    let msg = match picker.new_protocol((**image).clone(), wanted.as_size(), Resize::Scale(None)) {
+        Ok(protocol) => Msg::ImageReady(wanted, Box::new(protocol)),
+        Err(e) => Msg::ImageUndrawable(e.to_string()),
+    };
+    screen.update(msg);
+}
+
+/// Opens the screen and runs it until the user quits; the terminal is
+/// restored on every way out.
+pub fn run(options: Options) -> Result<Outcome, TuiError> {
+    let rt = tokio::runtime::Builder::new_multi_thread()
+        .worker_threads(1)
+        .enable_all()
+        .build()?;
+    rt.block_on(run_async(options))
+}
+
+async fn run_async(options: Options) -> Result<Outcome, TuiError> {
+    let started = Instant::now();
+    let clock = |start: Instant| Clock {
+        elapsed: start.elapsed(),
+        unix: unix_now(),
+    };
+    let (mut screen, first) = Judging::new(options.setup, clock(started));
+    let theme = options.theme;
+    let (guard, mut terminal) = crate::workbench::runtime::setup_terminal()?;
+    let (msg_tx, mut msg_rx) = mpsc::unbounded_channel::<Msg>();
+    let (size_tx, mut size_rx) = mpsc::unbounded_channel::<(u16, u16)>();
+    let picker = match options.picker {
+        Some(p) => p,
+        None => {
+            // Asked before the input thread exists, so no key is lost;
+            // keys typed meanwhile go first.
+            let probe = query_picker(QUERY_TIMEOUT);
+            for key in probe.typed {
+                let _ = msg_tx.send(Msg::Key(key));
+            }
+            let size = terminal.size()?;
+            let _ = size_tx.send((size.width, size.height));
+            probe.picker
+        }
+    };
+    spawn_input(msg_tx.clone(), size_tx.clone());
+    spawn_signal_watch(size_tx);
+    let (writer, writer_thread) = spawn_writer(options.writer, msg_tx.clone());
+    let mut failures = Vec::new();
+    let execute = |cmd: Cmd, failures: &mut Vec<String>| match cmd {
+        Cmd::Append {
+            judgement,
+            previous,
+        } => {
+            if writer.send((*judgement, previous)).is_err() {
+                failures.push("the writer stopped; judgements after this were not saved".into());
+            }
+        }
+        Cmd::LoadImage(path) => {
+            let msgs = msg_tx.clone();
+            tokio::task::spawn_blocking(move || {
+                let _ = msgs.send(Msg::Image(path.clone(), read_image(&path)));
+            });
+        }
+    };
+    for cmd in first {
+        execute(cmd, &mut failures);
+    }
+    let mut tick = tokio::time::interval(Duration::from_secs(1));
+    loop {
+        let area = terminal.get_frame().area();
+        prepare_image(&mut screen, &picker, area);
+        terminal.draw(|f| view::render(f, &screen, &theme))?;
+        let msg = tokio::select! {
+            msg = msg_rx.recv() => msg,
+            size = size_rx.recv() => match size {
+                Some((0, 0)) | None => break,
+                Some((w, h)) => {
+                    terminal.resize(Rect::new(0, 0, w, h))?;
+                    continue;
+                }
+            },
+            _ = tick.tick() => Some(Msg::Tick(clock(started))),
+        };
+        let Some(msg) = msg else { break };
+        if let Msg::NotSaved { error, .. } = &msg {
+            failures.push(error.clone());
+        }
+        if matches!(msg, Msg::Key(_)) {
+            screen.update(Msg::Tick(clock(started)));
+        }
+        for cmd in screen.update(msg) {
+            execute(cmd, &mut failures);
+        }
+        if screen.quit {
+            break;
+        }
+    }
+    drop(writer);
+    // Every line sent is on disk before the terminal is given back.
+    let _ = writer_thread.join();
+    drop(guard);
+    Ok(Outcome {
+        judged: screen.judged(),
+        total: screen.units.len(),
+        failures,
+    })
+}
+
+/// Reads a scene image; the error is one line naming the file.
+fn read_image(path: &Path) -> Result<Arc<image::DynamicImage>, String> {
+    image::open(path)
+        .map(Arc::new)
+        .map_err(|e| format!("{}: the scene image cannot be read ({e})", path.display()))
+}

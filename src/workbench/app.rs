@@ -1,0 +1,436 @@
+//! The workbench's state ([`App`]) and how it starts ([`AppInit`]): the
+//! Elm architecture's model. The panes and overlays keep their own parts
+//! (see [`crate::workbench::panes`], [`crate::workbench::overlays`]); the
+//! update function is in [`crate::workbench::update`].
+
+use std::collections::BTreeMap;
+use std::path::PathBuf;
+use std::sync::Arc;
+
+use image::DynamicImage;
+use ratatui::layout::Rect;
+use ratatui_image::protocol::Protocol;
+use ratatui_textarea::TextArea;
+
+use crate::agents::graph::KnowledgeGraph;
+use crate::agents::{AgentRole, Approach};
+use crate::dataset::{Dataset, Task};
+use crate::demo;
+use crate::workbench::agents::{self, planning_role, roles};
+use crate::workbench::editing::Editing;
+use crate::workbench::graph_view::GraphView;
+use crate::workbench::keymap::Context;
+use crate::workbench::message::Cmd;
+use crate::workbench::overlays::Overlay;
+use crate::workbench::panes::graph::{GraphCursor, GraphMode};
+use crate::workbench::panes::steps::demo_ground_truth;
+use crate::workbench::panes::Pane;
+use crate::workbench::runs::{fresh_agents, ActiveRun, AgentStatus, AgentView};
+use crate::workbench::scoring::{ScoreOutcome, ScoreRequest};
+use crate::workbench::session::{GroundTruthSource, PlanSource, RunRecord, Session};
+use crate::workbench::theme::Theme;
+
+/// The order the approaches cycle in.
+const APPROACH_CYCLE: [Approach; 4] = [
+    Approach::MultiImage,
+    Approach::SingleImage,
+    Approach::MultiTable,
+    Approach::SingleTable,
+];
+
+/// The task in use.
+#[derive(Debug, Clone, PartialEq)]
+pub struct TaskView {
+    /// The dataset task id; `None` for the built-in demo.
+    pub id: Option<String>,
+    /// The task text.
+    pub text: String,
+    /// The scene image file (the demo draws its own).
+    pub image: Option<PathBuf>,
+    /// The environment table file.
+    pub table: Option<PathBuf>,
+    /// Published plans by approach key.
+    pub published: BTreeMap<String, Vec<String>>,
+}
+
+/// How important a status message is.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub enum Severity {
+    /// For information.
+    Info,
+    /// Something needs the user.
+    Warn,
+    /// Something failed.
+    Error,
+}
+
+/// Where the PG2S models stand.
+#[derive(Debug, Clone, PartialEq, Eq)]
+pub enum ModelStatus {
+    /// Loading, with the latest progress line.
+    Loading(String),
+    /// Loaded.
+    Ready,
+    /// Missing, with the reason.
+    Unavailable(String),
+}
+
+/// What the workbench starts from.
+pub struct AppInit {
+    /// The dataset, when one was given.
+    pub dataset: Option<Dataset>,
+    /// The themes available (at least one).
+    pub themes: Vec<Theme>,
+    /// The theme to start with, by name.
+    pub theme: Option<String>,
+    /// Whether `NO_COLOR` is in force.
+    pub no_color: bool,
+    /// The session to restore.
+    pub session: Option<Session>,
+    /// A message to show first.
+    pub notice: Option<(String, Severity)>,
+    /// The terminal's size.
+    pub size: (u16, u16),
+    /// Whether the PG2S models are known to be loading.
+    pub models: ModelStatus,
+    /// The prompt templates' texts by name: the built-in ones, or the
+    /// user's where the user folder has one ([`agents::prompt_texts`]).
+    pub prompts: BTreeMap<String, String>,
+}
+
+impl AppInit {
+    /// A start on the built-in demo with the built-in themes, no dataset,
+    /// no session and the PG2S models reported missing for `reason`.
+    pub fn demo(size: (u16, u16), reason: &str) -> AppInit {
+        AppInit {
+            dataset: None,
+            themes: super::theme::load_themes(None).0,
+            theme: None,
+            no_color: false,
+            session: None,
+            notice: None,
+            size,
+            models: ModelStatus::Unavailable(reason.to_string()),
+            prompts: crate::agents::prompts::PromptSet::load(None)
+                .map(|set| agents::prompt_texts(&set))
+                .unwrap_or_default(),
+        }
+    }
+}
+
+/// The whole state of the workbench.
+pub struct App {
+    /// The terminal's size.
+    pub size: (u16, u16),
+    /// The focused pane.
+    pub focus: Pane,
+    /// Whether the focused pane fills the screen.
+    pub zoom: bool,
+    /// The theme in use.
+    pub theme: Theme,
+    /// The themes to cycle through.
+    pub themes: Vec<Theme>,
+    /// Whether `NO_COLOR` is in force.
+    pub no_color: bool,
+    /// A modal view, if open.
+    pub overlay: Option<Overlay>,
+    /// An editor, if in use.
+    pub editing: Editing,
+    /// The task.
+    pub task: TaskView,
+    /// The dataset, if loaded.
+    pub dataset: Option<Dataset>,
+    /// The approach.
+    pub approach: Approach,
+    /// The agents.
+    pub agents: BTreeMap<AgentRole, AgentView>,
+    /// Every prompt template's text by name, as edited.
+    pub prompts: BTreeMap<String, String>,
+    /// The templates' texts the workbench started with.
+    pub default_prompts: BTreeMap<String, String>,
+    /// The agent whose prompt the Prompt pane shows.
+    pub prompt_agent: AgentRole,
+    /// The prompt editor, holding the selected agent's prompt.
+    pub prompt_editor: TextArea<'static>,
+    /// The plan steps.
+    pub plan: Vec<String>,
+    /// Where the plan came from.
+    pub plan_source: PlanSource,
+    /// The selected plan step.
+    pub plan_selected: usize,
+    /// The ground-truth steps.
+    pub ground_truth: Vec<String>,
+    /// Where they came from.
+    pub ground_truth_source: GroundTruthSource,
+    /// The selected ground-truth step.
+    pub ground_truth_selected: usize,
+    /// The latest scores.
+    pub scores: Option<ScoreOutcome>,
+    /// The generation of the latest score request.
+    pub score_generation: u64,
+    /// The PG2S models.
+    pub models: ModelStatus,
+    /// Every run.
+    pub runs: Vec<RunRecord>,
+    /// The run in flight.
+    pub active_run: Option<ActiveRun>,
+    /// A finished run waiting for its scores: (index in `runs`, generation).
+    pub run_awaiting_scores: Option<(usize, u64)>,
+    /// The knowledge graph of the SKM output.
+    pub graph: KnowledgeGraph,
+    /// The graph view's position.
+    pub graph_cursor: GraphCursor,
+    /// The whole-graph view: layout, selection, zoom and pan.
+    pub graph_view: GraphView,
+    /// Which of the two graph drawings the pane shows.
+    pub graph_mode: GraphMode,
+    /// The search, highlighted in every pane.
+    pub search: String,
+    /// The latest status message.
+    pub status: Option<(String, Severity)>,
+    /// Whether the scene image is shown.
+    pub image_enabled: bool,
+    /// The scene image.
+    pub scene: Option<Arc<DynamicImage>>,
+    /// The scene image encoded for an area of the terminal.
+    pub scene_protocol: Option<(Rect, Box<Protocol>)>,
+    /// Scroll offsets of the text panes.
+    pub scroll: BTreeMap<Pane, u16>,
+    /// Set when the user asked to quit.
+    pub quit: bool,
+    /// Set when something the session holds changed since the last save.
+    pub session_dirty: bool,
+    /// The session file's state, for the status bar.
+    pub saved: Option<Result<(), String>>,
+}
+
+pub(crate) fn demo_task() -> TaskView {
+    TaskView {
+        id: None,
+        text: demo::TASK.trim().to_string(),
+        image: None,
+        table: None,
+        published: BTreeMap::new(),
+    }
+}
+
+pub(crate) fn task_view(task: &Task) -> TaskView {
+    TaskView {
+        id: Some(task.id.clone()),
+        text: task.task.clone(),
+        image: task.image.clone(),
+        table: task.table.clone(),
+        published: task.plans.clone(),
+    }
+}
+
+pub(crate) fn single_line_editor(text: &str) -> TextArea<'static> {
+    let mut editor = TextArea::new(vec![text.to_string()]);
+    editor.move_cursor(ratatui_textarea::CursorMove::End);
+    editor
+}
+
+pub(crate) fn unix_now() -> u64 {
+    std::time::SystemTime::now()
+        .duration_since(std::time::UNIX_EPOCH)
+        .map_or(0, |d| d.as_secs())
+}
+
+impl App {
+    /// A workbench in its starting state, with the commands that start it:
+    /// the demo run on a fresh start, and the first scoring.
+    pub fn new(init: AppInit) -> (App, Vec<Cmd>) {
+        let theme = if init.no_color {
+            Theme::no_color()
+        } else {
+            init.theme
+                .as_deref()
+                .and_then(|name| init.themes.iter().find(|t| t.name == name))
+                .or(init.themes.first())
+                .cloned()
+                .unwrap_or_else(Theme::no_color)
+        };
+        let mut app = App {
+            size: init.size,
+            focus: Pane::Plan,
+            zoom: false,
+            theme,
+            themes: init.themes,
+            no_color: init.no_color,
+            overlay: None,
+            editing: Editing::None,
+            task: demo_task(),
+            dataset: init.dataset,
+            approach: Approach::MultiImage,
+            agents: fresh_agents(),
+            prompts: init.prompts.clone(),
+            default_prompts: init.prompts,
+            prompt_agent: AgentRole::Skm,
+            prompt_editor: TextArea::default(),
+            plan: Vec::new(),
+            plan_source: PlanSource::None,
+            plan_selected: 0,
+            ground_truth: demo_ground_truth(0),
+            ground_truth_source: GroundTruthSource::Demo { index: 0 },
+            ground_truth_selected: 0,
+            scores: None,
+            score_generation: 0,
+            models: init.models,
+            runs: Vec::new(),
+            active_run: None,
+            run_awaiting_scores: None,
+            graph: KnowledgeGraph::default(),
+            graph_cursor: GraphCursor::default(),
+            graph_view: GraphView::default(),
+            graph_mode: GraphMode::default(),
+            search: String::new(),
+            status: init.notice,
+            image_enabled: true,
+            scene: Some(Arc::new(DynamicImage::ImageRgb8(demo::scene_image()))),
+            scene_protocol: None,
+            scroll: BTreeMap::new(),
+            quit: false,
+            session_dirty: false,
+            saved: None,
+        };
+        let notice = app.status.clone();
+        let mut cmds = Vec::new();
+        match init.session {
+            Some(session) => cmds.extend(app.restore(session)),
+            None => match app.dataset.as_ref().and_then(|d| d.tasks.first()).cloned() {
+                Some(task) => cmds.extend(app.switch_task(&task)),
+                None => cmds.extend(app.start_run(false)),
+            },
+        }
+        if notice.is_some() {
+            app.status = notice;
+        }
+        app.load_prompt_editor();
+        cmds.push(app.rescore());
+        (app, cmds)
+    }
+
+    pub(crate) fn rescore(&mut self) -> Cmd {
+        self.score_generation += 1;
+        self.session_dirty = true;
+        let (gt, pred) = self.scored_lists();
+        Cmd::Score(ScoreRequest {
+            generation: self.score_generation,
+            gt,
+            pred,
+        })
+    }
+
+    /// Whether scores are being computed for the latest change.
+    pub fn scoring(&self) -> bool {
+        self.scores
+            .as_ref()
+            .is_none_or(|s| s.generation < self.score_generation)
+    }
+
+    pub(crate) fn set_status(&mut self, text: impl Into<String>, severity: Severity) {
+        self.status = Some((text.into(), severity));
+    }
+
+    /// Whether the demo is what is loaded (no dataset task).
+    pub fn is_demo(&self) -> bool {
+        self.task.id.is_none()
+    }
+
+    /// Switches to a dataset task: its ground truth, image and published plan.
+    pub(crate) fn switch_task(&mut self, task: &Task) -> Vec<Cmd> {
+        self.task = task_view(task);
+        self.ground_truth = task.ground_truth.clone();
+        self.ground_truth_source = GroundTruthSource::Dataset {
+            task: task.id.clone(),
+        };
+        self.ground_truth_selected = 0;
+        if !self.approach.uses_image() && self.task.table.is_none() {
+            self.set_approach(Approach::MultiImage);
+        }
+        for v in self.agents.values_mut() {
+            v.output.clear();
+            v.status = AgentStatus::Idle;
+            v.ran_with = None;
+        }
+        self.refresh_graph();
+        self.load_published_plan();
+        self.load_scene()
+    }
+
+    pub(crate) fn load_published_plan(&mut self) {
+        let key = self.approach.dataset_field();
+        match (self.task.id.clone(), self.task.published.get(key)) {
+            (Some(task), Some(steps)) => {
+                self.plan = steps.clone();
+                self.plan_source = PlanSource::Published {
+                    task,
+                    approach: self.approach,
+                };
+            }
+            _ => {
+                self.plan.clear();
+                self.plan_source = PlanSource::None;
+            }
+        }
+        self.plan_selected = 0;
+    }
+
+    /// Switches the approach, the Prompt pane showing the same agent's
+    /// template of the new approach (the planning agent when it has none).
+    pub(crate) fn set_approach(&mut self, approach: Approach) {
+        if matches!(self.editing, Editing::Prompt) {
+            self.store_prompt_editor();
+            self.editing = Editing::None;
+        }
+        self.approach = approach;
+        if !roles(approach).contains(&self.prompt_agent) {
+            self.prompt_agent = planning_role(approach);
+        }
+        self.load_prompt_editor();
+    }
+
+    pub(crate) fn cycle_approach(&mut self) -> Vec<Cmd> {
+        let has_table = self.task.table.is_some();
+        let start = APPROACH_CYCLE
+            .iter()
+            .position(|a| *a == self.approach)
+            .unwrap_or(0);
+        let next = (1..=4)
+            .map(|k| APPROACH_CYCLE[(start + k) % 4])
+            .find(|a| has_table || a.uses_image())
+            .unwrap_or(Approach::MultiImage);
+        self.set_approach(next);
+        self.session_dirty = true;
+        let mut note = format!("approach: {next}");
+        if !has_table {
+            note.push_str(" (the table approaches need a task with a table)");
+        }
+        self.set_status(note, Severity::Info);
+        if matches!(self.plan_source, PlanSource::Published { .. }) {
+            self.load_published_plan();
+            return vec![self.rescore()];
+        }
+        Vec::new()
+    }
+
+    /// Whether an editor (step, prompt or search) has the keyboard.
+    pub fn is_editing(&self) -> bool {
+        !matches!(self.editing, Editing::None)
+    }
+
+    /// The contexts whose bindings apply with no editor or overlay open,
+    /// the focused pane's first.
+    pub fn pane_contexts(&self) -> Vec<Context> {
+        let pane = match self.focus {
+            Pane::Plan | Pane::GroundTruth => Some(Context::Steps),
+            Pane::Graph => Some(match self.graph_mode {
+                GraphMode::Whole => Context::WholeGraph,
+                GraphMode::Neighbourhood => Context::Graph,
+            }),
+            Pane::Prompt => Some(Context::Prompt),
+            _ => None,
+        };
+        pane.into_iter().chain([Context::Panes]).collect()
+    }
+}

@@ -1,0 +1,177 @@
+//! The editors that take the keyboard: a step, the prompt, the search.
+
+use crossterm::event::KeyEvent;
+use ratatui_textarea::TextArea;
+
+use crate::workbench::app::{App, Severity};
+use crate::workbench::keymap::{self, Action, Context};
+use crate::workbench::message::Cmd;
+use crate::workbench::panes::steps::StepList;
+use crate::workbench::panes::Pane;
+use crate::workbench::session::GroundTruthSource;
+
+/// An editor in use.
+#[derive(Debug, Clone)]
+pub enum Editing {
+    /// No editor: keys are commands.
+    None,
+    /// Editing one step.
+    Step {
+        /// The list.
+        list: StepList,
+        /// The step's index.
+        index: usize,
+        /// The editor.
+        editor: TextArea<'static>,
+        /// Whether the step was inserted for this edit (Esc removes it).
+        inserted: bool,
+    },
+    /// Editing the selected agent's prompt.
+    Prompt,
+    /// Typing a search.
+    Search(TextArea<'static>),
+}
+
+impl Editing {
+    /// The key context of this editor ([`Context::Panes`] when none is open).
+    pub fn context(&self) -> Context {
+        match self {
+            Editing::None => Context::Panes,
+            Editing::Step { .. } => Context::StepEditor,
+            Editing::Prompt => Context::PromptEditor,
+            Editing::Search(_) => Context::Search,
+        }
+    }
+}
+
+impl App {
+    pub(crate) fn on_editor_key(&mut self, key: KeyEvent) -> Vec<Cmd> {
+        let action = keymap::action(&[self.editing.context()], &key);
+        match std::mem::replace(&mut self.editing, Editing::None) {
+            Editing::Step {
+                list,
+                index,
+                mut editor,
+                inserted,
+            } => match action {
+                Some(Action::Accept) => {
+                    let text = editor.lines().join(" ").trim().to_string();
+                    let steps = self.steps_mut(list);
+                    if text.is_empty() {
+                        if index < steps.len() {
+                            steps.remove(index);
+                        }
+                    } else if let Some(step) = steps.get_mut(index) {
+                        *step = text;
+                    }
+                    let len = self.steps(list).len();
+                    *self.selected_mut(list) = index.min(len.saturating_sub(1));
+                    if list == StepList::GroundTruth
+                        && !matches!(self.ground_truth_source, GroundTruthSource::Typed)
+                    {
+                        self.ground_truth_source = GroundTruthSource::Typed;
+                    }
+                    vec![self.rescore()]
+                }
+                Some(Action::Leave) => {
+                    if inserted && index < self.steps(list).len() {
+                        self.steps_mut(list).remove(index);
+                    }
+                    let len = self.steps(list).len();
+                    *self.selected_mut(list) = index.min(len.saturating_sub(1));
+                    vec![self.rescore()]
+                }
+                _ => {
+                    editor.input(key);
+                    self.editing = Editing::Step {
+                        list,
+                        index,
+                        editor,
+                        inserted,
+                    };
+                    vec![self.rescore()]
+                }
+            },
+            Editing::Prompt => {
+                if action == Some(Action::Leave) {
+                    self.store_prompt_editor();
+                    self.session_dirty = true;
+                    if let Some(note) = self.provider_note() {
+                        self.set_status(note, Severity::Warn);
+                    }
+                    return Vec::new();
+                }
+                if action == Some(Action::RunFromEditor) {
+                    self.store_prompt_editor();
+                    self.session_dirty = true;
+                    return self.start_run(false);
+                }
+                self.prompt_editor.input(key);
+                self.editing = Editing::Prompt;
+                self.session_dirty = true;
+                Vec::new()
+            }
+            Editing::Search(mut editor) => {
+                match action {
+                    Some(Action::Leave) => self.search.clear(),
+                    Some(Action::Accept) => self.jump_to_search(),
+                    _ => {
+                        editor.input(key);
+                        self.search = editor.lines().join("");
+                        self.editing = Editing::Search(editor);
+                    }
+                }
+                Vec::new()
+            }
+            Editing::None => Vec::new(),
+        }
+    }
+
+    pub(crate) fn on_paste(&mut self, text: &str) -> Vec<Cmd> {
+        let flat = text.replace(['\r', '\n'], " ");
+        match &mut self.editing {
+            Editing::Step { editor, .. } => {
+                editor.insert_str(&flat);
+                vec![self.rescore()]
+            }
+            Editing::Prompt => {
+                self.prompt_editor.insert_str(text);
+                self.session_dirty = true;
+                Vec::new()
+            }
+            Editing::Search(editor) => {
+                editor.insert_str(&flat);
+                self.search = editor.lines().join("");
+                Vec::new()
+            }
+            Editing::None => Vec::new(),
+        }
+    }
+
+    /// Moves the focused list's selection to the next step holding the search.
+    pub(crate) fn jump_to_search(&mut self) {
+        let needle = self.search.to_lowercase();
+        if needle.is_empty() {
+            return;
+        }
+        let list = match self.focus {
+            Pane::GroundTruth => StepList::GroundTruth,
+            _ => StepList::Plan,
+        };
+        let steps = self.steps(list);
+        let start = match list {
+            StepList::Plan => self.plan_selected,
+            StepList::GroundTruth => self.ground_truth_selected,
+        };
+        let n = steps.len();
+        let hit = (1..=n).map(|k| (start + k) % n.max(1)).find(|&i| {
+            steps
+                .get(i)
+                .is_some_and(|s| s.to_lowercase().contains(&needle))
+        });
+        match hit {
+            Some(i) => *self.selected_mut(list) = i,
+            None => self.set_status(format!("no step holds “{}”", self.search), Severity::Info),
+        }
+    }
+}

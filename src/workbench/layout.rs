@@ -1,0 +1,124 @@
+//! Where each pane goes for a terminal size, shared by rendering and by
+//! mouse hit-testing so both always agree.
+
+use ratatui::layout::{Constraint, Layout, Rect};
+
+use crate::workbench::panes::Pane;
+
+/// The smallest terminal the workbench draws in.
+pub const MIN_WIDTH: u16 = 50;
+/// The fewest rows the workbench draws in.
+pub const MIN_HEIGHT: u16 = 14;
+/// Below this width the panes are shown one at a time, with tabs.
+pub const GRID_WIDTH: u16 = 100;
+
+/// The screen's parts.
+#[derive(Debug, Clone, PartialEq, Eq)]
+pub enum Screen {
+    /// Too small to draw: a message is shown instead.
+    TooSmall,
+    /// The header, status line, optional tab strip and visible panes.
+    Panes {
+        /// The header line.
+        header: Rect,
+        /// The status line.
+        status: Rect,
+        /// The tab strip of the one-pane layout.
+        tabs: Option<Rect>,
+        /// The panes shown, with their areas.
+        panes: Vec<(Pane, Rect)>,
+    },
+}
+
+/// Lays out the screen: a grid of all panes when wide enough, else (or when
+/// zoomed) the focused pane alone.
+pub fn pane_rects(area: Rect, focus: Pane, zoom: bool) -> Screen {
+    if area.width < MIN_WIDTH || area.height < MIN_HEIGHT {
+        return Screen::TooSmall;
+    }
+    let [header, body, status] = Layout::vertical([
+        Constraint::Length(1),
+        Constraint::Min(1),
+        Constraint::Length(1),
+    ])
+    .areas(area);
+    if zoom || area.width < GRID_WIDTH {
+        let (tabs, body) = if zoom {
+            (None, body)
+        } else {
+            let [tabs, rest] =
+                Layout::vertical([Constraint::Length(1), Constraint::Min(1)]).areas(body);
+            (Some(tabs), rest)
+        };
+        return Screen::Panes {
+            header,
+            status,
+            tabs,
+            panes: vec![(focus, body)],
+        };
+    }
+    let [top, middle, bottom] = Layout::vertical([
+        Constraint::Percentage(30),
+        Constraint::Percentage(40),
+        Constraint::Percentage(30),
+    ])
+    .areas(body);
+    let [scene, graph, description] = Layout::horizontal([
+        Constraint::Percentage(25),
+        Constraint::Percentage(40),
+        Constraint::Percentage(35),
+    ])
+    .areas(top);
+    let [plan, ground_truth] =
+        Layout::horizontal([Constraint::Percentage(55), Constraint::Percentage(45)]).areas(middle);
+    let [scores, prompt] =
+        Layout::horizontal([Constraint::Percentage(40), Constraint::Percentage(60)]).areas(bottom);
+    Screen::Panes {
+        header,
+        status,
+        tabs: None,
+        panes: vec![
+            (Pane::Scene, scene),
+            (Pane::Graph, graph),
+            (Pane::Description, description),
+            (Pane::Plan, plan),
+            (Pane::GroundTruth, ground_truth),
+            (Pane::Scores, scores),
+            (Pane::Prompt, prompt),
+        ],
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn wide_terminals_get_every_pane_without_overlap() {
+        let Screen::Panes { panes, .. } = pane_rects(Rect::new(0, 0, 200, 60), Pane::Plan, false)
+        else {
+            panic!("too small")
+        };
+        assert_eq!(panes.len(), 7);
+        for (i, (_, a)) in panes.iter().enumerate() {
+            for (_, b) in &panes[i + 1..] {
+                assert!(!a.intersects(*b), "{a:?} {b:?}");
+            }
+        }
+    }
+
+    #[test]
+    fn narrow_terminals_show_the_focused_pane_with_tabs() {
+        let screen = pane_rects(Rect::new(0, 0, 80, 24), Pane::Scores, false);
+        let Screen::Panes { panes, tabs, .. } = screen else {
+            panic!("too small")
+        };
+        assert_eq!(panes.len(), 1);
+        assert_eq!(panes[0].0, Pane::Scores);
+        assert!(tabs.is_some());
+        assert_eq!(
+            pane_rects(Rect::new(0, 0, 40, 10), Pane::Plan, false),
+            Screen::TooSmall
+        );
+    }
+}

@@ -1,0 +1,76 @@
+//! The terminal workbench: ratatui on crossterm, driven by tokio in the Elm
+//! architecture. [`app`] is the model, [`message`] what happens to it,
+//! [`update`] the one place it changes, [`render`] a pure function from it
+//! to a frame, and [`runtime`] the loop that carries out the commands
+//! `update` returns. Each pane ([`panes`]) and overlay ([`overlays`]) keeps
+//! its state, keys and drawing in its own module; every key is declared
+//! once in [`keymap`]. Agent runs, scoring, model loading, file reads and
+//! session saves happen in background tasks that send messages; the loop
+//! never waits on I/O.
+
+pub mod agents;
+pub mod annotate;
+pub mod app;
+pub mod component;
+pub mod editing;
+pub mod graph_layout;
+pub mod graph_view;
+pub mod keymap;
+pub mod layout;
+pub mod message;
+pub mod overlays;
+pub mod panes;
+pub mod persist;
+pub mod render;
+pub mod runs;
+pub mod runtime;
+pub mod scoring;
+pub mod session;
+pub mod snapshot;
+pub mod terminal_query;
+pub mod theme;
+pub mod update;
+
+use std::collections::BTreeMap;
+use std::path::PathBuf;
+use std::sync::Arc;
+use std::time::Duration;
+
+use ratatui_image::picker::Picker;
+
+use agents::Pipeline;
+use scoring::ScorerLoader;
+
+pub use runtime::{prepare_image, run};
+
+/// How long scoring waits for typing to settle.
+pub const SCORE_DEBOUNCE: Duration = Duration::from_millis(25);
+/// The longest a change waits before the session is saved.
+pub const SAVE_EVERY: Duration = Duration::from_millis(300);
+
+/// What the workbench is started with.
+pub struct Options {
+    /// A dataset folder or `tasks.jsonl` to choose tasks from.
+    pub dataset: Option<PathBuf>,
+    /// The session file (default: [`session::default_path`]).
+    pub session: Option<PathBuf>,
+    /// The theme to start with, by name.
+    pub theme: Option<String>,
+    /// Loads the PG2S models, in the background.
+    pub scorer: ScorerLoader,
+    /// Runs the agents.
+    pub pipeline: Arc<dyn Pipeline>,
+    /// The prompt templates' texts by name ([`agents::prompt_texts`]).
+    pub prompts: BTreeMap<String, String>,
+    /// How the scene image is drawn: `None` asks the terminal; `Some` forces
+    /// a picker (e.g. half-blocks over slow links).
+    pub picker: Option<Picker>,
+}
+
+/// Why the workbench could not run.
+#[derive(Debug, thiserror::Error)]
+pub enum TuiError {
+    /// The terminal could not be set up or drawn on.
+    #[error("terminal: {0}")]
+    Terminal(#[from] std::io::Error),
+}

@@ -1,0 +1,101 @@
+//! The framed actions of plan and ground truth, and their matches.
+
+use ratatui::layout::Rect;
+use ratatui::text::{Line, Span};
+use ratatui::widgets::{Paragraph, Wrap};
+use ratatui::Frame;
+
+use crate::workbench::app::App;
+use crate::workbench::overlays::open_box;
+use crate::workbench::scoring::Pg2sOutcome;
+
+pub(crate) fn draw(frame: &mut Frame, app: &App, area: Rect) {
+    let t = &app.theme;
+    let inner = open_box(
+        frame,
+        app,
+        area,
+        (110, 30),
+        "Framed actions and their matches (Esc closes)",
+    );
+    let mut lines = Vec::new();
+    match app.scores.as_ref().map(|s| &s.pg2s) {
+        Some(Pg2sOutcome::Ready(report)) => match &report.goal {
+            Ok(goal) => {
+                lines.push(Line::from(Span::styled(
+                    format!(
+                        "S_goal {:.3}: ground-truth action → plan action (score)",
+                        goal.s_goal
+                    ),
+                    t.accent,
+                )));
+                for m in &goal.action_matches {
+                    let Some(gt) = goal.gt_actions.get(m.gt) else {
+                        continue;
+                    };
+                    let left = format!("GT {} [{}]", gt.step + 1, gt.words.join(" "));
+                    let line = match (m.pred.and_then(|p| goal.pred_actions.get(p)), m.score) {
+                        (Some(p), Some(score)) => Line::from(vec![
+                            Span::styled(format!("✓ {left:<40} → "), t.good),
+                            Span::styled(
+                                format!("plan {} [{}] ({score:.3})", p.step + 1, p.words.join(" ")),
+                                t.base,
+                            ),
+                        ]),
+                        _ => Line::from(Span::styled(
+                            format!("✗ {left:<40}   no plan action matched"),
+                            t.bad,
+                        )),
+                    };
+                    lines.push(line);
+                }
+                let unused: Vec<String> = goal
+                    .pred_actions
+                    .iter()
+                    .enumerate()
+                    .filter(|(j, _)| !goal.action_matches.iter().any(|m| m.pred == Some(*j)))
+                    .map(|(_, a)| format!("plan {} [{}]", a.step + 1, a.words.join(" ")))
+                    .collect();
+                if !unused.is_empty() {
+                    lines.push(Line::from(Span::styled(
+                        format!("plan actions matched to nothing: {}", unused.join(", ")),
+                        t.muted,
+                    )));
+                }
+            }
+            Err(reason) => lines.push(Line::from(Span::styled(
+                format!("no framed actions: {reason}"),
+                t.warn,
+            ))),
+        },
+        Some(Pg2sOutcome::Waiting(reason)) => lines.push(Line::from(Span::styled(
+            format!("framed actions need the PG2S models: {reason}"),
+            t.warn,
+        ))),
+        Some(Pg2sOutcome::Failed(e)) => {
+            lines.push(Line::from(Span::styled(format!("PG2S failed: {e}"), t.bad)))
+        }
+        None => lines.push(Line::from(Span::styled("scoring…", t.muted))),
+    }
+    if let Some(s) = &app.scores {
+        lines.push(Line::from(""));
+        lines.push(Line::from(Span::styled(
+            "KAS key actions, by step:",
+            t.accent,
+        )));
+        for (i, g) in s.kas.chunks.gt.iter().enumerate() {
+            let p = s
+                .kas
+                .chunks
+                .pred
+                .get(i)
+                .map(|p| p.join(" "))
+                .unwrap_or_default();
+            lines.push(Line::from(Span::styled(
+                format!("{:>2}. GT [{}] · plan [{}]", i + 1, g.join(" "), p),
+                t.base,
+            )));
+        }
+    }
+    frame.render_widget(Paragraph::new(lines).wrap(Wrap { trim: false }), inner);
+}

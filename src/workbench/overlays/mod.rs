@@ -1,0 +1,326 @@
+//! The modal views over the panes, each in its own module: help, pickers,
+//! the model form, the run history and comparison, the framed actions.
+
+pub mod actions;
+pub mod help;
+pub mod model_form;
+pub mod pickers;
+pub mod runs;
+
+use std::path::PathBuf;
+
+use crossterm::event::{KeyCode, KeyEvent};
+use ratatui::layout::{Constraint, Layout, Rect};
+use ratatui::text::{Line, Span};
+use ratatui::widgets::{Block, Borders, Clear, Paragraph};
+use ratatui::Frame;
+use ratatui_textarea::TextArea;
+
+use crate::agents::AgentRole;
+use crate::workbench::app::{App, Severity};
+use crate::workbench::component::{self, Component};
+use crate::workbench::message::Cmd;
+use crate::workbench::overlays::help::{Close, Help};
+use crate::workbench::panes::list_window;
+use crate::workbench::session::PlanSource;
+use crate::workbench::theme::Theme;
+
+/// A modal view over the panes.
+#[derive(Debug, Clone)]
+pub enum Overlay {
+    /// Every key.
+    Help,
+    /// Choose a ground truth.
+    GroundTruthPicker {
+        /// The highlighted choice.
+        selected: usize,
+    },
+    /// Type the path of a step file.
+    StepFilePath(Box<TextArea<'static>>),
+    /// Provider, model, temperature and token limit of an agent.
+    ModelForm {
+        /// The agent.
+        agent: AgentRole,
+        /// One editor per field.
+        fields: Vec<TextArea<'static>>,
+        /// The field with focus.
+        field: usize,
+    },
+    /// The history of runs.
+    Runs {
+        /// The highlighted run.
+        selected: usize,
+        /// A run marked for comparison.
+        marked: Option<usize>,
+    },
+    /// Two runs side by side.
+    Compare {
+        /// Index of the left run.
+        left: usize,
+        /// Index of the right run.
+        right: usize,
+    },
+    /// The framed actions and their matches.
+    Actions,
+}
+
+impl App {
+    pub(crate) fn on_overlay_key(&mut self, key: KeyEvent) -> Vec<Cmd> {
+        let Some(overlay) = self.overlay.take() else {
+            return Vec::new();
+        };
+        let down = matches!(key.code, KeyCode::Down | KeyCode::Char('j'));
+        let up = matches!(key.code, KeyCode::Up | KeyCode::Char('k'));
+        match overlay {
+            Overlay::Help => {
+                let Close = component::dispatch(&mut Help, &key);
+                Vec::new()
+            }
+            Overlay::Actions | Overlay::Compare { .. } => {
+                if !matches!(key.code, KeyCode::Esc | KeyCode::Char('q') | KeyCode::Enter) {
+                    self.overlay = Some(overlay);
+                }
+                Vec::new()
+            }
+            Overlay::GroundTruthPicker { selected } => {
+                let choices = self.ground_truth_choices();
+                let last = choices.len().saturating_sub(1);
+                match key.code {
+                    KeyCode::Enter => {
+                        if let Some((choice, _)) = choices.get(selected) {
+                            return self.choose_ground_truth(choice.clone());
+                        }
+                    }
+                    KeyCode::Esc | KeyCode::Char('q') => {}
+                    _ => {
+                        let selected = if down {
+                            (selected + 1).min(last)
+                        } else if up {
+                            selected.saturating_sub(1)
+                        } else {
+                            selected
+                        };
+                        self.overlay = Some(Overlay::GroundTruthPicker { selected });
+                    }
+                }
+                Vec::new()
+            }
+            Overlay::StepFilePath(mut editor) => match key.code {
+                KeyCode::Enter => {
+                    let path = PathBuf::from(editor.lines().join("").trim());
+                    vec![Cmd::ReadStepFile(path)]
+                }
+                KeyCode::Esc => Vec::new(),
+                _ => {
+                    editor.input(key);
+                    self.overlay = Some(Overlay::StepFilePath(editor));
+                    Vec::new()
+                }
+            },
+            Overlay::ModelForm {
+                agent,
+                mut fields,
+                field,
+            } => match key.code {
+                KeyCode::Esc => Vec::new(),
+                KeyCode::Enter => {
+                    self.apply_model_form(agent, &fields);
+                    Vec::new()
+                }
+                KeyCode::Tab | KeyCode::Down => {
+                    self.overlay = Some(Overlay::ModelForm {
+                        agent,
+                        field: (field + 1) % fields.len(),
+                        fields,
+                    });
+                    Vec::new()
+                }
+                KeyCode::BackTab | KeyCode::Up => {
+                    let n = fields.len();
+                    self.overlay = Some(Overlay::ModelForm {
+                        agent,
+                        field: (field + n - 1) % n,
+                        fields,
+                    });
+                    Vec::new()
+                }
+                _ => {
+                    if let Some(f) = fields.get_mut(field) {
+                        f.input(key);
+                    }
+                    self.overlay = Some(Overlay::ModelForm {
+                        agent,
+                        fields,
+                        field,
+                    });
+                    Vec::new()
+                }
+            },
+            Overlay::Runs { selected, marked } => {
+                let last = self.runs.len().saturating_sub(1);
+                match key.code {
+                    KeyCode::Esc | KeyCode::Char('q') => Vec::new(),
+                    KeyCode::Char(' ') | KeyCode::Char('m') => {
+                        self.overlay = Some(Overlay::Runs {
+                            selected,
+                            marked: if marked == Some(selected) {
+                                None
+                            } else {
+                                Some(selected)
+                            },
+                        });
+                        Vec::new()
+                    }
+                    KeyCode::Char('c') => {
+                        let left = marked.unwrap_or(selected.saturating_sub(1));
+                        self.overlay = if self.runs.len() >= 2 && left != selected {
+                            Some(Overlay::Compare {
+                                left,
+                                right: selected,
+                            })
+                        } else {
+                            self.set_status(
+                                "mark a run with space, select another, then press c",
+                                Severity::Info,
+                            );
+                            Some(Overlay::Runs { selected, marked })
+                        };
+                        Vec::new()
+                    }
+                    KeyCode::Enter => {
+                        if let Some(run) = self.runs.get(selected) {
+                            self.plan = run.plan.clone();
+                            self.plan_source = PlanSource::Run { run: run.id };
+                            self.plan_selected = 0;
+                            let id = run.id;
+                            self.set_status(format!("plan of run {id} loaded"), Severity::Info);
+                            return vec![self.rescore()];
+                        }
+                        Vec::new()
+                    }
+                    _ => {
+                        let selected = if down {
+                            (selected + 1).min(last)
+                        } else if up {
+                            selected.saturating_sub(1)
+                        } else {
+                            selected
+                        };
+                        self.overlay = Some(Overlay::Runs { selected, marked });
+                        Vec::new()
+                    }
+                }
+            }
+        }
+    }
+}
+
+/// A `width`×`height` box in the middle of `area` (smaller when it must be).
+pub(crate) fn centred(area: Rect, width: u16, height: u16) -> Rect {
+    let w = width.min(area.width.saturating_sub(2));
+    let h = height.min(area.height.saturating_sub(2));
+    Rect::new(
+        area.x + (area.width - w) / 2,
+        area.y + (area.height - h) / 2,
+        w,
+        h,
+    )
+}
+
+pub(crate) fn frame_box<'a>(app: &App, title: &'a str) -> Block<'a> {
+    themed_box(&app.theme, title)
+}
+
+/// The frame of an overlay, titled `title`, in `theme`'s colours.
+pub(crate) fn themed_box<'a>(theme: &Theme, title: &'a str) -> Block<'a> {
+    Block::default()
+        .borders(Borders::ALL)
+        .border_style(theme.focus)
+        .style(theme.base)
+        .title(Span::styled(format!(" {title} "), theme.title))
+}
+
+/// Clears a centred `width`×`height` box, draws its frame titled `title`,
+/// and returns the area inside the frame.
+pub(crate) fn open_box(
+    frame: &mut Frame,
+    app: &App,
+    area: Rect,
+    size: (u16, u16),
+    title: &str,
+) -> Rect {
+    let rect = centred(area, size.0, size.1);
+    frame.render_widget(Clear, rect);
+    let block = frame_box(app, title);
+    let inner = block.inner(rect);
+    frame.render_widget(block, rect);
+    inner
+}
+
+/// Draws the open overlay, if any.
+pub(crate) fn render_overlay(frame: &mut Frame, app: &App, area: Rect) {
+    let Some(overlay) = &app.overlay else { return };
+    let t = &app.theme;
+    match overlay {
+        Overlay::Help => Help.draw(frame, area, t),
+        Overlay::GroundTruthPicker { selected } => {
+            let choices = app.ground_truth_choices();
+            let rect = centred(area, 90, choices.len() as u16 + 2);
+            let inner_height = rect.height.saturating_sub(2) as usize;
+            let (first, count) = list_window(*selected, choices.len(), 1, inner_height);
+            let lines: Vec<Line> = choices
+                .iter()
+                .enumerate()
+                .skip(first)
+                .take(count)
+                .map(|(i, (_, label))| {
+                    let style = if i == *selected { t.selection } else { t.base };
+                    Line::from(Span::styled(label.clone(), style))
+                })
+                .collect();
+            frame.render_widget(Clear, rect);
+            frame.render_widget(
+                Paragraph::new(lines).block(frame_box(app, "Ground truth (Enter chooses)")),
+                rect,
+            );
+        }
+        Overlay::StepFilePath(editor) => {
+            let inner = open_box(
+                frame,
+                app,
+                area,
+                (80, 3),
+                "Step file path (Enter loads, Esc cancels)",
+            );
+            frame.render_widget(editor.as_ref(), inner);
+        }
+        Overlay::ModelForm {
+            agent,
+            fields,
+            field,
+        } => {
+            let rect = centred(area, 70, 7);
+            frame.render_widget(Clear, rect);
+            let title = format!("{agent}: provider and model (Tab next, Enter saves)");
+            let block = frame_box(app, "").title(Span::styled(title, t.title));
+            let inner = block.inner(rect);
+            frame.render_widget(block, rect);
+            let labels = ["provider", "model", "temperature", "max tokens"];
+            let rows = Layout::vertical([Constraint::Length(1); 4]).split(inner);
+            for (i, (label, editor)) in labels.iter().zip(fields).enumerate() {
+                let [l, r] =
+                    Layout::horizontal([Constraint::Length(14), Constraint::Min(1)]).areas(rows[i]);
+                let style = if i == *field { t.accent } else { t.muted };
+                frame.render_widget(Paragraph::new(Span::styled(*label, style)), l);
+                frame.render_widget(editor, r);
+            }
+        }
+        Overlay::Runs { selected, marked } => runs::draw(frame, app, area, *selected, *marked),
+        Overlay::Compare { left, right } => runs::draw_compare(frame, app, area, *left, *right),
+        Overlay::Actions => actions::draw(frame, app, area),
+    }
+}
+
+pub(crate) fn fmt_score(v: Option<f64>) -> String {
+    v.map_or("–".to_string(), |v| format!("{v:.3}"))
+}

@@ -1,0 +1,192 @@
+//! The seven panes: their names, the frame they share, and each one's
+//! state, keys and drawing in its own module.
+
+pub mod description;
+pub mod graph;
+pub mod prompt;
+pub mod scene;
+pub mod scores;
+pub mod steps;
+
+use ratatui::layout::Rect;
+use ratatui::style::Style;
+use ratatui::text::{Line, Span};
+use ratatui::widgets::{Block, Borders};
+use ratatui::Frame;
+
+use crate::agents::AgentRole;
+use crate::workbench::app::App;
+use crate::workbench::panes::steps::StepList;
+use crate::workbench::runs::AgentStatus;
+
+/// The panes, each with the title users and tests find it by.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, PartialOrd, Ord, Hash)]
+pub enum Pane {
+    /// The scene image.
+    Scene,
+    /// The SKM's knowledge graph.
+    Graph,
+    /// The GKM's grounded description.
+    Description,
+    /// The plan, with its matches.
+    Plan,
+    /// The ground truth.
+    GroundTruth,
+    /// The scores and the history of runs.
+    Scores,
+    /// The prompt editor.
+    Prompt,
+}
+
+impl Pane {
+    /// The panes in focus order.
+    pub const ALL: [Pane; 7] = [
+        Pane::Scene,
+        Pane::Graph,
+        Pane::Description,
+        Pane::Plan,
+        Pane::GroundTruth,
+        Pane::Scores,
+        Pane::Prompt,
+    ];
+
+    /// The pane's title.
+    pub fn title(self) -> &'static str {
+        match self {
+            Pane::Scene => "Scene",
+            Pane::Graph => "Knowledge Graph (SKM)",
+            Pane::Description => "Grounded Description (GKM)",
+            Pane::Plan => "Plan",
+            Pane::GroundTruth => "Ground Truth",
+            Pane::Scores => "Scores",
+            Pane::Prompt => "Prompt",
+        }
+    }
+
+    /// A short name for the tab strip of narrow terminals.
+    pub fn short(self) -> &'static str {
+        match self {
+            Pane::Scene => "Scene",
+            Pane::Graph => "Graph",
+            Pane::Description => "GKM",
+            Pane::Plan => "Plan",
+            Pane::GroundTruth => "Truth",
+            Pane::Scores => "Scores",
+            Pane::Prompt => "Prompt",
+        }
+    }
+
+    pub(crate) fn index(self) -> usize {
+        Pane::ALL.iter().position(|p| *p == self).unwrap_or(0)
+    }
+}
+
+/// Draws one pane.
+pub(crate) fn render_pane(frame: &mut Frame, app: &App, pane: Pane, area: Rect) {
+    match pane {
+        Pane::Scene => scene::draw(frame, app, area),
+        Pane::Graph => graph::draw(frame, app, area),
+        Pane::Description => description::draw(frame, app, area),
+        Pane::Plan => steps::draw(frame, app, StepList::Plan, area),
+        Pane::GroundTruth => steps::draw(frame, app, StepList::GroundTruth, area),
+        Pane::Scores => scores::draw(frame, app, area),
+        Pane::Prompt => prompt::draw(frame, app, area),
+    }
+}
+
+/// A short word for an agent's state, with its style.
+pub(crate) fn agent_badge<'a>(app: &App, agent: AgentRole) -> Span<'a> {
+    let t = &app.theme;
+    let Some(v) = app.agents.get(&agent) else {
+        return Span::raw("");
+    };
+    match &v.status {
+        AgentStatus::Idle => Span::styled("idle", t.muted),
+        AgentStatus::Waiting => Span::styled("waiting", t.warn),
+        AgentStatus::Running => Span::styled("writing…", t.warn),
+        AgentStatus::Done => Span::styled(
+            format!(
+                "{} ms · {} tok",
+                v.duration_ms,
+                v.usage.input + v.usage.output
+            ),
+            t.good,
+        ),
+        AgentStatus::Failed(_) => Span::styled("failed", t.bad),
+        AgentStatus::Cancelled => Span::styled("cancelled", t.bad),
+    }
+}
+
+/// The visible window of a list of items `item_height` rows tall that keeps
+/// `selected` in view: (first item shown, number of items shown).
+pub fn list_window(
+    selected: usize,
+    len: usize,
+    item_height: usize,
+    height: usize,
+) -> (usize, usize) {
+    let fits = (height / item_height.max(1)).max(1);
+    let first = if selected >= fits {
+        selected + 1 - fits
+    } else {
+        0
+    };
+    (first, fits.min(len.saturating_sub(first)))
+}
+
+/// Splits `text` into spans, with every case-insensitive occurrence of
+/// `needle` in the highlight style.
+pub(crate) fn highlighted<'a>(
+    text: &'a str,
+    needle: &str,
+    base: Style,
+    hit: Style,
+) -> Vec<Span<'a>> {
+    if needle.is_empty() {
+        return vec![Span::styled(text, base)];
+    }
+    let lower = text.to_lowercase();
+    let needle = needle.to_lowercase();
+    if lower.len() != text.len() {
+        return vec![Span::styled(text, base)];
+    }
+    let mut spans = Vec::new();
+    let mut at = 0;
+    while let Some(found) = lower[at..].find(&needle) {
+        let start = at + found;
+        let end = start + needle.len();
+        if start > at {
+            spans.push(Span::styled(&text[at..start], base));
+        }
+        spans.push(Span::styled(&text[start..end], hit));
+        at = end;
+    }
+    if at < text.len() {
+        spans.push(Span::styled(&text[at..], base));
+    }
+    spans
+}
+
+/// The bordered block of a pane, with its title and the focus border.
+pub(crate) fn pane_block<'a>(app: &App, pane: Pane, extra: Option<Span<'a>>) -> Block<'a> {
+    let focused = app.focus == pane;
+    let mut title = vec![Span::styled(format!(" {} ", pane.title()), app.theme.title)];
+    if let Some(extra) = extra {
+        title.push(extra);
+        title.push(Span::styled(" ", app.theme.title));
+    }
+    Block::default()
+        .borders(Borders::ALL)
+        .border_type(if focused {
+            ratatui::widgets::BorderType::Thick
+        } else {
+            ratatui::widgets::BorderType::Plain
+        })
+        .border_style(if focused {
+            app.theme.focus
+        } else {
+            app.theme.border
+        })
+        .style(app.theme.base)
+        .title(Line::from(title))
+}

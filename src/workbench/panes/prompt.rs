@@ -1,0 +1,123 @@
+//! The Prompt pane: the selected agent's template and its editor.
+
+use ratatui::layout::{Constraint, Layout, Rect};
+use ratatui::text::{Line, Span};
+use ratatui::widgets::{Paragraph, Wrap};
+use ratatui::Frame;
+use ratatui_textarea::TextArea;
+
+use crate::agents::prompts::template_name;
+use crate::agents::AgentRole;
+use crate::workbench::agents::{role_label, roles};
+use crate::workbench::app::App;
+use crate::workbench::editing::Editing;
+use crate::workbench::panes::{agent_badge, highlighted, pane_block, Pane};
+
+impl App {
+    /// The name of `agent`'s prompt template in the current approach.
+    pub fn prompt_name(&self, agent: AgentRole) -> String {
+        template_name(self.approach, agent)
+    }
+
+    /// The text of `agent`'s prompt template in the current approach, with
+    /// the editor's text when it is being edited.
+    pub fn prompt_of(&self, agent: AgentRole) -> String {
+        if agent == self.prompt_agent && matches!(self.editing, Editing::Prompt) {
+            return self.editor_text();
+        }
+        self.prompts
+            .get(&self.prompt_name(agent))
+            .cloned()
+            .unwrap_or_default()
+    }
+
+    pub(crate) fn editor_text(&self) -> String {
+        self.prompt_editor.lines().join("\n")
+    }
+
+    pub(crate) fn load_prompt_editor(&mut self) {
+        let text = self
+            .prompts
+            .get(&self.prompt_name(self.prompt_agent))
+            .cloned()
+            .unwrap_or_default();
+        self.prompt_editor = TextArea::new(text.lines().map(str::to_string).collect());
+        self.prompt_editor
+            .set_wrap_mode(ratatui_textarea::WrapMode::Word);
+    }
+
+    pub(crate) fn store_prompt_editor(&mut self) {
+        let text = self.editor_text();
+        self.prompts
+            .insert(self.prompt_name(self.prompt_agent), text);
+    }
+}
+
+pub(crate) fn draw(frame: &mut Frame, app: &App, area: Rect) {
+    let t = &app.theme;
+    let block = pane_block(app, Pane::Prompt, Some(agent_badge(app, app.prompt_agent)));
+    let inner = block.inner(area);
+    frame.render_widget(block, area);
+    let mut tabs = Vec::new();
+    for (i, agent) in roles(app.approach).iter().enumerate() {
+        let style = if *agent == app.prompt_agent {
+            t.selection
+        } else {
+            t.base
+        };
+        tabs.push(Span::styled(
+            format!(" {} {} ", i + 1, role_label(*agent)),
+            style,
+        ));
+    }
+    if let Some(v) = app.agents.get(&app.prompt_agent) {
+        tabs.push(Span::styled(
+            format!(
+                "  {}/{} · t={} · max {}",
+                v.settings.provider,
+                v.settings.model,
+                v.settings.temperature,
+                v.settings.max_tokens
+            ),
+            t.muted,
+        ));
+    }
+    let note = app.provider_note();
+    let changed = app.agent_changed(app.prompt_agent);
+    let footer_height = if note.is_some() { 3 } else { 1 };
+    let [tab_row, body, footer] = Layout::vertical([
+        Constraint::Length(1),
+        Constraint::Min(1),
+        Constraint::Length(footer_height),
+    ])
+    .areas(inner);
+    frame.render_widget(Paragraph::new(Line::from(tabs)), tab_row);
+    if matches!(app.editing, Editing::Prompt) {
+        frame.render_widget(&app.prompt_editor, body);
+    } else {
+        let text: Vec<Line> = app
+            .prompt_editor
+            .lines()
+            .iter()
+            .map(|l| Line::from(highlighted(l, &app.search, t.base, t.highlight)))
+            .collect();
+        frame.render_widget(Paragraph::new(text).wrap(Wrap { trim: false }), body);
+    }
+    let mut footer_lines = vec![Line::from(Span::styled(
+        if matches!(app.editing, Editing::Prompt) {
+            "editing · Esc done · Ctrl-R run"
+        } else if changed {
+            "changed since its last run · r runs what changed · Enter edits"
+        } else {
+            "Enter edits · ←/→ agent · m provider and model"
+        },
+        if changed { t.warn } else { t.muted },
+    ))];
+    if let Some(note) = note {
+        footer_lines.push(Line::from(Span::styled(note, t.warn)));
+    }
+    frame.render_widget(
+        Paragraph::new(footer_lines).wrap(Wrap { trim: true }),
+        footer,
+    );
+}

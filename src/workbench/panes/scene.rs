@@ -1,0 +1,100 @@
+//! The Scene pane: the task's image, read and encoded off the loop.
+
+use std::sync::Arc;
+
+use image::DynamicImage;
+use ratatui::layout::Rect;
+use ratatui::text::{Line, Span};
+use ratatui::widgets::{Block, Paragraph, Wrap};
+use ratatui::Frame;
+use ratatui_image::Image;
+
+use crate::demo;
+use crate::workbench::app::App;
+use crate::workbench::layout::{pane_rects, Screen};
+use crate::workbench::message::Cmd;
+use crate::workbench::panes::{highlighted, pane_block, Pane};
+
+impl App {
+    pub(crate) fn load_scene(&mut self) -> Vec<Cmd> {
+        self.scene_protocol = None;
+        match &self.task.image {
+            Some(path) => {
+                self.scene = None;
+                vec![Cmd::LoadImage(path.clone())]
+            }
+            None if self.is_demo() => {
+                self.scene = Some(Arc::new(DynamicImage::ImageRgb8(demo::scene_image())));
+                Vec::new()
+            }
+            None => {
+                self.scene = None;
+                Vec::new()
+            }
+        }
+    }
+
+    /// The terminal area the scene image should be encoded for, when it is
+    /// shown and not yet encoded for that area.
+    pub fn image_area_wanted(&self) -> Option<Rect> {
+        if !self.image_enabled || self.scene.is_none() {
+            return None;
+        }
+        let screen = Rect::new(0, 0, self.size.0, self.size.1);
+        let Screen::Panes { panes, .. } = pane_rects(screen, self.focus, self.zoom) else {
+            return None;
+        };
+        let (_, rect) = panes.into_iter().find(|(p, _)| *p == Pane::Scene)?;
+        let inner = scene_image_area(rect);
+        if inner.width == 0 || inner.height == 0 {
+            return None;
+        }
+        match &self.scene_protocol {
+            Some((r, _)) if *r == inner => None,
+            _ => Some(inner),
+        }
+    }
+}
+
+pub(crate) fn draw(frame: &mut Frame, app: &App, area: Rect) {
+    let t = &app.theme;
+    let block = pane_block(app, Pane::Scene, None);
+    let inner = block.inner(area);
+    frame.render_widget(block, area);
+    let caption = Line::from(highlighted(
+        &app.task.text,
+        &app.search,
+        t.base,
+        t.highlight,
+    ));
+    frame.render_widget(Paragraph::new(caption), Rect { height: 1, ..inner });
+    let image_area = scene_image_area(area);
+    let note = if !app.image_enabled {
+        "image off (i shows it)"
+    } else if app.scene.is_none() {
+        "no image for this task"
+    } else {
+        match &app.scene_protocol {
+            Some((rect, protocol)) if *rect == image_area => {
+                frame.render_widget(Image::new(protocol), image_area);
+                return;
+            }
+            _ => "drawing the image…",
+        }
+    };
+    frame.render_widget(
+        Paragraph::new(Span::styled(note, t.muted)).wrap(Wrap { trim: true }),
+        image_area,
+    );
+}
+
+/// The part of the Scene pane the image is drawn in: inside the border,
+/// below the caption line.
+pub fn scene_image_area(pane: Rect) -> Rect {
+    let inner = Block::bordered().inner(pane);
+    Rect {
+        y: inner.y.saturating_add(1),
+        height: inner.height.saturating_sub(1),
+        ..inner
+    }
+}

@@ -1,0 +1,355 @@
+//! The Plan and Ground Truth panes: two step lists with one editor and one
+//! drawing, marked with their matches.
+
+use ratatui::layout::Rect;
+use ratatui::text::{Line, Span};
+use ratatui::widgets::{Paragraph, Wrap};
+use ratatui::Frame;
+
+use crate::demo;
+use crate::metrics::pg2s::Pg2sReport;
+use crate::plan::parse_steps;
+use crate::workbench::agents::planning_role;
+use crate::workbench::app::{single_line_editor, App};
+use crate::workbench::editing::Editing;
+use crate::workbench::keymap::Action;
+use crate::workbench::message::Cmd;
+use crate::workbench::panes::{highlighted, list_window, pane_block, Pane};
+use crate::workbench::runs::AgentStatus;
+use crate::workbench::scoring::{Pg2sOutcome, ScoreOutcome};
+use crate::workbench::session::PlanSource;
+
+/// Which step list an editor works on.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub enum StepList {
+    /// The plan.
+    Plan,
+    /// The ground truth.
+    GroundTruth,
+}
+
+impl StepList {
+    pub(crate) fn key(self) -> &'static str {
+        match self {
+            StepList::Plan => "plan",
+            StepList::GroundTruth => "ground_truth",
+        }
+    }
+}
+
+pub(crate) fn demo_ground_truth(index: usize) -> Vec<String> {
+    parse_steps(if index == 1 {
+        demo::GROUND_TRUTH_B
+    } else {
+        demo::GROUND_TRUTH
+    })
+}
+
+impl App {
+    /// The steps of a list.
+    pub fn steps(&self, list: StepList) -> &Vec<String> {
+        match list {
+            StepList::Plan => &self.plan,
+            StepList::GroundTruth => &self.ground_truth,
+        }
+    }
+
+    pub(crate) fn steps_mut(&mut self, list: StepList) -> &mut Vec<String> {
+        match list {
+            StepList::Plan => &mut self.plan,
+            StepList::GroundTruth => &mut self.ground_truth,
+        }
+    }
+
+    pub(crate) fn selected_mut(&mut self, list: StepList) -> &mut usize {
+        match list {
+            StepList::Plan => &mut self.plan_selected,
+            StepList::GroundTruth => &mut self.ground_truth_selected,
+        }
+    }
+
+    /// The plan and ground truth as scored: with the step being edited as typed.
+    pub fn scored_lists(&self) -> (Vec<String>, Vec<String>) {
+        let mut gt = self.ground_truth.clone();
+        let mut plan = self.plan.clone();
+        if let Editing::Step {
+            list,
+            index,
+            editor,
+            ..
+        } = &self.editing
+        {
+            let target = match list {
+                StepList::Plan => &mut plan,
+                StepList::GroundTruth => &mut gt,
+            };
+            if let Some(step) = target.get_mut(*index) {
+                *step = editor.lines().join(" ");
+            }
+        }
+        gt.retain(|s| !s.trim().is_empty());
+        plan.retain(|s| !s.trim().is_empty());
+        (gt, plan)
+    }
+
+    pub(crate) fn edit_step(&mut self, list: StepList, insert: Option<usize>) -> Vec<Cmd> {
+        let (index, inserted) = match insert {
+            Some(at) => {
+                let at = at.min(self.steps(list).len());
+                self.steps_mut(list).insert(at, String::new());
+                (at, true)
+            }
+            None => {
+                let sel = match list {
+                    StepList::Plan => self.plan_selected,
+                    StepList::GroundTruth => self.ground_truth_selected,
+                };
+                if sel >= self.steps(list).len() {
+                    self.steps_mut(list).push(String::new());
+                    (self.steps(list).len() - 1, true)
+                } else {
+                    (sel, false)
+                }
+            }
+        };
+        *self.selected_mut(list) = index;
+        let text = self.steps(list)[index].clone();
+        self.editing = Editing::Step {
+            list,
+            index,
+            editor: single_line_editor(&text),
+            inserted,
+        };
+        Vec::new()
+    }
+
+    pub(crate) fn step_command(&mut self, list: StepList, action: Action) -> Vec<Cmd> {
+        let sel = match list {
+            StepList::Plan => self.plan_selected,
+            StepList::GroundTruth => self.ground_truth_selected,
+        };
+        let len = self.steps(list).len();
+        match action {
+            Action::EditStep => self.edit_step(list, None),
+            Action::InsertAfter => self.edit_step(list, Some(sel + usize::from(len > 0))),
+            Action::InsertBefore => self.edit_step(list, Some(sel)),
+            Action::DeleteStep if sel < len => {
+                self.steps_mut(list).remove(sel);
+                *self.selected_mut(list) = sel.min(len.saturating_sub(2));
+                vec![self.rescore()]
+            }
+            Action::StepDown if sel + 1 < len => {
+                self.steps_mut(list).swap(sel, sel + 1);
+                *self.selected_mut(list) = sel + 1;
+                vec![self.rescore()]
+            }
+            Action::StepUp if sel > 0 && sel < len => {
+                self.steps_mut(list).swap(sel, sel - 1);
+                *self.selected_mut(list) = sel - 1;
+                vec![self.rescore()]
+            }
+            _ => Vec::new(),
+        }
+    }
+}
+
+/// The latest scores and the KAS of step `index`, or the "scoring…" line.
+pub(crate) fn step_scores(
+    app: &App,
+    index: usize,
+    kas_label: impl Fn(f64) -> String,
+) -> Result<(&ScoreOutcome, String), Line<'static>> {
+    let scores = app
+        .scores
+        .as_ref()
+        .ok_or_else(|| Line::from(Span::styled("    scoring…", app.theme.muted)))?;
+    let kas = scores
+        .kas
+        .step_scores
+        .get(index)
+        .map(|k| kas_label(*k))
+        .unwrap_or_default();
+    Ok((scores, kas))
+}
+
+/// The mark under a plan step: which ground-truth step it matched, or why none.
+pub(crate) fn plan_mark(app: &App, index: usize) -> Line<'static> {
+    let t = &app.theme;
+    let (scores, kas) =
+        match step_scores(app, index, |k| format!(" · KAS {k:.2} vs GT {}", index + 1)) {
+            Ok(found) => found,
+            Err(line) => return line,
+        };
+    match &scores.pg2s {
+        Pg2sOutcome::Ready(report) => {
+            if let Some(m) = report
+                .sentence_matches
+                .iter()
+                .find(|m| m.pred == Some(index))
+            {
+                let cos = m.cosine.unwrap_or_default();
+                Line::from(vec![
+                    Span::styled(format!("    ✓ GT {} · cos {cos:.3}", m.gt + 1), t.good),
+                    Span::styled(kas, t.muted),
+                ])
+            } else {
+                Line::from(vec![
+                    Span::styled(
+                        format!("    ✗ {}", unmatched_plan_reason(report, index)),
+                        t.bad,
+                    ),
+                    Span::styled(kas, t.muted),
+                ])
+            }
+        }
+        _ => Line::from(Span::styled(
+            format!("    {}", kas.trim_start_matches(" · ")),
+            t.muted,
+        )),
+    }
+}
+
+/// Why a plan step matched no ground-truth step.
+pub(crate) fn unmatched_plan_reason(report: &Pg2sReport, index: usize) -> String {
+    let threshold = report.settings.sentence_threshold;
+    let nearest = report
+        .sentence_matches
+        .iter()
+        .filter_map(|m| m.closest.filter(|c| c.0 == index).map(|c| (m.gt, c.1)))
+        .max_by(|a, b| a.1.total_cmp(&b.1));
+    match nearest {
+        Some((gt, cos)) => format!(
+            "unmatched: nearest GT {} at cos {cos:.3} ≤ {threshold}",
+            gt + 1
+        ),
+        None => format!("unmatched: no free GT step above cos {threshold}"),
+    }
+}
+
+/// The mark under a ground-truth step: the plan step that matched it, or why none.
+pub(crate) fn ground_truth_mark(app: &App, index: usize) -> Line<'static> {
+    let t = &app.theme;
+    let (scores, kas) = match step_scores(app, index, |k| format!(" · KAS {k:.2}")) {
+        Ok(found) => found,
+        Err(line) => return line,
+    };
+    match &scores.pg2s {
+        Pg2sOutcome::Ready(report) => match report.sentence_matches.get(index) {
+            Some(m) if m.pred.is_some() => Line::from(vec![
+                Span::styled(
+                    format!(
+                        "    ✓ plan {} · cos {:.3}",
+                        m.pred.unwrap_or_default() + 1,
+                        m.cosine.unwrap_or_default()
+                    ),
+                    t.good,
+                ),
+                Span::styled(kas, t.muted),
+            ]),
+            Some(m) => {
+                let why = match m.closest {
+                    Some((j, c)) => format!(
+                        "    ✗ missed: nearest plan step {} at cos {c:.3} ≤ {}",
+                        j + 1,
+                        report.settings.sentence_threshold
+                    ),
+                    None => "    ✗ missed: no plan step left".to_string(),
+                };
+                Line::from(vec![Span::styled(why, t.bad), Span::styled(kas, t.muted)])
+            }
+            None => Line::from(Span::styled("    scoring…", t.muted)),
+        },
+        _ => Line::from(Span::styled(
+            format!("    {}", kas.trim_start_matches(" · ")),
+            t.muted,
+        )),
+    }
+}
+
+pub(crate) fn draw(frame: &mut Frame, app: &App, list: StepList, area: Rect) {
+    let t = &app.theme;
+    let (pane, selected) = match list {
+        StepList::Plan => (Pane::Plan, app.plan_selected),
+        StepList::GroundTruth => (Pane::GroundTruth, app.ground_truth_selected),
+    };
+    let extra = match list {
+        StepList::Plan => match &app.plan_source {
+            PlanSource::None => None,
+            PlanSource::Run { run } => Some(match app.agents.get(&planning_role(app.approach)) {
+                Some(v) if v.status == AgentStatus::Running => {
+                    Span::styled(format!("run {run} · streaming…"), t.warn)
+                }
+                _ => Span::styled(format!("run {run}"), t.muted),
+            }),
+            PlanSource::Published { approach, .. } => Some(Span::styled(
+                format!("published {}", approach.name()),
+                t.muted,
+            )),
+        },
+        StepList::GroundTruth => Some(Span::styled(
+            match &app.ground_truth_source {
+                crate::workbench::session::GroundTruthSource::Demo { index } => {
+                    format!("demo annotator {}", if *index == 1 { 'B' } else { 'A' })
+                }
+                crate::workbench::session::GroundTruthSource::Dataset { task } => task.clone(),
+                crate::workbench::session::GroundTruthSource::File { path } => {
+                    path.display().to_string()
+                }
+                crate::workbench::session::GroundTruthSource::Typed => "typed".to_string(),
+            },
+            t.muted,
+        )),
+    };
+    let block = pane_block(app, pane, extra);
+    let inner = block.inner(area);
+    frame.render_widget(block, area);
+    let items = app.steps(list);
+    if items.is_empty() {
+        let hint = match list {
+            StepList::Plan => {
+                "No plan yet: r runs the agents, p loads a published plan, o types one."
+            }
+            StepList::GroundTruth => "No ground truth: g chooses one, o types one.",
+        };
+        frame.render_widget(
+            Paragraph::new(Span::styled(hint, t.muted)).wrap(Wrap { trim: true }),
+            inner,
+        );
+        return;
+    }
+    let (first, count) = list_window(selected, items.len(), 2, inner.height as usize);
+    let mut lines: Vec<Line> = Vec::with_capacity(count * 2);
+    let mut cursor_row = None;
+    for (i, step) in items.iter().enumerate().skip(first).take(count) {
+        let number = Span::styled(format!("{:>2}. ", i + 1), t.accent);
+        let editing_this = matches!(&app.editing,
+            Editing::Step { list: l, index, .. } if *l == list && *index == i);
+        if editing_this {
+            cursor_row = Some((lines.len(), number.width()));
+            lines.push(Line::from(number));
+        } else {
+            let base = if i == selected && app.focus == pane {
+                t.selection
+            } else {
+                t.base
+            };
+            let mut spans = vec![number];
+            spans.extend(highlighted(step, &app.search, base, t.highlight));
+            lines.push(Line::from(spans));
+        }
+        lines.push(match list {
+            StepList::Plan => plan_mark(app, i),
+            StepList::GroundTruth => ground_truth_mark(app, i),
+        });
+    }
+    frame.render_widget(Paragraph::new(lines), inner);
+    if let (Some((row, indent)), Editing::Step { editor, .. }) = (cursor_row, &app.editing) {
+        let at = Rect {
+            x: inner.x + indent as u16,
+            y: inner.y + row as u16,
+            width: inner.width.saturating_sub(indent as u16),
+            height: 1,
+        };
+        frame.render_widget(editor, at);
+    }
+}

@@ -1,0 +1,131 @@
+//! What of the workbench a session file keeps, and restoring it.
+
+use crate::workbench::app::{single_line_editor, task_view, App, Severity};
+use crate::workbench::editing::Editing;
+use crate::workbench::message::Cmd;
+use crate::workbench::panes::steps::StepList;
+use crate::workbench::panes::Pane;
+use crate::workbench::runs::AgentStatus;
+use crate::workbench::session::{Draft, Session, SESSION_VERSION};
+
+impl App {
+    /// The session as it stands, for saving.
+    pub fn to_session(&self) -> Session {
+        let mut prompts = self.prompts.clone();
+        if matches!(self.editing, Editing::Prompt) {
+            prompts.insert(self.prompt_name(self.prompt_agent), self.editor_text());
+        }
+        prompts.retain(|name, text| self.default_prompts.get(name) != Some(text));
+        let draft = match &self.editing {
+            Editing::Step {
+                list,
+                index,
+                editor,
+                ..
+            } => Some(Draft {
+                target: list.key().to_string(),
+                index: *index,
+                text: editor.lines().join(" "),
+            }),
+            _ => None,
+        };
+        Session {
+            version: SESSION_VERSION,
+            task_id: self.task.id.clone(),
+            approach: self.approach,
+            ground_truth_source: self.ground_truth_source.clone(),
+            ground_truth: self.ground_truth.clone(),
+            plan_source: self.plan_source.clone(),
+            plan: self.plan.clone(),
+            prompts,
+            settings: self
+                .agents
+                .iter()
+                .map(|(a, v)| (*a, v.settings.clone()))
+                .collect(),
+            outputs: self
+                .agents
+                .iter()
+                .filter(|(_, v)| v.status == AgentStatus::Done)
+                .map(|(a, v)| (*a, v.output.clone()))
+                .collect(),
+            ran_with: self
+                .agents
+                .iter()
+                .filter_map(|(a, v)| v.ran_with.clone().map(|r| (*a, r)))
+                .collect(),
+            theme: self.theme.name.clone(),
+            image: self.image_enabled,
+            runs: self.runs.clone(),
+            draft,
+        }
+    }
+
+    pub(crate) fn restore(&mut self, s: Session) -> Vec<Cmd> {
+        let mut cmds = Vec::new();
+        if let Some(id) = &s.task_id {
+            match self.dataset.as_ref().and_then(|d| d.task(id)).cloned() {
+                Some(task) => {
+                    self.task = task_view(&task);
+                    cmds.extend(self.load_scene());
+                }
+                None => self.set_status(
+                    format!("the session's task {id} is not in the loaded dataset; showing the demo task"),
+                    Severity::Warn,
+                ),
+            }
+        }
+        self.set_approach(s.approach);
+        self.ground_truth_source = s.ground_truth_source;
+        self.ground_truth = s.ground_truth;
+        self.plan_source = s.plan_source;
+        self.plan = s.plan;
+        for (name, text) in s.prompts {
+            if let Some(prompt) = self.prompts.get_mut(&name) {
+                *prompt = text;
+            }
+        }
+        for (agent, view) in self.agents.iter_mut() {
+            if let Some(st) = s.settings.get(agent) {
+                view.settings = st.clone();
+            }
+            if let Some(out) = s.outputs.get(agent) {
+                view.output = out.clone();
+                view.status = AgentStatus::Done;
+            }
+            view.ran_with = s.ran_with.get(agent).cloned();
+        }
+        if let Some(theme) = self.themes.iter().find(|t| t.name == s.theme) {
+            if !self.no_color {
+                self.theme = theme.clone();
+            }
+        }
+        self.image_enabled = s.image;
+        self.runs = s.runs;
+        self.refresh_graph();
+        if let Some(draft) = s.draft {
+            let list = if draft.target == StepList::GroundTruth.key() {
+                StepList::GroundTruth
+            } else {
+                StepList::Plan
+            };
+            let len = self.steps(list).len();
+            let inserted = draft.index >= len;
+            if inserted {
+                self.steps_mut(list).push(String::new());
+            }
+            let index = draft.index.min(len);
+            self.editing = Editing::Step {
+                list,
+                index,
+                editor: single_line_editor(&draft.text),
+                inserted,
+            };
+            self.focus = match list {
+                StepList::Plan => Pane::Plan,
+                StepList::GroundTruth => Pane::GroundTruth,
+            };
+        }
+        cmds
+    }
+}

@@ -1,0 +1,112 @@
+//! Rendering: a pure function from the workbench's state to a frame.
+
+use ratatui::layout::{Alignment, Rect};
+use ratatui::text::{Line, Span};
+use ratatui::widgets::{Block, Paragraph, Wrap};
+use ratatui::Frame;
+
+use crate::workbench::app::{App, ModelStatus, Severity};
+use crate::workbench::editing::Editing;
+use crate::workbench::keymap::{self};
+use crate::workbench::layout::{pane_rects, Screen, MIN_HEIGHT, MIN_WIDTH};
+use crate::workbench::overlays::{self};
+use crate::workbench::panes::{self, Pane};
+
+/// Draws the whole workbench.
+pub fn render(frame: &mut Frame, app: &App) {
+    let area = frame.area();
+    frame.render_widget(Block::default().style(app.theme.base), area);
+    let Screen::Panes {
+        header,
+        status,
+        tabs,
+        panes,
+    } = pane_rects(area, app.focus, app.zoom)
+    else {
+        let text = format!(
+            "mapvlm needs a terminal of at least {MIN_WIDTH}×{MIN_HEIGHT}; this one is {}×{}.\nEnlarge the window (q quits).",
+            area.width, area.height
+        );
+        frame.render_widget(
+            Paragraph::new(text)
+                .style(app.theme.warn)
+                .wrap(Wrap { trim: true })
+                .alignment(Alignment::Center),
+            area,
+        );
+        return;
+    };
+    render_header(frame, app, header);
+    if let Some(tabs) = tabs {
+        render_tabs(frame, app, tabs);
+    }
+    for (pane, rect) in panes {
+        panes::render_pane(frame, app, pane, rect);
+    }
+    render_status(frame, app, status);
+    overlays::render_overlay(frame, app, area);
+}
+
+fn render_header(frame: &mut Frame, app: &App, area: Rect) {
+    let t = &app.theme;
+    let source = match &app.task.id {
+        Some(id) => id.clone(),
+        None => "demo".to_string(),
+    };
+    let models = match &app.models {
+        ModelStatus::Ready => Span::styled("models ready", t.good),
+        ModelStatus::Loading(p) => Span::styled(format!("models loading: {p}"), t.warn),
+        ModelStatus::Unavailable(_) => Span::styled("PG2S models missing", t.warn),
+    };
+    let line = Line::from(vec![
+        Span::styled(" mapvlm ", t.title),
+        Span::styled("│ ", t.border),
+        Span::styled(source, t.accent),
+        Span::styled(" │ ", t.border),
+        Span::styled(app.task.text.clone(), t.base),
+        Span::styled(" │ ", t.border),
+        Span::styled(app.approach.name(), t.accent),
+        Span::styled(" │ ", t.border),
+        models,
+    ]);
+    frame.render_widget(Paragraph::new(line).style(t.base), area);
+}
+
+fn render_tabs(frame: &mut Frame, app: &App, area: Rect) {
+    let t = &app.theme;
+    let mut spans = Vec::new();
+    for pane in Pane::ALL {
+        let style = if pane == app.focus {
+            t.selection
+        } else {
+            t.muted
+        };
+        spans.push(Span::styled(format!(" {} ", pane.short()), style));
+        spans.push(Span::styled("│", t.border));
+    }
+    frame.render_widget(Paragraph::new(Line::from(spans)).style(t.base), area);
+}
+
+fn render_status(frame: &mut Frame, app: &App, area: Rect) {
+    let t = &app.theme;
+    let context = app.editing.context();
+    let hints = keymap::hints(context);
+    let mode = match context.mode() {
+        Some(mode) => format!("{mode}: {hints}"),
+        None => hints,
+    };
+    let mut spans = vec![Span::styled(format!(" {mode} "), t.accent)];
+    if let Editing::Search(_) = &app.editing {
+        spans.push(Span::styled(format!("/{}", app.search), t.highlight));
+    }
+    if let Some((text, severity)) = &app.status {
+        let style = match severity {
+            Severity::Info => t.muted,
+            Severity::Warn => t.warn,
+            Severity::Error => t.bad,
+        };
+        spans.push(Span::styled("│ ", t.border));
+        spans.push(Span::styled(text.clone(), style));
+    }
+    frame.render_widget(Paragraph::new(Line::from(spans)).style(t.base), area);
+}

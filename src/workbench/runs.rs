@@ -1,0 +1,365 @@
+//! The agents of the approach and the runs: starting, streaming, finishing,
+//! cancelling, and keeping each run's scores in its record.
+
+use std::collections::BTreeMap;
+
+use crate::agents::{AgentRole, Approach};
+use crate::plan::parse_steps;
+use crate::workbench::agents::{self, planning_role, role_label, roles, AgentEvent, RunRequest};
+use crate::workbench::app::{unix_now, App, Severity};
+use crate::workbench::editing::Editing;
+use crate::workbench::message::Cmd;
+use crate::workbench::panes::steps::StepList;
+use crate::workbench::scoring::{Pg2sOutcome, ScoreOutcome};
+use crate::workbench::session::{
+    AgentRecord, AgentSettings, PlanSource, RunRecord, ScoreRecord, Usage,
+};
+
+/// What an agent is doing.
+#[derive(Debug, Clone, PartialEq, Eq)]
+pub enum AgentStatus {
+    /// Nothing has run.
+    Idle,
+    /// Queued behind the agents it reads.
+    Waiting,
+    /// Writing.
+    Running,
+    /// Finished.
+    Done,
+    /// Failed, with the reason.
+    Failed(String),
+    /// Cancelled by the user.
+    Cancelled,
+}
+
+/// One agent as the workbench sees it.
+#[derive(Debug, Clone, PartialEq)]
+pub struct AgentView {
+    /// What it is doing.
+    pub status: AgentStatus,
+    /// Its latest output (growing while it runs).
+    pub output: String,
+    /// Its provider and model.
+    pub settings: AgentSettings,
+    /// The prompt and settings its output was made with.
+    pub ran_with: Option<(String, AgentSettings)>,
+    /// Token use of its latest call.
+    pub usage: Usage,
+    /// Wall time of its latest call in milliseconds.
+    pub duration_ms: u64,
+}
+
+/// The run in flight.
+#[derive(Debug, Clone, PartialEq)]
+pub struct ActiveRun {
+    /// Its id.
+    pub id: u64,
+    /// When it started (Unix seconds).
+    pub started_unix: u64,
+    /// The agents it runs.
+    pub agents: Vec<AgentRole>,
+}
+
+pub(crate) fn fresh_agents() -> BTreeMap<AgentRole, AgentView> {
+    AgentRole::ALL
+        .iter()
+        .map(|&a| {
+            (
+                a,
+                AgentView {
+                    status: AgentStatus::Idle,
+                    output: String::new(),
+                    settings: agents::demo_settings(),
+                    ran_with: None,
+                    usage: Usage::default(),
+                    duration_ms: 0,
+                },
+            )
+        })
+        .collect()
+}
+
+impl App {
+    /// Whether an agent's prompt or settings differ from those its output was made with.
+    pub fn agent_changed(&self, agent: AgentRole) -> bool {
+        let Some(v) = self.agents.get(&agent) else {
+            return false;
+        };
+        let prompt = self.prompt_of(agent);
+        v.status != AgentStatus::Done || v.ran_with.as_ref() != Some(&(prompt, v.settings.clone()))
+    }
+
+    /// The agents a run re-executes: those whose inputs changed, and the
+    /// planner when a miner it reads re-runs.
+    pub fn agents_to_run(&self, all: bool) -> Vec<AgentRole> {
+        let mut out: Vec<AgentRole> = Vec::new();
+        for &agent in roles(self.approach) {
+            let upstream = agent == AgentRole::Planner && !out.is_empty();
+            if all || upstream || self.agent_changed(agent) {
+                out.push(agent);
+            }
+        }
+        out
+    }
+
+    /// The note shown when the selected agent's prompt was edited but only
+    /// recorded outputs can be replayed.
+    pub fn provider_note(&self) -> Option<String> {
+        let agent = self.prompt_agent;
+        let view = self.agents.get(&agent)?;
+        let prompt = self.prompt_of(agent);
+        let why = if self.approach != Approach::MultiImage {
+            "the demo's recording has only the multi-image approach"
+        } else {
+            "this prompt was edited and the demo's recording has no answer for it"
+        };
+        (view.settings.provider == agents::REPLAY_PROVIDER
+            && !agents::is_recorded_prompt(self.approach, agent, &prompt))
+        .then(|| agents::provider_needed(agent, why))
+    }
+
+    pub(crate) fn start_run(&mut self, all: bool) -> Vec<Cmd> {
+        if self.active_run.is_some() {
+            self.set_status("a run is in flight: x cancels it", Severity::Warn);
+            return Vec::new();
+        }
+        if matches!(self.editing, Editing::Prompt) {
+            self.store_prompt_editor();
+        }
+        let to_run = self.agents_to_run(all);
+        if to_run.is_empty() {
+            self.set_status(
+                "nothing changed since the last run: R re-runs every agent",
+                Severity::Info,
+            );
+            return Vec::new();
+        }
+        let id = self.runs.iter().map(|r| r.id).max().unwrap_or(0) + 1;
+        let approach_agents = roles(self.approach);
+        let request = RunRequest {
+            run: id,
+            approach: self.approach,
+            task: self.task.text.clone(),
+            agents: to_run.clone(),
+            prompts: approach_agents
+                .iter()
+                .map(|a| (*a, self.prompt_of(*a)))
+                .collect(),
+            settings: approach_agents
+                .iter()
+                .filter_map(|a| self.agents.get(a).map(|v| (*a, v.settings.clone())))
+                .collect(),
+            demo: self.is_demo(),
+            image: self.task.image.clone(),
+            table: self.task.table.clone(),
+        };
+        for &agent in &to_run {
+            if let Some(v) = self.agents.get_mut(&agent) {
+                v.status = AgentStatus::Waiting;
+                v.output.clear();
+            }
+        }
+        self.active_run = Some(ActiveRun {
+            id,
+            started_unix: unix_now(),
+            agents: to_run.clone(),
+        });
+        let names: Vec<&str> = to_run.iter().map(|a| role_label(*a)).collect();
+        self.set_status(format!("run {id}: {}", names.join(", ")), Severity::Info);
+        vec![Cmd::StartRun(request)]
+    }
+
+    /// Refuses a run the pipeline cannot do; called by the runtime.
+    pub fn run_refused(&mut self, run: u64, reason: String) {
+        if self.active_run.as_ref().is_some_and(|r| r.id == run) {
+            if let Some(active) = self.active_run.take() {
+                for agent in active.agents {
+                    if let Some(v) = self.agents.get_mut(&agent) {
+                        v.status = AgentStatus::Idle;
+                    }
+                }
+            }
+            self.set_status(reason, Severity::Warn);
+        }
+    }
+
+    pub(crate) fn finish_run(&mut self, cancelled: bool) -> Vec<Cmd> {
+        let Some(active) = self.active_run.take() else {
+            return Vec::new();
+        };
+        let agents = active
+            .agents
+            .iter()
+            .filter_map(|a| {
+                let v = self.agents.get(a)?;
+                Some(AgentRecord {
+                    agent: *a,
+                    settings: v.settings.clone(),
+                    prompt: self.prompt_of(*a),
+                    output: v.output.clone(),
+                    duration_ms: v.duration_ms,
+                    usage: v.usage,
+                    error: match &v.status {
+                        AgentStatus::Failed(e) => Some(e.clone()),
+                        _ => None,
+                    },
+                })
+            })
+            .collect();
+        self.runs.push(RunRecord {
+            id: active.id,
+            started_unix: active.started_unix,
+            approach: self.approach,
+            task: self.task.text.clone(),
+            agents,
+            plan: self.plan.clone(),
+            ground_truth: self.ground_truth.clone(),
+            scores: None,
+            cancelled,
+        });
+        let cmd = self.rescore();
+        self.run_awaiting_scores = Some((self.runs.len() - 1, self.score_generation));
+        vec![cmd]
+    }
+
+    pub(crate) fn on_agent(&mut self, run: u64, event: AgentEvent) -> Vec<Cmd> {
+        if self.active_run.as_ref().is_none_or(|r| r.id != run) {
+            return Vec::new();
+        }
+        match event {
+            AgentEvent::Started(agent) => {
+                if let Some(v) = self.agents.get_mut(&agent) {
+                    v.status = AgentStatus::Running;
+                    v.output.clear();
+                }
+                if agent == planning_role(self.approach) {
+                    if matches!(
+                        self.editing,
+                        Editing::Step {
+                            list: StepList::Plan,
+                            ..
+                        }
+                    ) {
+                        self.editing = Editing::None;
+                    }
+                    self.plan.clear();
+                    self.plan_source = PlanSource::Run { run };
+                }
+                Vec::new()
+            }
+            AgentEvent::Token { agent, text } => {
+                if let Some(v) = self.agents.get_mut(&agent) {
+                    v.output.push_str(&text);
+                }
+                match agent {
+                    AgentRole::Skm => {
+                        self.refresh_graph();
+                        Vec::new()
+                    }
+                    AgentRole::Planner | AgentRole::Single => {
+                        self.plan = parse_steps(&self.agents[&agent].output);
+                        vec![self.rescore()]
+                    }
+                    AgentRole::Gkm => Vec::new(),
+                }
+            }
+            AgentEvent::Finished {
+                agent,
+                output,
+                usage,
+                duration_ms,
+            } => {
+                let prompt = self.prompt_of(agent);
+                if let Some(v) = self.agents.get_mut(&agent) {
+                    v.output = output;
+                    v.status = AgentStatus::Done;
+                    v.usage = usage;
+                    v.duration_ms = duration_ms;
+                    v.ran_with = Some((prompt, v.settings.clone()));
+                }
+                self.session_dirty = true;
+                let mut cmds = Vec::new();
+                match agent {
+                    AgentRole::Skm => self.refresh_graph(),
+                    AgentRole::Planner | AgentRole::Single => {
+                        self.plan = parse_steps(&self.agents[&agent].output);
+                        self.plan_selected = 0;
+                    }
+                    AgentRole::Gkm => {}
+                }
+                let all_done = self.active_run.as_ref().is_some_and(|r| {
+                    r.agents.iter().all(|a| {
+                        self.agents
+                            .get(a)
+                            .is_some_and(|v| v.status == AgentStatus::Done)
+                    })
+                });
+                if all_done {
+                    let id = run;
+                    cmds.extend(self.finish_run(false));
+                    self.set_status(format!("run {id} finished"), Severity::Info);
+                }
+                cmds
+            }
+            AgentEvent::Failed { agent, error } => {
+                if let Some(v) = self.agents.get_mut(&agent) {
+                    v.status = AgentStatus::Failed(error.clone());
+                }
+                self.set_status(
+                    format!("{} failed: {error}", role_label(agent)),
+                    Severity::Error,
+                );
+                let mut cmds = vec![Cmd::CancelRun(run)];
+                cmds.extend(self.finish_run(false));
+                cmds
+            }
+        }
+    }
+
+    pub(crate) fn cancel_run(&mut self) -> Vec<Cmd> {
+        let Some(id) = self.active_run.as_ref().map(|r| r.id) else {
+            self.set_status("no run in flight", Severity::Info);
+            return Vec::new();
+        };
+        for v in self.agents.values_mut() {
+            if matches!(v.status, AgentStatus::Running | AgentStatus::Waiting) {
+                v.status = AgentStatus::Cancelled;
+            }
+        }
+        self.set_status(format!("run {id} cancelled"), Severity::Warn);
+        let mut cmds = vec![Cmd::CancelRun(id)];
+        cmds.extend(self.finish_run(true));
+        cmds
+    }
+
+    pub(crate) fn on_scored(&mut self, outcome: ScoreOutcome) {
+        if outcome.generation > self.score_generation {
+            return;
+        }
+        if let Some((index, generation)) = self.run_awaiting_scores {
+            if outcome.generation >= generation {
+                if let Some(run) = self.runs.get_mut(index) {
+                    let report = match &outcome.pg2s {
+                        Pg2sOutcome::Ready(r) => Some(r),
+                        _ => None,
+                    };
+                    run.scores = Some(ScoreRecord {
+                        kas: outcome.kas.kas,
+                        s_plan: report.map(|r| r.s_plan),
+                        s_goal: report.and_then(|r| r.s_goal()),
+                        pg2s: report.and_then(|r| r.pg2s()),
+                    });
+                }
+                self.run_awaiting_scores = None;
+                self.session_dirty = true;
+            }
+        }
+        if self
+            .scores
+            .as_ref()
+            .is_none_or(|s| s.generation <= outcome.generation)
+        {
+            self.scores = Some(outcome);
+        }
+    }
+}

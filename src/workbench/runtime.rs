@@ -1,0 +1,431 @@
+//! The runtime: sets the terminal up and restores it, runs the loop that
+//! feeds messages to `update`, and carries out the commands it returns in
+//! background tasks ([`CommandRunner`]).
+
+use std::collections::HashMap;
+use std::io::Stdout;
+use std::path::PathBuf;
+use std::sync::{Arc, RwLock};
+use std::time::Instant;
+
+use crossterm::event::{
+    DisableBracketedPaste, DisableMouseCapture, EnableBracketedPaste, EnableMouseCapture, Event,
+};
+use crossterm::execute;
+use crossterm::terminal::{
+    disable_raw_mode, enable_raw_mode, EnterAlternateScreen, LeaveAlternateScreen,
+};
+use image::DynamicImage;
+use ratatui::backend::CrosstermBackend;
+use ratatui::layout::Rect;
+use ratatui::Terminal;
+use ratatui_image::picker::Picker;
+use ratatui_image::Resize;
+use tokio::sync::{mpsc, watch};
+use tokio::task::JoinHandle;
+
+use super::agents::Pipeline;
+use super::app::{App, AppInit, ModelStatus, Severity};
+use super::scoring::{ModelSlot, ScorerLoader, SharedModels};
+use super::session::{Restored, Session};
+use super::snapshot::{Snapshot, SnapshotPacer, SNAPSHOT_EVERY};
+use crate::dataset::Dataset;
+
+use super::message::{Cmd, Msg};
+use super::{agents, scoring, session};
+use super::{render, terminal_query, theme, Options, TuiError, SAVE_EVERY, SCORE_DEBOUNCE};
+
+/// Puts the terminal back as it was: raw mode off, main screen, no mouse capture.
+fn restore_terminal() {
+    let _ = disable_raw_mode();
+    let _ = execute!(
+        std::io::stdout(),
+        DisableMouseCapture,
+        DisableBracketedPaste,
+        LeaveAlternateScreen,
+        crossterm::cursor::Show
+    );
+}
+
+/// Restores the terminal when dropped, so every way out of [`run`] restores it.
+pub(crate) struct TerminalGuard;
+
+impl Drop for TerminalGuard {
+    fn drop(&mut self) {
+        restore_terminal();
+    }
+}
+
+pub(crate) fn setup_terminal(
+) -> Result<(TerminalGuard, Terminal<CrosstermBackend<Stdout>>), TuiError> {
+    let previous = std::panic::take_hook();
+    std::panic::set_hook(Box::new(move |info| {
+        restore_terminal();
+        previous(info);
+    }));
+    enable_raw_mode()?;
+    let guard = TerminalGuard;
+    execute!(
+        std::io::stdout(),
+        EnterAlternateScreen,
+        EnableMouseCapture,
+        EnableBracketedPaste
+    )?;
+    let terminal = Terminal::new(CrosstermBackend::new(std::io::stdout()))?;
+    Ok((guard, terminal))
+}
+
+/// Encodes the scene image for the area the app wants it in, if any.
+pub fn prepare_image(app: &mut App, picker: &Picker) {
+    let Some(area) = app.image_area_wanted() else {
+        return;
+    };
+    let Some(scene) = app.scene.clone() else {
+        return;
+    };
+    let image: DynamicImage = (*scene).clone();
+    match picker.new_protocol(image, area.as_size(), Resize::Scale(None)) {
+        Ok(protocol) => {
+            app.update(Msg::ImageReady(area, Box::new(protocol)));
+        }
+        Err(e) => {
+            app.image_enabled = false;
+            app.status = Some((
+                format!("the scene image cannot be drawn here ({e}); i tries again"),
+                Severity::Warn,
+            ));
+        }
+    }
+}
+
+/// Everything the loop hands work to.
+struct Runtime {
+    msgs: mpsc::UnboundedSender<Msg>,
+    agent_events: mpsc::UnboundedSender<(u64, agents::AgentEvent)>,
+    scores: watch::Sender<Option<scoring::ScoreRequest>>,
+    pipeline: Arc<dyn Pipeline>,
+    runs: HashMap<u64, JoinHandle<()>>,
+}
+
+impl Runtime {
+    fn execute(&mut self, app: &mut App, cmd: Cmd) {
+        match cmd {
+            Cmd::StartRun(request) => {
+                if let Err(reason) = self.pipeline.check(&request) {
+                    app.run_refused(request.run, reason);
+                    return;
+                }
+                let run = request.run;
+                let handle = self.pipeline.spawn(request, self.agent_events.clone());
+                self.runs.insert(run, handle);
+            }
+            Cmd::CancelRun(run) => {
+                if let Some(handle) = self.runs.remove(&run) {
+                    handle.abort();
+                }
+            }
+            Cmd::Score(request) => {
+                self.scores.send_replace(Some(request));
+            }
+            Cmd::ReadStepFile(path) => {
+                let msgs = self.msgs.clone();
+                tokio::spawn(async move {
+                    let result = tokio::task::spawn_blocking({
+                        let path = path.clone();
+                        move || crate::dataset::read_text(&path).map_err(|e| e.to_string())
+                    })
+                    .await
+                    .unwrap_or_else(|e| Err(e.to_string()));
+                    let _ = msgs.send(Msg::StepFile(path, result));
+                });
+            }
+            Cmd::LoadImage(path) => {
+                let msgs = self.msgs.clone();
+                tokio::task::spawn_blocking(move || {
+                    let result = image::open(&path)
+                        .map(Arc::new)
+                        .map_err(|e| format!("{}: cannot read the image: {e}", path.display()));
+                    let _ = msgs.send(Msg::SceneImage(result));
+                });
+            }
+        }
+    }
+}
+
+fn spawn_input_thread(msgs: mpsc::UnboundedSender<Msg>) {
+    std::thread::spawn(move || loop {
+        let msg = match crossterm::event::read() {
+            Ok(Event::Key(key)) => Msg::Key(key),
+            Ok(Event::Mouse(mouse)) => Msg::Mouse(mouse),
+            Ok(Event::Resize(w, h)) => Msg::Resize(w, h),
+            Ok(Event::Paste(text)) => Msg::Paste(text),
+            Ok(_) => continue,
+            Err(_) => Msg::Quit,
+        };
+        if msgs.send(msg).is_err() {
+            return;
+        }
+    });
+}
+
+fn spawn_signal_watch(msgs: mpsc::UnboundedSender<Msg>) {
+    use tokio::signal::unix::{signal, SignalKind};
+    for kind in [SignalKind::terminate(), SignalKind::hangup()] {
+        let msgs = msgs.clone();
+        if let Ok(mut stream) = signal(kind) {
+            tokio::spawn(async move {
+                if stream.recv().await.is_some() {
+                    let _ = msgs.send(Msg::Quit);
+                }
+            });
+        }
+    }
+}
+
+/// Saves the latest session snapshot at most every [`SAVE_EVERY`], off the loop.
+fn spawn_saver(
+    path: PathBuf,
+    mut snapshots: watch::Receiver<Option<Session>>,
+    msgs: mpsc::UnboundedSender<Msg>,
+) -> JoinHandle<()> {
+    tokio::spawn(async move {
+        while snapshots.changed().await.is_ok() {
+            tokio::time::sleep(SAVE_EVERY).await;
+            let Some(snapshot) = snapshots.borrow_and_update().clone() else {
+                continue;
+            };
+            let path = path.clone();
+            let result = tokio::task::spawn_blocking(move || session::save(&path, &snapshot))
+                .await
+                .map_err(|e| e.to_string())
+                .and_then(|r| r.map_err(|e| e.to_string()));
+            let _ = msgs.send(Msg::Saved(result));
+        }
+    })
+}
+
+/// Starts the workbench and runs it until the user quits. The terminal is
+/// restored on every way out, a panic included.
+pub fn run(options: Options) -> Result<(), TuiError> {
+    let rt = tokio::runtime::Builder::new_multi_thread()
+        .worker_threads(2)
+        .enable_all()
+        .build()?;
+    let result = rt.block_on(run_async(options));
+    // The session is saved by now; a model still loading on a blocking
+    // thread must not hold the exit up (dropping the runtime would wait).
+    rt.shutdown_background();
+    result
+}
+
+fn load_start(
+    options: &Options,
+) -> (
+    Option<Dataset>,
+    Option<Session>,
+    Vec<String>,
+    Option<PathBuf>,
+) {
+    let mut notices = Vec::new();
+    let dataset = options
+        .dataset
+        .as_ref()
+        .and_then(|path| match Dataset::load(path) {
+            Ok((dataset, errors)) => {
+                if let Some(first) = errors.first() {
+                    notices.push(format!(
+                        "{} bad lines in the dataset, first: {first}",
+                        errors.len()
+                    ));
+                }
+                Some(dataset)
+            }
+            Err(e) => {
+                notices.push(format!("dataset not loaded: {e}"));
+                None
+            }
+        });
+    let path = options.session.clone().or_else(session::default_path);
+    let restored = match &path {
+        Some(p) => match session::restore(p) {
+            Ok(Restored::Loaded(s)) => Some(*s),
+            Ok(Restored::Fresh) => None,
+            Ok(Restored::SetAside { moved_to, reason }) => {
+                notices.push(format!(
+                    "the session file could not be read ({reason}); it was moved to {} and a new session started",
+                    moved_to.display()
+                ));
+                None
+            }
+            Err(e) => {
+                notices.push(format!("session not restored: {e}"));
+                None
+            }
+        },
+        None => {
+            notices.push(
+                "no session file (set --session or HOME): this session will not be saved".into(),
+            );
+            None
+        }
+    };
+    (dataset, restored, notices, path)
+}
+
+async fn run_async(options: Options) -> Result<(), TuiError> {
+    let (dataset, restored, notices, session_path) = load_start(&options);
+    let (themes, theme_problems) = theme::load_themes(theme::user_theme_dir().as_deref());
+    let notice = notices
+        .into_iter()
+        .chain(theme_problems)
+        .next()
+        .map(|n| (n, Severity::Warn));
+    let (guard, mut terminal) = setup_terminal()?;
+    let size = terminal.size()?;
+    let (mut app, first_cmds) = App::new(AppInit {
+        dataset,
+        themes,
+        theme: options.theme.clone(),
+        no_color: theme::no_color_requested(),
+        session: restored,
+        notice,
+        size: (size.width, size.height),
+        models: ModelStatus::Loading("starting".to_string()),
+        prompts: options.prompts.clone(),
+    });
+    terminal.draw(|f| render::render(f, &app))?;
+
+    let (msg_tx, mut msg_rx) = mpsc::unbounded_channel::<Msg>();
+    // The query reads stdin itself, so it runs before the input thread
+    // exists; what was typed meanwhile and the size the window has now
+    // (a resize during the query has no reader yet) go first in the queue.
+    let picker = match options.picker {
+        Some(p) => p,
+        None => {
+            let probe = terminal_query::query_picker(terminal_query::QUERY_TIMEOUT);
+            for key in probe.typed {
+                let _ = msg_tx.send(Msg::Key(key));
+            }
+            let size = terminal.size()?;
+            let _ = msg_tx.send(Msg::Resize(size.width, size.height));
+            probe.picker
+        }
+    };
+    let (agent_tx, mut agent_rx) = mpsc::unbounded_channel();
+    let (score_tx, score_rx) = watch::channel(None);
+    let (save_tx, save_rx) = watch::channel::<Option<Session>>(None);
+    let models: SharedModels = Arc::new(RwLock::new(ModelSlot::Loading("starting".into())));
+
+    spawn_input_thread(msg_tx.clone());
+    spawn_signal_watch(msg_tx.clone());
+    {
+        let msgs = msg_tx.clone();
+        tokio::spawn(async move {
+            while let Some((run, event)) = agent_rx.recv().await {
+                if msgs.send(Msg::Agent(run, event)).is_err() {
+                    return;
+                }
+            }
+        });
+    }
+    {
+        let msgs = msg_tx.clone();
+        tokio::spawn(scoring::worker(
+            score_rx,
+            models.clone(),
+            SCORE_DEBOUNCE,
+            move |o| {
+                let _ = msgs.send(Msg::Scored(o));
+            },
+        ));
+    }
+    {
+        let (done_tx, mut done_rx) = mpsc::unbounded_channel();
+        let progress = msg_tx.clone();
+        let loader = options.scorer;
+        let wrapped: ScorerLoader = Box::new(move |report: &dyn Fn(String)| {
+            loader(&|line: String| {
+                let _ = progress.send(Msg::ModelsProgress(line.clone()));
+                report(line);
+            })
+        });
+        scoring::spawn_loader(wrapped, models.clone(), done_tx);
+        let msgs = msg_tx.clone();
+        tokio::spawn(async move {
+            if let Some(result) = done_rx.recv().await {
+                let _ = msgs.send(Msg::ModelsLoaded(result));
+            }
+        });
+    }
+    let saver = session_path.map(|p| spawn_saver(p, save_rx, msg_tx.clone()));
+
+    let mut runtime = Runtime {
+        msgs: msg_tx,
+        agent_events: agent_tx,
+        scores: score_tx,
+        pipeline: options.pipeline,
+        runs: HashMap::new(),
+    };
+    for cmd in first_cmds {
+        runtime.execute(&mut app, cmd);
+    }
+    prepare_image(&mut app, &picker);
+    terminal.draw(|f| render::render(f, &app))?;
+
+    let mut pacer = SnapshotPacer::new(SNAPSHOT_EVERY);
+    let mut wake: Option<Instant> = None;
+    loop {
+        let first = match wake {
+            Some(at) => tokio::select! {
+                msg = msg_rx.recv() => msg.map(Some),
+                () = tokio::time::sleep_until(at.into()) => Some(None),
+            },
+            None => msg_rx.recv().await.map(Some),
+        };
+        let Some(first) = first else { break };
+        let mut pending: Vec<Msg> = first.into_iter().collect();
+        while let Ok(more) = msg_rx.try_recv() {
+            pending.push(more);
+        }
+        let was_editing = app.is_editing();
+        for msg in pending {
+            if let Msg::Resize(w, h) = msg {
+                terminal.resize(Rect::new(0, 0, w, h))?;
+            }
+            for cmd in app.update(msg) {
+                runtime.execute(&mut app, cmd);
+            }
+        }
+        if app.session_dirty {
+            app.session_dirty = false;
+            pacer.changed();
+        }
+        let committed = was_editing && !app.is_editing();
+        wake = match pacer.poll(committed, Instant::now()) {
+            Snapshot::Take => {
+                save_tx.send_replace(Some(app.to_session()));
+                None
+            }
+            Snapshot::WaitUntil(at) => Some(at),
+            Snapshot::Idle => None,
+        };
+        if app.quit {
+            break;
+        }
+        prepare_image(&mut app, &picker);
+        terminal.draw(|f| render::render(f, &app))?;
+    }
+    for (_, handle) in runtime.runs.drain() {
+        handle.abort();
+    }
+    if let (Some(saver), Some(path)) = (saver, options.session.or_else(session::default_path)) {
+        saver.abort();
+        if let Err(e) = session::save(&path, &app.to_session()) {
+            drop(guard);
+            eprintln!("mapvlm: session not saved: {e}");
+            return Ok(());
+        }
+    }
+    drop(guard);
+    Ok(())
+}
