@@ -13,7 +13,7 @@ use agents_support::*;
 use mapvlm::agents::cache::ResponseCache;
 use mapvlm::agents::replay::Recording;
 use mapvlm::agents::{Approach, ProviderKind};
-use mapvlm::session::{self, GroundTruthSource, PlanSource, Session, SESSION_VERSION};
+use mapvlm::workbench::session::{self, GroundTruthSource, PlanSource, Session, SESSION_VERSION};
 use wiremock::MockServer;
 
 /// Runs mapvlm off the async runtime, so that the mock server keeps answering.

@@ -4,7 +4,7 @@
 #![no_main]
 
 use libfuzzer_sys::fuzz_target;
-use mapvlm::session::decode;
+use mapvlm::workbench::session::decode;
 
 fuzz_target!(|bytes: &[u8]| {
     let Ok(session) = decode(bytes) else {
