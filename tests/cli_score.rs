@@ -4,22 +4,13 @@
 mod common;
 
 use std::path::Path;
-use std::process::Output;
 
-use common::{mapvlm, stderr};
+use common::{assert_one_line_failure, mapvlm, stderr};
 
 fn write(dir: &Path, name: &str, bytes: &[u8]) -> String {
     let path = dir.join(name);
     std::fs::write(&path, bytes).unwrap_or_else(|e| panic!("{e}"));
     path.to_string_lossy().into_owned()
-}
-
-fn assert_one_line_failure(out: &Output, needle: &str) {
-    assert!(!out.status.success(), "expected failure");
-    let err = stderr(out);
-    assert!(!err.contains("panicked"), "{err}");
-    assert_eq!(err.trim_end().lines().count(), 1, "one line: {err}");
-    assert!(err.contains(needle), "{needle:?} not in {err}");
 }
 
 #[test]

@@ -15,10 +15,11 @@ use serde::{Deserialize, Serialize};
 use tokio::sync::Semaphore;
 use tokio_util::sync::CancellationToken;
 
+use super::eval_batch::{prefetch, BatchArgs};
 use super::plan::{runtime, AgentArgs};
 use super::score::Metric;
 use crate::agents::cache::{check_writable, write_atomic};
-use crate::agents::cost::{estimate_plans, Billing, PlanCost};
+use crate::agents::cost::{estimate_plans, PlanCost};
 use crate::agents::pipeline::{PlanInput, PlanRecord, Runner};
 use crate::agents::Approach;
 use crate::dataset::{Dataset, Task};
@@ -52,9 +53,15 @@ pub struct EvalArgs {
     /// Model settings for PG2S.
     #[command(flatten)]
     pub models: super::ModelArgs,
+    /// Provider batch options.
+    #[command(flatten)]
+    pub batch: BatchArgs,
     /// Provider, prompt and cache options.
     #[command(flatten)]
     pub agents: AgentArgs,
+    /// Which tasks this process evaluates (`mapvlm merge` joins the shards).
+    #[command(flatten)]
+    pub shard: super::ShardArgs,
 }
 
 /// One task through one approach: the plan, where it came from, its scores.
@@ -106,13 +113,16 @@ pub fn run(args: &EvalArgs) -> anyhow::Result<ExitCode> {
             args.concurrency
         );
     }
+    let shard = args.shard.shard()?;
     let tasks_dir = args.out.join("tasks");
     check_writable(&tasks_dir.join("probe.json"))
         .context("the results could not be written, so nothing was asked of any model")?;
-    let (dataset, bad_lines) = Dataset::load(&args.dataset)?;
+    let (mut dataset, bad_lines) = Dataset::load(&args.dataset)?;
     for line in &bad_lines {
         eprintln!("mapvlm: {line}; that task was skipped");
     }
+    let dataset_tasks: Vec<String> = dataset.tasks.iter().map(|t| t.id.clone()).collect();
+    dataset.tasks.retain(|task| shard.contains(&task.id));
     let approaches = if args.approaches.is_empty() {
         Approach::ALL.to_vec()
     } else {
@@ -122,13 +132,13 @@ pub fn run(args: &EvalArgs) -> anyhow::Result<ExitCode> {
     let mut done = Finished {
         scorer: scorer.as_deref(),
         results: Vec::new(),
-        failures: 0,
+        failed: Vec::new(),
     };
     let mut to_make = Vec::new();
     let mut skipped = 0;
     for task in &dataset.tasks {
         for &approach in &approaches {
-            let file = tasks_dir.join(format!("{}.{}.json", safe_name(&task.id), approach));
+            let file = tasks_dir.join(result_file(&task.id, approach));
             match read_result(&file) {
                 Some(result) if result.pg2s_scored || scorer.is_none() => done.results.push(result),
                 Some(planned) => done.add(&file, planned),
@@ -153,18 +163,14 @@ pub fn run(args: &EvalArgs) -> anyhow::Result<ExitCode> {
     }
     let Finished {
         mut results,
-        failures,
+        failed,
         ..
     } = done;
-    let order = |r: &TaskResult| {
-        let task = dataset.tasks.iter().position(|t| t.id == r.id);
-        let approach = approaches.iter().position(|a| *a == r.approach);
-        (task, approach)
-    };
-    results.sort_by_key(order);
-    let (markdown, csv) = tables(&dataset.tasks, &approaches, &results);
-    write_atomic(&args.out.join("table3.md"), markdown.as_bytes())?;
-    write_atomic(&args.out.join("table3.csv"), csv.as_bytes())?;
+    let order: Vec<String> = dataset.tasks.iter().map(|t| t.id.clone()).collect();
+    write_tables(&args.out, &order, &approaches, &mut results)?;
+    let failures = failed.len();
+    super::merge::Manifest::new(dataset_tasks, approaches, shard, &results, failed)
+        .write(&args.out)?;
     eprintln!(
         "mapvlm: {} plans scored, {skipped} without input or plan, {failures} failed; tables in {}",
         results.len(),
@@ -184,7 +190,8 @@ pub fn run(args: &EvalArgs) -> anyhow::Result<ExitCode> {
 struct Finished<'a> {
     scorer: Option<&'a Pg2sScorer>,
     results: Vec<TaskResult>,
-    failures: usize,
+    /// `ID APPROACH` of every task that failed.
+    failed: Vec<String>,
 }
 
 impl Finished<'_> {
@@ -202,7 +209,7 @@ impl Finished<'_> {
     /// Names a failed task on stderr and counts it.
     fn fail(&mut self, id: &str, approach: Approach, reason: &str) {
         eprintln!("mapvlm: {id} {approach}: {reason}");
-        self.failures += 1;
+        self.failed.push(format!("{id} {approach}"));
     }
 }
 
@@ -281,18 +288,37 @@ fn make_plans(args: &EvalArgs, jobs: Vec<Job<'_>>, done: &mut Finished) -> anyho
     let mut ledger = args.agents.ledger()?;
     let (runner, recording) = args.agents.runner()?;
     let inputs: Vec<PlanInput> = jobs.iter().map(|job| plan_input(job.task)).collect();
+    let billing = args.batch.billing();
     let estimate = estimate_plans(
         &runner,
         jobs.iter()
             .zip(&inputs)
             .map(|(job, input)| (job.approach, input)),
-        Billing::Interactive,
+        billing,
         ledger.prices(),
     );
     args.agents.check_estimate(&estimate)?;
-    let runner = Arc::new(runner);
     let cancel = CancellationToken::new();
     let runtime = runtime(&cancel)?;
+    let prefetched = if args.batch.batch {
+        let plans: Vec<_> = jobs
+            .iter()
+            .map(|j| j.approach)
+            .zip(inputs.clone())
+            .collect();
+        Some(prefetch(
+            &args.batch,
+            &args.agents,
+            &runner,
+            &plans,
+            &args.out,
+            &runtime,
+            &cancel,
+        )?)
+    } else {
+        None
+    };
+    let runner = Arc::new(runner);
     let progress = ProgressBar::new(jobs.len() as u64);
     progress.set_style(
         ProgressStyle::with_template("{bar:30} {pos}/{len} plans  {elapsed_precise}  {msg}")
@@ -301,6 +327,14 @@ fn make_plans(args: &EvalArgs, jobs: Vec<Job<'_>>, done: &mut Finished) -> anyho
     let limit = Arc::new(Semaphore::new(args.concurrency.max(1)));
     let mut running = tokio::task::JoinSet::new();
     for (index, (job, input)) in jobs.iter().zip(inputs).enumerate() {
+        let waiting = prefetched
+            .as_ref()
+            .and_then(|p| p.unfinished[index].as_ref());
+        if let Some(reason) = waiting {
+            progress.suspend(|| done.fail(&job.task.id, job.approach, reason));
+            progress.inc(1);
+            continue;
+        }
         let runner: Arc<Runner> = runner.clone();
         let limit = limit.clone();
         let cancel = cancel.clone();
@@ -328,8 +362,11 @@ fn make_plans(args: &EvalArgs, jobs: Vec<Job<'_>>, done: &mut Finished) -> anyho
         let (id, approach) = (&job.task.id, job.approach);
         match record {
             Err(err) => progress.suspend(|| done.fail(id, approach, &err.to_string())),
-            Ok(record) => {
-                let cost = ledger.add_plan(&record, Billing::Interactive);
+            Ok(mut record) => {
+                if let Some(prefetched) = &prefetched {
+                    prefetched.mark_paid(&mut record);
+                }
+                let cost = ledger.add_plan(&record, billing);
                 match record.first_error() {
                     Some((role, error)) => {
                         let reason = format!("{role} failed: {error}");
@@ -347,6 +384,9 @@ fn make_plans(args: &EvalArgs, jobs: Vec<Job<'_>>, done: &mut Finished) -> anyho
         }
     }
     progress.finish_and_clear();
+    if let Some(prefetched) = &prefetched {
+        prefetched.bill_stranded(&mut ledger);
+    }
     eprint!("{}", ledger.table());
     args.agents.save_recording(recording)?;
     Ok(())
@@ -359,6 +399,11 @@ fn plan_input(task: &Task) -> PlanInput {
         image: task.image.clone(),
         table: task.table.clone(),
     }
+}
+
+/// The name of the file of task `id` through `approach` under `OUT/tasks`.
+pub(super) fn result_file(id: &str, approach: Approach) -> String {
+    format!("{}.{approach}.json", safe_name(id))
 }
 
 fn safe_name(id: &str) -> String {
@@ -393,9 +438,33 @@ fn mean(values: impl Iterator<Item = Option<f64>>) -> Option<f64> {
     (!present.is_empty()).then(|| present.iter().sum::<f64>() / present.len() as f64)
 }
 
-/// The paper's Table 3: a row per task, PG2S and KAS for each approach, and
-/// the means; as Markdown and as CSV.
-fn tables(tasks: &[Task], approaches: &[Approach], results: &[TaskResult]) -> (String, String) {
+/// Sorts `results` by task (in the order of `task_ids`, the dataset's) and
+/// approach, and writes the tables of [`tables`] as `OUT/table3.md` and
+/// `OUT/table3.csv`: the one writer of the tables, for `eval` and `merge`.
+pub(super) fn write_tables(
+    out: &Path,
+    task_ids: &[String],
+    approaches: &[Approach],
+    results: &mut [TaskResult],
+) -> anyhow::Result<()> {
+    results.sort_by_key(|r| {
+        let task = task_ids.iter().position(|id| *id == r.id);
+        let approach = approaches.iter().position(|a| *a == r.approach);
+        (task, approach)
+    });
+    let (markdown, csv) = tables(task_ids, approaches, results);
+    write_atomic(&out.join("table3.md"), markdown.as_bytes())?;
+    write_atomic(&out.join("table3.csv"), csv.as_bytes())?;
+    Ok(())
+}
+
+/// The paper's Table 3: a row per task (in the order of `task_ids`), PG2S
+/// and KAS for each approach, and the means; as Markdown and as CSV.
+fn tables(
+    task_ids: &[String],
+    approaches: &[Approach],
+    results: &[TaskResult],
+) -> (String, String) {
     if results.is_empty() {
         return (String::from("No plans were scored.\n"), String::new());
     }
@@ -414,19 +483,14 @@ fn tables(tasks: &[Task], approaches: &[Approach], results: &[TaskResult]) -> (S
     }
     let _ = writeln!(markdown, "\n{rule}");
     csv.push('\n');
-    for task in tasks {
-        if approaches.iter().all(|a| find(&task.id, *a).is_none()) {
+    for id in task_ids {
+        let Some(first) = approaches.iter().find_map(|a| find(id, *a)) else {
             continue;
-        }
-        let _ = write!(
-            markdown,
-            "| {} | {} |",
-            task.id,
-            task.task.replace('|', "\\|")
-        );
-        let _ = write!(csv, "{},{}", csv_field(&task.id), csv_field(&task.task));
+        };
+        let _ = write!(markdown, "| {id} | {} |", first.task.replace('|', "\\|"));
+        let _ = write!(csv, "{},{}", csv_field(id), csv_field(&first.task));
         for approach in approaches {
-            let result = find(&task.id, *approach);
+            let result = find(id, *approach);
             let (pg2s, kas) = (result.and_then(|r| r.pg2s), result.and_then(|r| r.kas));
             push_scores(&mut markdown, &mut csv, pg2s, kas, "");
         }

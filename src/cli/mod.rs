@@ -8,6 +8,8 @@ mod completions;
 mod corrupt;
 mod embed;
 mod eval;
+mod eval_batch;
+mod merge;
 mod models;
 mod parse;
 mod plan;
@@ -63,6 +65,8 @@ pub enum Command {
     Plan(plan::PlanArgs),
     /// Plan and score every task of a dataset; write the paper's Table 3.
     Eval(eval::EvalArgs),
+    /// Join the output folders of `eval --shard` runs into one run's files and tables.
+    Merge(merge::MergeArgs),
     /// How far PG2S, S_plan, S_goal and KAS agree with human judgements.
     Agree(agree::AgreeArgs),
     /// Show, prune or clear the embedding and response caches.
@@ -145,6 +149,32 @@ impl ModelArgs {
                 Ok(Arc::new(MpnetEncoder::load_with(path, options)?))
             }),
         )
+    }
+}
+
+/// Which share of the work this process does, for job arrays (see [`crate::shard`]).
+#[derive(Debug, Clone, Args)]
+pub struct ShardArgs {
+    /// Only the items of shard I of N (I from 1 to N; an item's shard is
+    /// 1 + the first 8 bytes of SHA-256 of its id, big-endian, mod N), or
+    /// `auto`: from a Slurm job array or a Kubernetes Indexed Job.
+    #[arg(long, value_name = "I/N|auto")]
+    pub shard: Option<String>,
+    /// N for `--shard auto` in a Kubernetes Indexed Job (its `completions`).
+    #[arg(long, env = "MAPVLM_SHARD_COUNT", value_name = "N")]
+    pub shard_count: Option<u64>,
+}
+
+impl ShardArgs {
+    /// The shard asked for, or the whole work when `--shard` is not given.
+    fn shard(&self) -> anyhow::Result<crate::shard::Shard> {
+        let Some(value) = &self.shard else {
+            return Ok(crate::shard::Shard::WHOLE);
+        };
+        value
+            .parse::<crate::shard::ShardSpec>()
+            .and_then(|spec| spec.resolve(self.shard_count))
+            .map_err(|e| anyhow::anyhow!("--shard {e}"))
     }
 }
 
@@ -232,6 +262,7 @@ pub fn run() -> anyhow::Result<ExitCode> {
         Some(Command::Embed(args)) => embed::run(&args),
         Some(Command::Plan(args)) => plan::run(&args),
         Some(Command::Eval(args)) => eval::run(&args),
+        Some(Command::Merge(args)) => merge::run(&args),
         Some(Command::Agree(args)) => agree::run(&args),
         Some(Command::Cache(args)) => cache::run(&args),
         Some(Command::Corrupt(args)) => corrupt::run(&args),

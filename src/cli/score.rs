@@ -11,7 +11,7 @@ use clap::{Args, ValueEnum};
 use serde_json::{json, Value};
 
 use crate::agree::MetricValues;
-use crate::dataset::{open_pairs, read_text, Pair};
+use crate::dataset::{open_pairs, read_text, LineError, Pair};
 use crate::metrics::kas::{kas, KasReport};
 use crate::metrics::pg2s::{Pg2sReport, Pg2sScorer, Pg2sSettings};
 use crate::plan::{bound_steps, parse_steps};
@@ -58,6 +58,9 @@ pub struct ScoreArgs {
     /// The weight of S_goal in PG2S.
     #[arg(long, default_value_t = Pg2sSettings::default().alpha)]
     pub alpha: f64,
+    /// Which pairs of `--pairs` this process scores.
+    #[command(flatten)]
+    pub shard: super::ShardArgs,
 }
 
 impl ScoreArgs {
@@ -90,10 +93,11 @@ pub fn run(args: &ScoreArgs) -> anyhow::Result<ExitCode> {
             bail!("{flag} {value} is outside -1..=1 (a cosine similarity)");
         }
     }
-    let (mut pairs, bad_lines) = read_pairs(args)?;
-    for pair in &mut pairs {
-        bound_pair(pair);
+    let shard = args.shard.shard()?;
+    if args.shard.shard.is_some() && args.pairs.is_none() {
+        bail!("--shard splits a pairs file: give --pairs FILE");
     }
+    let pairs = read_pairs(args)?;
     let scorer = if args.metrics.contains(&Metric::Pg2s) {
         let mut models = args.models.clone();
         models.no_embedding_cache |= args.no_cache;
@@ -106,18 +110,65 @@ pub fn run(args: &ScoreArgs) -> anyhow::Result<ExitCode> {
     } else {
         None
     };
-    if let Some(scorer) = &scorer {
-        warm_up(scorer, &pairs)?;
-    }
     let mut out = std::io::stdout().lock();
-    for pair in &pairs {
+    let mut chunk = Vec::new();
+    let mut chunk_steps = 0;
+    let mut bad_lines = 0usize;
+    for item in pairs {
+        let mut pair = match item {
+            Ok(pair) if shard.contains(&pair.id) => pair,
+            Ok(_) => continue,
+            Err(line) => {
+                eprintln!("mapvlm: {line}; that line was skipped, the others were scored");
+                bad_lines += 1;
+                continue;
+            }
+        };
+        bound_pair(&mut pair);
+        chunk_steps += pair.gt.len() + pair.pred.len();
+        chunk.push(pair);
+        if chunk_steps >= CHUNK_STEPS {
+            if !score_chunk(args, scorer.as_ref(), &chunk, &mut out)? {
+                return Ok(ExitCode::FAILURE);
+            }
+            chunk.clear();
+            chunk_steps = 0;
+        }
+    }
+    if !score_chunk(args, scorer.as_ref(), &chunk, &mut out)? {
+        return Ok(ExitCode::FAILURE);
+    }
+    Ok(if bad_lines == 0 {
+        ExitCode::SUCCESS
+    } else {
+        ExitCode::FAILURE
+    })
+}
+
+/// The steps of the pairs scored together: their sentences are embedded in
+/// one batch, and the pairs, their steps and the encoder's working set are
+/// all the memory a run keeps, whatever the number of pairs.
+const CHUNK_STEPS: usize = 4_096;
+
+/// Scores `pairs` and writes each one's lines to `out`; `false` when `out`
+/// is closed (e.g. a pipe into `head`).
+fn score_chunk(
+    args: &ScoreArgs,
+    scorer: Option<&Pg2sScorer>,
+    pairs: &[Pair],
+    out: &mut impl std::io::Write,
+) -> anyhow::Result<bool> {
+    if let Some(scorer) = scorer {
+        warm_up(scorer, pairs)?;
+    }
+    for pair in pairs {
         let scored = Scored {
             pair,
             kas: args
                 .metrics
                 .contains(&Metric::Kas)
                 .then(|| kas(&pair.gt, &pair.pred)),
-            pg2s: match &scorer {
+            pg2s: match scorer {
                 Some(s) => Some(
                     s.score(&pair.gt, &pair.pred)
                         .map_err(|e| anyhow::anyhow!("scoring {}: {e}", pair.id))?,
@@ -130,19 +181,11 @@ pub fn run(args: &ScoreArgs) -> anyhow::Result<ExitCode> {
         } else {
             explain(&scored)
         };
-        use std::io::Write as _;
         if out.write_all(text.as_bytes()).is_err() {
-            return Ok(ExitCode::FAILURE);
+            return Ok(false);
         }
     }
-    for line in &bad_lines {
-        eprintln!("mapvlm: {line}; that line was skipped, the others were scored");
-    }
-    Ok(if bad_lines.is_empty() {
-        ExitCode::SUCCESS
-    } else {
-        ExitCode::FAILURE
-    })
+    Ok(true)
 }
 
 /// The four metric values of every item (in the order of
@@ -192,36 +235,28 @@ fn warm_up(scorer: &Pg2sScorer, pairs: &[Pair]) -> anyhow::Result<()> {
         .map_err(|e| anyhow::anyhow!("embedding the steps: {e}"))
 }
 
-fn read_pairs(args: &ScoreArgs) -> anyhow::Result<(Vec<Pair>, Vec<String>)> {
+/// The pairs to score, one at a time: the lines of `--pairs` (each a pair or
+/// the reason its line was skipped), else the one pair of `--gt`/`--pred`,
+/// else the built-in example.
+fn read_pairs(
+    args: &ScoreArgs,
+) -> anyhow::Result<Box<dyn Iterator<Item = Result<Pair, LineError>>>> {
     if let Some(path) = &args.pairs {
-        let mut pairs = Vec::new();
-        let mut bad = Vec::new();
-        for line in open_pairs(path)? {
-            match line {
-                Ok(pair) => pairs.push(pair),
-                Err(e) => bad.push(e.to_string()),
-            }
-        }
-        return Ok((pairs, bad));
+        return Ok(Box::new(open_pairs(path)?));
     }
-    match (&args.gt, &args.pred) {
-        (Some(gt), Some(pred)) => {
-            let pair = Pair::new(
-                format!("{} vs {}", pred.display(), gt.display()),
-                read_plan(gt)?,
-                read_plan(pred)?,
-            );
-            Ok((vec![pair], Vec::new()))
-        }
-        _ => Ok((
-            vec![Pair::new(
-                format!("built-in example: {}", crate::demo::TASK.trim()),
-                parse_steps(crate::demo::GROUND_TRUTH),
-                parse_steps(crate::demo::PLAN),
-            )],
-            Vec::new(),
-        )),
-    }
+    let pair = match (&args.gt, &args.pred) {
+        (Some(gt), Some(pred)) => Pair::new(
+            format!("{} vs {}", pred.display(), gt.display()),
+            read_plan(gt)?,
+            read_plan(pred)?,
+        ),
+        _ => Pair::new(
+            format!("built-in example: {}", crate::demo::TASK.trim()),
+            parse_steps(crate::demo::GROUND_TRUTH),
+            parse_steps(crate::demo::PLAN),
+        ),
+    };
+    Ok(Box::new(std::iter::once(Ok(pair))))
 }
 
 /// Cuts a pair's plans to the limits of [`bound_steps`], saying so on stderr.

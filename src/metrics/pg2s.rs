@@ -254,8 +254,12 @@ pub struct GoalModels {
     pub parser: Arc<dyn FramingParser>,
 }
 
-/// Scores plan pairs with PG2S, keeping the framed actions of every step seen
-/// so an unchanged step is never parsed twice.
+/// The framed steps a scorer keeps in memory; past this it starts afresh,
+/// so memory stays bounded however many pairs one scorer scores.
+const FRAMES_KEPT: usize = 16_384;
+
+/// Scores plan pairs with PG2S, keeping the framed actions of the steps seen
+/// lately (up to [`FRAMES_KEPT`]) so an unchanged step is not parsed twice.
 pub struct Pg2sScorer {
     encoder: Arc<dyn SentenceEncoder>,
     goal: Result<GoalModels, String>,
@@ -373,10 +377,11 @@ impl Pg2sScorer {
             return Ok(framed);
         }
         let framed = Arc::new(frame_tokens(&parser.parse(&text.to_lowercase())?));
-        self.frames
-            .lock()
-            .unwrap_or_else(PoisonError::into_inner)
-            .insert(text.to_string(), Arc::clone(&framed));
+        let mut frames = self.frames.lock().unwrap_or_else(PoisonError::into_inner);
+        if frames.len() >= FRAMES_KEPT {
+            frames.clear();
+        }
+        frames.insert(text.to_string(), Arc::clone(&framed));
         Ok(framed)
     }
 }

@@ -21,8 +21,10 @@ use crate::nlp::mpnet::REVISION;
 use crate::store::DiskStore;
 use crate::store::EntryKey;
 
-/// The sentences kept in memory between calls (about 3 KB each) before the
-/// working set is dropped; the disk store still has them.
+/// The sentences kept in memory between calls (about 3 KB each). A call
+/// that would take the working set past this drops it first, so the
+/// sentences of the latest call (e.g. a warm-up of many pairs) stay for the
+/// calls that follow; the disk store still has them all.
 const WORKING_SET: usize = 16_384;
 
 /// Marks the layout of an entry.
@@ -122,6 +124,13 @@ impl CachedEncoder {
 impl SentenceEncoder for CachedEncoder {
     fn encode(&self, sentences: &[&str]) -> Result<Vec<Vec<f32>>, ModelError> {
         let mut working = self.working.lock().unwrap_or_else(PoisonError::into_inner);
+        let fresh = sentences
+            .iter()
+            .filter(|s| !working.contains_key(**s))
+            .count();
+        if working.len() + fresh > WORKING_SET {
+            working.clear();
+        }
         let mut missing: Vec<&str> = Vec::new();
         for &sentence in sentences {
             if working.contains_key(sentence) || missing.contains(&sentence) {
@@ -147,9 +156,6 @@ impl SentenceEncoder for CachedEncoder {
             .iter()
             .map(|s| working.get(*s).map(|v| v.to_vec()).unwrap_or_default())
             .collect();
-        if working.len() > WORKING_SET {
-            working.clear();
-        }
         Ok(out)
     }
 }
