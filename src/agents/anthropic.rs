@@ -7,7 +7,7 @@ use super::provider::{
     is_json, Assembler, BoxFuture, ChatRequest, Completion, HttpEndpoint, HttpSettings, Provider,
     TokenSink,
 };
-use super::{AgentError, Secret};
+use super::{AgentError, Secret, Usage};
 
 /// The default base URL.
 pub const DEFAULT_BASE_URL: &str = "https://api.anthropic.com";
@@ -105,17 +105,10 @@ impl Anthropic {
             }
         } else {
             let value = self.endpoint.read_json(response, cancel).await?;
-            let blocks = value
-                .get("content")
-                .and_then(Value::as_array)
+            let (text, usage) = answer_of(&value)
                 .ok_or_else(|| self.endpoint.invalid("no `content` in the answer".into()))?;
-            for block in blocks {
-                if let Some(text) = block.get("text").and_then(Value::as_str) {
-                    answer.push(text);
-                }
-            }
-            answer.usage.input_tokens = count(value.get("usage"), "input_tokens");
-            answer.usage.output_tokens = count(value.get("usage"), "output_tokens");
+            answer.push(&text);
+            answer.usage = usage;
         }
         answer.finish(NAME, &request.model)
     }
@@ -130,6 +123,21 @@ impl Provider for Anthropic {
     ) -> BoxFuture<'a, Result<Completion, AgentError>> {
         Box::pin(self.run(request, on_token, cancel))
     }
+}
+
+/// The text and usage of a whole Messages answer (also the `message` of
+/// each succeeded line of a batch's results); `None` without `content`.
+pub fn answer_of(value: &Value) -> Option<(String, Usage)> {
+    let blocks = value.get("content").and_then(Value::as_array)?;
+    let text = blocks
+        .iter()
+        .filter_map(|block| block.get("text").and_then(Value::as_str))
+        .collect();
+    let usage = Usage {
+        input_tokens: count(value.get("usage"), "input_tokens"),
+        output_tokens: count(value.get("usage"), "output_tokens"),
+    };
+    Some((text, usage))
 }
 
 fn count(usage: Option<&Value>, field: &str) -> u64 {

@@ -202,16 +202,34 @@ impl Ledger {
     /// before answering counts nothing) and returns what it cost.
     pub fn add_agent(&mut self, agent: &AgentRecord, billing: Billing) -> Option<AgentCost> {
         agent.output.as_ref()?;
-        let usd = self
-            .prices
-            .cost(agent.provider, &agent.model, agent.usage, billing);
+        Some(self.add_answer(
+            agent.role,
+            agent.provider,
+            &agent.model,
+            agent.usage,
+            billing,
+        ))
+    }
+
+    /// Counts one answer of `role` on `model` with `usage`, paid as
+    /// `billing` (e.g. a batch answer whose plan could not be made yet), and
+    /// returns what it cost.
+    pub fn add_answer(
+        &mut self,
+        role: AgentRole,
+        provider: ProviderKind,
+        model: &str,
+        usage: Usage,
+        billing: Billing,
+    ) -> AgentCost {
+        let usd = self.prices.cost(provider, model, usage, billing);
         let line = self
             .lines
-            .entry((agent.role, agent.provider, agent.model.clone()))
+            .entry((role, provider, model.to_string()))
             .or_insert_with(|| LedgerLine {
-                role: agent.role,
-                provider: agent.provider,
-                model: agent.model.clone(),
+                role,
+                provider,
+                model: model.to_string(),
                 paid: 0,
                 cached: 0,
                 usage: Usage::default(),
@@ -223,17 +241,17 @@ impl Ledger {
             _ => (&mut line.paid, &mut line.usage),
         };
         *count += 1;
-        tokens.input_tokens += agent.usage.input_tokens;
-        tokens.output_tokens += agent.usage.output_tokens;
+        tokens.input_tokens += usage.input_tokens;
+        tokens.output_tokens += usage.output_tokens;
         line.usd = line.usd.zip(usd).map(|(sum, one)| sum + one);
-        Some(AgentCost {
-            role: agent.role,
-            provider: agent.provider,
-            model: agent.model.clone(),
-            usage: agent.usage,
+        AgentCost {
+            role,
+            provider,
+            model: model.to_string(),
+            usage,
             billing,
             usd,
-        })
+        }
     }
 
     /// Counts every agent of `record`: answers that came from the cache as

@@ -3,6 +3,7 @@
 //! run them, with prompts, a knowledge graph, a response cache and replay.
 
 pub mod anthropic;
+pub mod batch;
 pub mod cache;
 pub mod config;
 pub mod cost;

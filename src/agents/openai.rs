@@ -114,12 +114,12 @@ impl OpenAi {
             }
         } else {
             let value = self.endpoint.read_json(response, cancel).await?;
-            let message = value.pointer("/choices/0/message").ok_or_else(|| {
+            let (text, usage) = answer_of(&value).ok_or_else(|| {
                 self.endpoint
                     .invalid("no choices[0].message in the answer".into())
             })?;
-            answer.push(message.get("content").and_then(Value::as_str).unwrap_or(""));
-            answer.usage = value.get("usage").and_then(usage_of).unwrap_or_default();
+            answer.push(text);
+            answer.usage = usage;
         }
         answer.finish(NAME, &request.model)
     }
@@ -134,6 +134,15 @@ impl Provider for OpenAi {
     ) -> BoxFuture<'a, Result<Completion, AgentError>> {
         Box::pin(self.run(request, on_token, cancel))
     }
+}
+
+/// The text and usage of a whole Chat Completions answer (also the body of
+/// each line of a batch's output file); `None` without `choices[0].message`.
+pub fn answer_of(value: &Value) -> Option<(&str, Usage)> {
+    let message = value.pointer("/choices/0/message")?;
+    let text = message.get("content").and_then(Value::as_str).unwrap_or("");
+    let usage = value.get("usage").and_then(usage_of).unwrap_or_default();
+    Some((text, usage))
 }
 
 fn usage_of(usage: &Value) -> Option<Usage> {

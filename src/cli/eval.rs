@@ -15,10 +15,11 @@ use serde::{Deserialize, Serialize};
 use tokio::sync::Semaphore;
 use tokio_util::sync::CancellationToken;
 
+use super::eval_batch::{prefetch, BatchArgs};
 use super::plan::{runtime, AgentArgs};
 use super::score::Metric;
 use crate::agents::cache::{check_writable, write_atomic};
-use crate::agents::cost::{estimate_plans, Billing, PlanCost};
+use crate::agents::cost::{estimate_plans, PlanCost};
 use crate::agents::pipeline::{PlanInput, PlanRecord, Runner};
 use crate::agents::Approach;
 use crate::dataset::{Dataset, Task};
@@ -52,6 +53,9 @@ pub struct EvalArgs {
     /// Model settings for PG2S.
     #[command(flatten)]
     pub models: super::ModelArgs,
+    /// Provider batch options.
+    #[command(flatten)]
+    pub batch: BatchArgs,
     /// Provider, prompt and cache options.
     #[command(flatten)]
     pub agents: AgentArgs,
@@ -284,18 +288,37 @@ fn make_plans(args: &EvalArgs, jobs: Vec<Job<'_>>, done: &mut Finished) -> anyho
     let mut ledger = args.agents.ledger()?;
     let (runner, recording) = args.agents.runner()?;
     let inputs: Vec<PlanInput> = jobs.iter().map(|job| plan_input(job.task)).collect();
+    let billing = args.batch.billing();
     let estimate = estimate_plans(
         &runner,
         jobs.iter()
             .zip(&inputs)
             .map(|(job, input)| (job.approach, input)),
-        Billing::Interactive,
+        billing,
         ledger.prices(),
     );
     args.agents.check_estimate(&estimate)?;
-    let runner = Arc::new(runner);
     let cancel = CancellationToken::new();
     let runtime = runtime(&cancel)?;
+    let prefetched = if args.batch.batch {
+        let plans: Vec<_> = jobs
+            .iter()
+            .map(|j| j.approach)
+            .zip(inputs.clone())
+            .collect();
+        Some(prefetch(
+            &args.batch,
+            &args.agents,
+            &runner,
+            &plans,
+            &args.out,
+            &runtime,
+            &cancel,
+        )?)
+    } else {
+        None
+    };
+    let runner = Arc::new(runner);
     let progress = ProgressBar::new(jobs.len() as u64);
     progress.set_style(
         ProgressStyle::with_template("{bar:30} {pos}/{len} plans  {elapsed_precise}  {msg}")
@@ -304,6 +327,14 @@ fn make_plans(args: &EvalArgs, jobs: Vec<Job<'_>>, done: &mut Finished) -> anyho
     let limit = Arc::new(Semaphore::new(args.concurrency.max(1)));
     let mut running = tokio::task::JoinSet::new();
     for (index, (job, input)) in jobs.iter().zip(inputs).enumerate() {
+        let waiting = prefetched
+            .as_ref()
+            .and_then(|p| p.unfinished[index].as_ref());
+        if let Some(reason) = waiting {
+            progress.suspend(|| done.fail(&job.task.id, job.approach, reason));
+            progress.inc(1);
+            continue;
+        }
         let runner: Arc<Runner> = runner.clone();
         let limit = limit.clone();
         let cancel = cancel.clone();
@@ -331,8 +362,11 @@ fn make_plans(args: &EvalArgs, jobs: Vec<Job<'_>>, done: &mut Finished) -> anyho
         let (id, approach) = (&job.task.id, job.approach);
         match record {
             Err(err) => progress.suspend(|| done.fail(id, approach, &err.to_string())),
-            Ok(record) => {
-                let cost = ledger.add_plan(&record, Billing::Interactive);
+            Ok(mut record) => {
+                if let Some(prefetched) = &prefetched {
+                    prefetched.mark_paid(&mut record);
+                }
+                let cost = ledger.add_plan(&record, billing);
                 match record.first_error() {
                     Some((role, error)) => {
                         let reason = format!("{role} failed: {error}");
@@ -350,6 +384,9 @@ fn make_plans(args: &EvalArgs, jobs: Vec<Job<'_>>, done: &mut Finished) -> anyho
         }
     }
     progress.finish_and_clear();
+    if let Some(prefetched) = &prefetched {
+        prefetched.bill_stranded(&mut ledger);
+    }
     eprint!("{}", ledger.table());
     args.agents.save_recording(recording)?;
     Ok(())

@@ -8,6 +8,7 @@ mod completions;
 mod corrupt;
 mod embed;
 mod eval;
+mod eval_batch;
 mod merge;
 mod models;
 mod parse;

@@ -1,0 +1,467 @@
+//! Provider batch APIs for `eval --batch`: every request an eval still needs
+//! is sent in provider batches (OpenAI's Batch API, Anthropic's Message
+//! Batches) at half the price and outside the interactive rate limits, and
+//! each answer is stored in the response cache like any other, so that the
+//! plans are then made from the cache. Multi-agent plans go in stages: the
+//! miners of every task in one batch, then the Planners.
+//!
+//! The ids of the submitted batches are saved (atomically) in a file of the
+//! output folder as soon as each is created, so that an interrupted run
+//! polls them again instead of submitting twice. The file holds the provider,
+//! base URL, model, agent, batch id and the requests' cache keys: never a
+//! key, and the request bodies are built in memory only.
+
+pub mod anthropic;
+pub mod openai;
+
+use std::collections::{BTreeMap, HashSet};
+use std::path::{Path, PathBuf};
+use std::time::Duration;
+
+use serde::{Deserialize, Serialize};
+use serde_json::Value;
+use tokio_util::sync::CancellationToken;
+
+use super::cache::{write_atomic, CachedAnswer};
+use super::pipeline::{PendingRequest, PlanInput, Runner};
+use super::provider::{cancellable, Assembler, Completion, HttpEndpoint};
+use super::{AgentError, AgentRole, Approach, ProviderKind, Usage};
+
+/// The most requests put in one batch (both providers accept more; smaller
+/// batches finish sooner and lose less when one fails).
+pub const MAX_BATCH_REQUESTS: usize = 10_000;
+
+/// The most bytes of requests put in one batch (OpenAI takes 200 MB,
+/// Anthropic 256 MB).
+pub const MAX_BATCH_BYTES: usize = 100 * 1024 * 1024;
+
+/// The shortest and longest wait between two polls of a batch.
+pub const POLL_BOUNDS: (Duration, Duration) = (Duration::from_millis(10), Duration::from_secs(600));
+
+/// The wait between two polls unless configured.
+pub const DEFAULT_POLL: Duration = Duration::from_secs(30);
+
+/// Everything that can stop a batch run.
+#[derive(Debug, thiserror::Error)]
+pub enum BatchError {
+    /// A request to a provider failed.
+    #[error(transparent)]
+    Agent(#[from] AgentError),
+    /// The runner has no response cache to put the answers in.
+    #[error("--batch keeps the answers in the response cache: drop --no-cache")]
+    NoCache,
+    /// The saved batch ids could not be read.
+    #[error("{path}: not a file of batch ids ({message}); move it away to submit the batches again (those already submitted are then paid twice)")]
+    Saved {
+        /// The file.
+        path: PathBuf,
+        /// What was wrong.
+        message: String,
+    },
+}
+
+/// A batch's progress as its provider reports it.
+#[derive(Debug, Clone, PartialEq)]
+pub struct BatchStatus {
+    /// The provider's word for it (`in_progress`, `completed`, `ended`…).
+    pub state: String,
+    /// Whether it will change no more.
+    pub ended: bool,
+    /// Requests finished, answered or not.
+    pub done: u64,
+    /// Requests in the batch.
+    pub total: u64,
+    /// Where the results are: OpenAI's output and error file ids, or
+    /// Anthropic's results URL.
+    pub results: Vec<String>,
+    /// Why the whole batch failed, when the provider says.
+    pub error: Option<String>,
+}
+
+/// One request's outcome in a batch's results.
+#[derive(Debug, Clone, PartialEq)]
+pub enum Outcome {
+    /// The answer, the key removed from its text.
+    Answered(Completion),
+    /// Why it has no answer (failed, expired, cancelled).
+    Failed(String),
+}
+
+/// A submitted batch, as saved in the output folder.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+pub struct SavedBatch {
+    /// The provider.
+    pub provider: ProviderKind,
+    /// The endpoint's base URL.
+    pub base_url: String,
+    /// The model of every request in it.
+    pub model: String,
+    /// The agent whose settings give the API key (from the environment or
+    /// config file of the run that polls).
+    pub role: AgentRole,
+    /// The provider's id of the batch.
+    pub id: String,
+    /// The cache keys of its requests (their `custom_id`s).
+    pub keys: Vec<String>,
+}
+
+/// The batches submitted and not yet collected.
+#[derive(Debug, Clone, Default, PartialEq, Serialize, Deserialize)]
+pub struct SavedBatches {
+    /// Oldest first.
+    pub batches: Vec<SavedBatch>,
+}
+
+impl SavedBatches {
+    /// Reads `path`; a missing file is no batch.
+    pub fn load(path: &Path) -> Result<Self, BatchError> {
+        let saved = |message: String| BatchError::Saved {
+            path: path.to_path_buf(),
+            message,
+        };
+        match std::fs::read_to_string(path) {
+            Ok(text) => serde_json::from_str(&text).map_err(|err| saved(err.to_string())),
+            Err(err) if err.kind() == std::io::ErrorKind::NotFound => Ok(Self::default()),
+            Err(err) => Err(saved(err.to_string())),
+        }
+    }
+
+    /// Writes `path` atomically.
+    pub fn save(&self, path: &Path) -> Result<(), BatchError> {
+        let text = serde_json::to_string_pretty(self).map_err(|err| BatchError::Saved {
+            path: path.to_path_buf(),
+            message: err.to_string(),
+        })?;
+        Ok(write_atomic(path, text.as_bytes())?)
+    }
+}
+
+/// What a batch run tells as it goes.
+#[derive(Debug, Clone, PartialEq)]
+pub enum BatchEvent<'a> {
+    /// A batch was created and its id saved.
+    Submitted(&'a SavedBatch),
+    /// A batch was polled.
+    Polled(&'a SavedBatch, &'a BatchStatus),
+    /// A request of a batch has no answer.
+    Failed {
+        /// Its cache key.
+        key: &'a str,
+        /// Why.
+        reason: &'a str,
+    },
+}
+
+/// How a batch run goes.
+#[derive(Debug, Clone)]
+pub struct BatchOptions {
+    /// The file of saved batch ids.
+    pub saved: PathBuf,
+    /// The wait between two polls.
+    pub poll: Duration,
+}
+
+/// What a batch run did.
+#[derive(Debug, Clone, Default, PartialEq)]
+pub struct BatchOutcome {
+    /// The keys of the requests a batch answered in this run (now cached).
+    pub answered: HashSet<String>,
+    /// The requests without an answer, and why.
+    pub failed: BTreeMap<String, String>,
+    /// Requests submitted in this run.
+    pub submitted: usize,
+    /// Batches submitted in this run.
+    pub batches: usize,
+}
+
+/// Sends in provider batches every request the `plans` still need (those
+/// whose answer is not cached), stage by stage, and stores the answers in
+/// the runner's response cache. Batches saved in `options.saved` by an
+/// interrupted run are polled and collected first, and their requests are
+/// not submitted again; a request that fails is reported and not retried in
+/// the same run (a new run retries it).
+pub async fn run_batches(
+    runner: &Runner,
+    plans: &[(Approach, PlanInput)],
+    options: &BatchOptions,
+    on_event: &(dyn Fn(BatchEvent<'_>) + Send + Sync),
+    cancel: &CancellationToken,
+) -> Result<BatchOutcome, BatchError> {
+    let mut saved = SavedBatches::load(&options.saved)?;
+    let mut outcome = BatchOutcome::default();
+    let mut attempted: HashSet<String> = saved
+        .batches
+        .iter()
+        .flat_map(|b| b.keys.iter().cloned())
+        .collect();
+    loop {
+        while let Some(batch) = saved.batches.first().cloned() {
+            collect(runner, &batch, options.poll, &mut outcome, on_event, cancel).await?;
+            saved.batches.remove(0);
+            saved.save(&options.saved)?;
+        }
+        let groups = next_requests(runner, plans, &attempted);
+        if groups.is_empty() {
+            return Ok(outcome);
+        }
+        for ((provider, base_url, model), requests) in groups {
+            for chunk in chunks(&requests) {
+                let role = chunk[0].role;
+                let client = client(runner, provider, &base_url, role)?;
+                let id = match provider {
+                    ProviderKind::Openai => openai::submit(&client, &chunk, cancel).await?,
+                    ProviderKind::Anthropic => anthropic::submit(&client, &chunk, cancel).await?,
+                };
+                let batch = SavedBatch {
+                    provider,
+                    base_url: base_url.clone(),
+                    model: model.clone(),
+                    role,
+                    id,
+                    keys: chunk.iter().map(|r| r.key.clone()).collect(),
+                };
+                attempted.extend(batch.keys.iter().cloned());
+                saved.batches.push(batch);
+                saved.save(&options.saved)?;
+                outcome.submitted += chunk.len();
+                outcome.batches += 1;
+                if let Some(batch) = saved.batches.last() {
+                    on_event(BatchEvent::Submitted(batch));
+                }
+            }
+        }
+    }
+}
+
+/// The requests of the plans' next stages not cached and not yet tried,
+/// each once, grouped by provider, base URL and model (a batch holds one
+/// model).
+fn next_requests(
+    runner: &Runner,
+    plans: &[(Approach, PlanInput)],
+    attempted: &HashSet<String>,
+) -> BTreeMap<(ProviderKind, String, String), Vec<PendingRequest>> {
+    let mut groups: BTreeMap<_, Vec<PendingRequest>> = BTreeMap::new();
+    let mut seen = HashSet::new();
+    for (approach, input) in plans {
+        let Ok(stage) = runner.next_stage(*approach, input) else {
+            continue;
+        };
+        for pending in stage.requests {
+            if pending.free || attempted.contains(&pending.key) || !seen.insert(pending.key.clone())
+            {
+                continue;
+            }
+            let settings = runner.settings().agent(pending.role);
+            let group = (
+                pending.provider,
+                settings.base_url.clone(),
+                pending.request.model.clone(),
+            );
+            groups.entry(group).or_default().push(pending);
+        }
+    }
+    groups
+}
+
+/// `requests` cut into batches of at most [`MAX_BATCH_REQUESTS`] requests
+/// and about [`MAX_BATCH_BYTES`] bytes of prompts and images.
+fn chunks(requests: &[PendingRequest]) -> Vec<Vec<&PendingRequest>> {
+    let mut out: Vec<Vec<&PendingRequest>> = Vec::new();
+    let mut bytes = 0;
+    for pending in requests {
+        let request = &pending.request;
+        let size = request.system.len()
+            + request.user.len()
+            + request
+                .images
+                .iter()
+                .map(|i| i.data_base64.len())
+                .sum::<usize>();
+        let full = out.last().is_none_or(|last| {
+            last.len() >= MAX_BATCH_REQUESTS || (bytes + size > MAX_BATCH_BYTES && !last.is_empty())
+        });
+        if full {
+            out.push(Vec::new());
+            bytes = 0;
+        }
+        bytes += size;
+        if let Some(last) = out.last_mut() {
+            last.push(pending);
+        }
+    }
+    out
+}
+
+/// The HTTP endpoint of a batch, with the key of `role`'s settings.
+fn client(
+    runner: &Runner,
+    provider: ProviderKind,
+    base_url: &str,
+    role: AgentRole,
+) -> Result<HttpEndpoint, AgentError> {
+    let settings = runner.settings();
+    let key = settings.agent(role).api_key.clone();
+    HttpEndpoint::new(provider.name(), base_url, key, settings.http.clone())
+}
+
+/// Polls `batch` until it ends, then stores each answer in the cache and
+/// reports each request without one.
+async fn collect(
+    runner: &Runner,
+    batch: &SavedBatch,
+    poll: Duration,
+    outcome: &mut BatchOutcome,
+    on_event: &(dyn Fn(BatchEvent<'_>) + Send + Sync),
+    cancel: &CancellationToken,
+) -> Result<(), BatchError> {
+    let cache = runner.cache().ok_or(BatchError::NoCache)?;
+    let client = client(runner, batch.provider, &batch.base_url, batch.role)?;
+    let status = loop {
+        let status = match batch.provider {
+            ProviderKind::Openai => openai::status(&client, &batch.id, cancel).await?,
+            ProviderKind::Anthropic => anthropic::status(&client, &batch.id, cancel).await?,
+        };
+        on_event(BatchEvent::Polled(batch, &status));
+        if status.ended {
+            break status;
+        }
+        cancellable(cancel, tokio::time::sleep(poll)).await?;
+    };
+    let results = match batch.provider {
+        ProviderKind::Openai => openai::results(&client, &status, &batch.model, cancel).await?,
+        ProviderKind::Anthropic => {
+            anthropic::results(&client, &status, &batch.model, cancel).await?
+        }
+    };
+    let mut unanswered: HashSet<&str> = batch.keys.iter().map(String::as_str).collect();
+    for (key, result) in results {
+        if !unanswered.remove(key.as_str()) {
+            continue;
+        }
+        match result {
+            Outcome::Answered(completion) => {
+                cache.put(&CachedAnswer {
+                    key: key.clone(),
+                    provider: batch.provider,
+                    model: batch.model.clone(),
+                    completion,
+                })?;
+                outcome.answered.insert(key);
+            }
+            Outcome::Failed(reason) => {
+                on_event(BatchEvent::Failed {
+                    key: &key,
+                    reason: &reason,
+                });
+                outcome.failed.insert(key, reason);
+            }
+        }
+    }
+    let mut missing: Vec<&str> = unanswered.into_iter().collect();
+    missing.sort_unstable();
+    for key in missing {
+        let mut reason = format!(
+            "batch {} ended ({}) without an answer",
+            batch.id, status.state
+        );
+        if let Some(error) = &status.error {
+            reason.push_str(&format!(": {error}"));
+        }
+        on_event(BatchEvent::Failed {
+            key,
+            reason: &reason,
+        });
+        outcome.failed.insert(key.to_string(), reason);
+    }
+    Ok(())
+}
+
+/// A batch's answer text as a completion, the key removed; an empty answer
+/// is a failure.
+fn completion(endpoint: &HttpEndpoint, text: &str, usage: Usage, model: &str) -> Outcome {
+    let mut answer = Assembler::new(&|_| {}, endpoint.key.clone());
+    answer.push(text);
+    answer.usage = usage;
+    match answer.finish(endpoint.provider, model) {
+        Ok(completion) => Outcome::Answered(completion),
+        Err(err) => Outcome::Failed(err.to_string()),
+    }
+}
+
+/// Each line of a results file (JSONL, blank lines skipped) with a
+/// `custom_id`, read by the provider's `outcome` as an answer or a failure.
+async fn read_outcomes(
+    endpoint: &HttpEndpoint,
+    response: reqwest::Response,
+    model: &str,
+    outcome: fn(&HttpEndpoint, &Value, &str) -> Outcome,
+    cancel: &CancellationToken,
+) -> Result<Vec<(String, Outcome)>, AgentError> {
+    let text = cancellable(cancel, response.text())
+        .await?
+        .map_err(|err| endpoint.transport_error(&err))?;
+    let mut outcomes = Vec::new();
+    for (number, line) in text.lines().enumerate() {
+        if line.trim().is_empty() {
+            continue;
+        }
+        let line: Value = serde_json::from_str(line).map_err(|err| {
+            endpoint.invalid(format!("line {} of the batch results: {err}", number + 1))
+        })?;
+        if let Some(id) = line.get("custom_id").and_then(Value::as_str) {
+            outcomes.push((id.to_string(), outcome(endpoint, &line, model)));
+        }
+    }
+    Ok(outcomes)
+}
+
+/// GETs `url` with the provider's headers (`authorised`) and reads the
+/// JSON answer.
+async fn get_json(
+    endpoint: &HttpEndpoint,
+    url: &str,
+    authorised: fn(&HttpEndpoint, reqwest::RequestBuilder) -> reqwest::RequestBuilder,
+    cancel: &CancellationToken,
+) -> Result<Value, AgentError> {
+    let get = || authorised(endpoint, endpoint.client.get(url));
+    let response = endpoint.send(get, cancel).await?;
+    endpoint.read_json(response, cancel).await
+}
+
+/// The string `field` of a provider's answer about `what`.
+fn string_field(
+    endpoint: &HttpEndpoint,
+    value: &Value,
+    field: &str,
+    what: &str,
+) -> Result<String, AgentError> {
+    value
+        .get(field)
+        .and_then(Value::as_str)
+        .map(str::to_string)
+        .ok_or_else(|| endpoint.invalid(format!("no `{field}` in the answer about {what}")))
+}
+
+/// One of a batch's `request_counts` (0 when absent).
+fn request_count(value: &Value, field: &str) -> u64 {
+    value
+        .pointer(&format!("/request_counts/{field}"))
+        .and_then(Value::as_u64)
+        .unwrap_or(0)
+}
+
+/// Checks a poll interval in seconds against [`POLL_BOUNDS`].
+pub fn poll_interval(seconds: f64) -> Result<Duration, String> {
+    let (low, high) = POLL_BOUNDS;
+    Duration::try_from_secs_f64(seconds)
+        .ok()
+        .filter(|wait| (low..=high).contains(wait))
+        .ok_or_else(|| {
+            format!(
+                "poll interval {seconds} s: give between {} and {} seconds",
+                low.as_secs_f64(),
+                high.as_secs_f64()
+            )
+        })
+}
