@@ -490,7 +490,7 @@ async fn anthropic_batches_run_in_stages_and_an_expired_request_is_retried_by_th
     let expired: Vec<&str> = stderr
         .lines()
         .filter(|l| {
-            l.starts_with("mapvlm: batch request ")
+            l.starts_with("mapvlm: batch msgbatch_1 request ")
                 && l.ends_with(": expired before it was answered")
         })
         .collect();

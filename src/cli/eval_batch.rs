@@ -116,7 +116,7 @@ pub fn prefetch(
         match event {
         BatchEvent::Submitted(batch) => progress.suspend(|| {
             eprintln!(
-                "mapvlm: submitted {} batch {} ({} requests to {}); its id is saved in {saved}: interrupt and re-run to resume",
+                "mapvlm: submitted {} batch {} ({} requests to {}); its id is saved in {saved}: interrupt and run again to resume",
                 batch.provider.name(),
                 batch.id,
                 batch.keys.len(),
@@ -128,8 +128,8 @@ pub fn prefetch(
             progress.set_position(status.done);
             progress.set_message(format!("{} {}", batch.id, status.state));
         }
-        BatchEvent::Failed { key, reason } => progress.suspend(|| {
-            eprintln!("mapvlm: batch request {key}: {reason}");
+        BatchEvent::Failed { batch, key, reason } => progress.suspend(|| {
+            eprintln!("mapvlm: batch {} request {key}: {reason}", batch.id);
         }),
     }
     };

@@ -145,7 +145,9 @@ pub enum BatchEvent<'a> {
     Polled(&'a SavedBatch, &'a BatchStatus),
     /// A request of a batch has no answer.
     Failed {
-        /// Its cache key.
+        /// The batch.
+        batch: &'a SavedBatch,
+        /// The request's cache key (its `custom_id`).
         key: &'a str,
         /// Why.
         reason: &'a str,
@@ -351,6 +353,7 @@ async fn collect(
             }
             Outcome::Failed(reason) => {
                 on_event(BatchEvent::Failed {
+                    batch,
                     key: &key,
                     reason: &reason,
                 });
@@ -369,6 +372,7 @@ async fn collect(
             reason.push_str(&format!(": {error}"));
         }
         on_event(BatchEvent::Failed {
+            batch,
             key,
             reason: &reason,
         });
@@ -464,4 +468,59 @@ pub fn poll_interval(seconds: f64) -> Result<Duration, String> {
                 high.as_secs_f64()
             )
         })
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::agents::provider::ChatRequest;
+
+    fn pending(key: usize, user: &str) -> PendingRequest {
+        PendingRequest {
+            role: AgentRole::Single,
+            provider: ProviderKind::Openai,
+            key: format!("k{key}"),
+            request: ChatRequest {
+                model: "m".into(),
+                system: String::new(),
+                user: user.into(),
+                images: Vec::new(),
+                temperature: 0.0,
+                max_tokens: 10,
+                stream: false,
+                json_schema: None,
+            },
+            free: false,
+        }
+    }
+
+    #[test]
+    fn batches_are_cut_by_count_and_by_size() {
+        let many: Vec<PendingRequest> = (0..MAX_BATCH_REQUESTS + 1)
+            .map(|i| pending(i, "x"))
+            .collect();
+        let sizes: Vec<usize> = chunks(&many).iter().map(Vec::len).collect();
+        assert_eq!(sizes, [MAX_BATCH_REQUESTS, 1]);
+        let big = "y".repeat(MAX_BATCH_BYTES / 2 + 1);
+        let large = [pending(1, &big), pending(2, &big), pending(3, "z")];
+        let sizes: Vec<usize> = chunks(&large).iter().map(Vec::len).collect();
+        assert_eq!(sizes, [1, 2]);
+    }
+
+    #[test]
+    fn poll_intervals_are_bounded_and_saved_ids_checked() {
+        assert_eq!(poll_interval(0.5), Ok(Duration::from_millis(500)));
+        for bad in [0.0, 0.001, 601.0, f64::NAN, -1.0] {
+            assert!(poll_interval(bad).is_err(), "{bad}");
+        }
+        let dir = tempfile::tempdir().unwrap();
+        let path = dir.path().join("batches.json");
+        assert_eq!(SavedBatches::load(&path).unwrap(), SavedBatches::default());
+        std::fs::write(&path, "{not json").unwrap();
+        let err = SavedBatches::load(&path).unwrap_err().to_string();
+        assert!(
+            err.contains("batches.json") && err.contains("move it away"),
+            "{err}"
+        );
+    }
 }
