@@ -205,7 +205,7 @@ fn help_lists_every_key() {
     h.key(KeyCode::Char('?'));
     let screen = h.screen();
     assert!(screen.contains("Keys (any key closes)"));
-    for binding in BINDINGS {
+    for binding in BINDINGS.iter().filter(|b| !b.context.is_overlay()) {
         assert!(
             screen.contains(binding.label),
             "{} not in the help",
@@ -251,17 +251,21 @@ fn another_ground_truth_and_an_edited_step_change_the_scores() {
     h.key(KeyCode::Char('g'));
     h.key(KeyCode::Down);
     h.key(KeyCode::Enter);
-    assert_eq!(h.app.ground_truth[1], "Pick up the blue mug.");
+    assert_eq!(h.app.ground_truth.items[1], "Pick up the blue mug.");
     let with_b = kas_of(&h);
     assert_ne!(before, with_b);
     // edit plan step 1 in the Plan pane (focused at start)
     h.key(KeyCode::Enter);
     h.keys(" Then wave");
     h.key(KeyCode::Enter);
-    assert!(h.app.plan[0].ends_with("Then wave"), "{:?}", h.app.plan[0]);
+    assert!(
+        h.app.plan.items[0].ends_with("Then wave"),
+        "{:?}",
+        h.app.plan.items[0]
+    );
     assert_ne!(kas_of(&h), with_b);
     let session = h.app.to_session();
-    assert_eq!(session.plan[0], h.app.plan[0]);
+    assert_eq!(session.plan[0], h.app.plan.items[0]);
 }
 
 #[test]
@@ -293,20 +297,20 @@ fn the_knowledge_graph_is_navigable() {
     }
     h.key(KeyCode::Char('v'));
     assert!(h.screen().contains("counter ─right of─▶"));
-    let start = h.app.graph_cursor.node;
+    let start = h.app.graph.cursor.node;
     h.key(KeyCode::Enter);
-    let next = h.app.graph_cursor.node;
+    let next = h.app.graph.cursor.node;
     assert_ne!(start, next);
-    assert_eq!(h.app.graph.nodes[next], "counter");
+    assert_eq!(h.app.graph.kg.nodes[next], "counter");
     h.key(KeyCode::Backspace);
-    assert_eq!(h.app.graph_cursor.node, start);
+    assert_eq!(h.app.graph.cursor.node, start);
 }
 
 #[test]
 fn scores_of_a_finished_run_are_kept_in_its_record() {
     let h = Harness::new((200, 60), None, false, unavailable());
-    assert_eq!(h.app.runs.len(), 1);
-    let scores = h.app.runs[0].scores.expect("scored");
+    assert_eq!(h.app.runs.history.len(), 1);
+    let scores = h.app.runs.history[0].scores.expect("scored");
     assert!((scores.kas.unwrap() - 0.72).abs() < 0.01);
     assert!(matches!(
         h.app.scores.as_ref().map(|s| &s.pg2s),
@@ -343,7 +347,7 @@ fn published_plans_score_as_in_mapvlm_score() {
         let task = &dataset.tasks[index];
         assert_eq!(h.app.task.id.as_deref(), Some(task.id.as_str()));
         let plan = &task.plans["multi_agent_image"];
-        assert_eq!(&h.app.plan, plan);
+        assert_eq!(&h.app.plan.items, plan);
         let gt_file = dir.path().join("gt.txt");
         let pred_file = dir.path().join("pred.txt");
         std::fs::write(&gt_file, task.ground_truth.join("\n")).unwrap();
@@ -485,6 +489,7 @@ fn state_for(context: Context, action: Action, warm: bool) -> Harness {
     if context == Context::Graph {
         h.key(KeyCode::Char('v'));
     }
+    open_overlay(&mut h, context, warm);
     if warm {
         match context {
             Context::WholeGraph => h.keys("]]]"),
@@ -511,6 +516,80 @@ fn state_for(context: Context, action: Action, warm: bool) -> Harness {
     h
 }
 
+/// Opens the overlay whose keys `context` holds (nothing for the others);
+/// `warm` moves its selection off the end first.
+fn open_overlay(h: &mut Harness, context: Context, warm: bool) {
+    match context {
+        Context::Picker => h.key(KeyCode::Char('g')),
+        Context::History => {
+            h.keys("RH");
+            if warm {
+                h.key(KeyCode::Up);
+            }
+        }
+        Context::PathPrompt => {
+            h.key(KeyCode::Char('g'));
+            h.keys("jj");
+            h.key(KeyCode::Enter);
+        }
+        Context::ModelForm => h.key(KeyCode::Char('m')),
+        Context::Viewer => h.key(KeyCode::Char('f')),
+        _ => return,
+    }
+    if warm && context == Context::Picker {
+        h.key(KeyCode::Down);
+    }
+    assert_eq!(
+        h.app.key_context(),
+        context,
+        "the overlay of {context:?} is open"
+    );
+}
+
+const OVERLAYS: [Context; 5] = [
+    Context::Picker,
+    Context::History,
+    Context::PathPrompt,
+    Context::ModelForm,
+    Context::Viewer,
+];
+
+#[test]
+fn a_key_missing_from_the_key_table_does_nothing_in_an_overlay() {
+    // The path prompt and the model form type every other key.
+    for context in [Context::Picker, Context::History, Context::Viewer] {
+        let mut h = Harness::new((200, 60), None, false, unavailable());
+        open_overlay(&mut h, context, false);
+        for key in every_key() {
+            if keymap::action(&[Context::Always, context], &key).is_some() {
+                continue;
+            }
+            assert!(
+                !h.press_changes(key),
+                "{key:?} does something in {context:?} but is not in the key table"
+            );
+        }
+    }
+}
+
+#[test]
+fn an_overlay_shows_all_its_keys_in_the_status_bar() {
+    for context in OVERLAYS {
+        let mut h = Harness::new((200, 60), None, false, unavailable());
+        open_overlay(&mut h, context, false);
+        let screen = h.screen();
+        let status = screen.lines().last().unwrap_or_default();
+        for binding in BINDINGS.iter().filter(|b| b.context == context) {
+            let (key, hint) = binding.hint.unwrap();
+            assert!(
+                status.contains(&format!("{key} {hint}")),
+                "{} not in the status bar of {context:?}: {status}",
+                binding.label
+            );
+        }
+    }
+}
+
 #[test]
 fn every_key_in_the_key_table_is_handled() {
     for binding in BINDINGS {
@@ -530,6 +609,7 @@ fn every_key_in_the_key_table_is_handled() {
                         Context::StepEditor | Context::PromptEditor | Context::Search => {
                             vec![h.app.editing.context()]
                         }
+                        c if OVERLAYS.contains(&c) => vec![h.app.key_context()],
                         _ => h.app.pane_contexts(),
                     })
                     .collect();
@@ -550,9 +630,9 @@ fn the_whole_graph_is_the_default_and_the_neighbourhood_a_mode() {
     h.focus(Pane::Graph);
     let whole = h.screen();
     assert!(!whole.contains("node 1/13"), "{whole}");
-    let first = h.app.graph_view.selected();
+    let first = h.app.graph.view.selected();
     h.key(KeyCode::Char(']'));
-    assert_ne!(h.app.graph_view.selected(), first);
+    assert_ne!(h.app.graph.view.selected(), first);
     assert_ne!(h.screen(), whole);
     h.key(KeyCode::Char('v'));
     assert!(h.screen().contains("node 1/13"));

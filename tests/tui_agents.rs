@@ -207,11 +207,12 @@ fn the_demo_replays_byte_for_byte_with_no_provider() {
         tokens > 100,
         "the answers stream a word at a time: {tokens}"
     );
-    assert_eq!(app.plan, parse_steps(demo::PLANNER_OUTPUT));
-    assert_eq!(app.plan.len(), 7);
-    assert!(app.graph.find("coffee machine").is_some());
-    assert_eq!(app.runs.len(), 1);
+    assert_eq!(app.plan.items, parse_steps(demo::PLANNER_OUTPUT));
+    assert_eq!(app.plan.items.len(), 7);
+    assert!(app.graph.kg.find("coffee machine").is_some());
+    assert_eq!(app.runs.history.len(), 1);
     assert!(app
+        .runs
         .agents
         .values()
         .take(3)
@@ -303,7 +304,7 @@ fn a_live_run_streams_into_the_panes_and_an_edited_planner_prompt_asks_once() {
         "the demo's replay asks no server"
     );
     for role in [AgentRole::Skm, AgentRole::Gkm, AgentRole::Planner] {
-        app.agents.get_mut(&role).unwrap().settings = live_settings();
+        app.runs.agents.get_mut(&role).unwrap().settings = live_settings();
     }
 
     let cmds = key(&mut app, KeyCode::Char('r'));
@@ -324,7 +325,7 @@ fn a_live_run_streams_into_the_panes_and_an_edited_planner_prompt_asks_once() {
         let cmds = app.update(Msg::Agent(run, event));
         run_cmds(&mut app, &pipeline, cmds);
         if planner_token {
-            plan_sizes.push(app.plan.len());
+            plan_sizes.push(app.plan.items.len());
         }
     }
     let outputs = finished(&events);
@@ -334,10 +335,13 @@ fn a_live_run_streams_into_the_panes_and_an_edited_planner_prompt_asks_once() {
         plan_sizes.len() > 3 && plan_sizes.first() < plan_sizes.last(),
         "the plan grows as the planner writes: {plan_sizes:?}"
     );
-    assert_eq!(app.plan, parse_steps(PLAN_TEXT));
-    assert_eq!(app.agents[&AgentRole::Gkm].output, GKM_TEXT);
-    assert!(app.graph.find("sponge").is_some());
-    assert_eq!(app.agents[&AgentRole::Planner].status, AgentStatus::Done);
+    assert_eq!(app.plan.items, parse_steps(PLAN_TEXT));
+    assert_eq!(app.runs.agents[&AgentRole::Gkm].output, GKM_TEXT);
+    assert!(app.graph.kg.find("sponge").is_some());
+    assert_eq!(
+        app.runs.agents[&AgentRole::Planner].status,
+        AgentStatus::Done
+    );
     assert_eq!(
         runtime.block_on(server.received_requests()).unwrap().len(),
         3
@@ -352,6 +356,6 @@ fn a_live_run_streams_into_the_panes_and_an_edited_planner_prompt_asks_once() {
     let last = String::from_utf8_lossy(&requests[3].body).to_string();
     assert!(last.contains(PLANNER_MARK) && last.contains("Be brief."));
     assert_eq!(finished(&events)[&AgentRole::Skm], SKM_TEXT);
-    assert_eq!(app.runs.len(), 3);
-    assert_eq!(app.plan, parse_steps(PLAN_TEXT));
+    assert_eq!(app.runs.history.len(), 3);
+    assert_eq!(app.plan.items, parse_steps(PLAN_TEXT));
 }

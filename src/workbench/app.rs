@@ -5,29 +5,25 @@
 
 use std::collections::BTreeMap;
 use std::path::PathBuf;
-use std::sync::Arc;
 
-use image::DynamicImage;
-use ratatui::layout::Rect;
-use ratatui_image::protocol::Protocol;
 use ratatui_textarea::TextArea;
 
-use crate::agents::graph::KnowledgeGraph;
-use crate::agents::{AgentRole, Approach};
+use crate::agents::Approach;
 use crate::dataset::{Dataset, Task};
 use crate::demo;
 use crate::workbench::agents::{self, planning_role, roles};
 use crate::workbench::editing::Editing;
-use crate::workbench::graph_view::GraphView;
 use crate::workbench::keymap::Context;
 use crate::workbench::message::Cmd;
 use crate::workbench::overlays::Overlay;
-use crate::workbench::panes::graph::{GraphCursor, GraphMode};
-use crate::workbench::panes::steps::demo_ground_truth;
+use crate::workbench::panes::graph::GraphPane;
+use crate::workbench::panes::prompt::PromptPane;
+use crate::workbench::panes::scene::ScenePane;
+use crate::workbench::panes::steps::{demo_ground_truth, Steps};
 use crate::workbench::panes::Pane;
-use crate::workbench::runs::{fresh_agents, ActiveRun, AgentStatus, AgentView};
+use crate::workbench::runs::{AgentStatus, Runs};
 use crate::workbench::scoring::{ScoreOutcome, ScoreRequest};
-use crate::workbench::session::{GroundTruthSource, PlanSource, RunRecord, Session};
+use crate::workbench::session::{GroundTruthSource, PlanSource, Session};
 use crate::workbench::theme::Theme;
 
 /// The order the approaches cycle in.
@@ -142,58 +138,32 @@ pub struct App {
     pub dataset: Option<Dataset>,
     /// The approach.
     pub approach: Approach,
-    /// The agents.
-    pub agents: BTreeMap<AgentRole, AgentView>,
-    /// Every prompt template's text by name, as edited.
-    pub prompts: BTreeMap<String, String>,
-    /// The templates' texts the workbench started with.
-    pub default_prompts: BTreeMap<String, String>,
-    /// The agent whose prompt the Prompt pane shows.
-    pub prompt_agent: AgentRole,
-    /// The prompt editor, holding the selected agent's prompt.
-    pub prompt_editor: TextArea<'static>,
+    /// The agents and the runs.
+    pub runs: Runs,
+    /// The Prompt pane: every template's text, and its editor.
+    pub prompt: PromptPane,
     /// The plan steps.
-    pub plan: Vec<String>,
+    pub plan: Steps,
     /// Where the plan came from.
     pub plan_source: PlanSource,
-    /// The selected plan step.
-    pub plan_selected: usize,
     /// The ground-truth steps.
-    pub ground_truth: Vec<String>,
+    pub ground_truth: Steps,
     /// Where they came from.
     pub ground_truth_source: GroundTruthSource,
-    /// The selected ground-truth step.
-    pub ground_truth_selected: usize,
     /// The latest scores.
     pub scores: Option<ScoreOutcome>,
     /// The generation of the latest score request.
     pub score_generation: u64,
     /// The PG2S models.
     pub models: ModelStatus,
-    /// Every run.
-    pub runs: Vec<RunRecord>,
-    /// The run in flight.
-    pub active_run: Option<ActiveRun>,
-    /// A finished run waiting for its scores: (index in `runs`, generation).
-    pub run_awaiting_scores: Option<(usize, u64)>,
-    /// The knowledge graph of the SKM output.
-    pub graph: KnowledgeGraph,
-    /// The graph view's position.
-    pub graph_cursor: GraphCursor,
-    /// The whole-graph view: layout, selection, zoom and pan.
-    pub graph_view: GraphView,
-    /// Which of the two graph drawings the pane shows.
-    pub graph_mode: GraphMode,
+    /// The Knowledge Graph pane.
+    pub graph: GraphPane,
     /// The search, highlighted in every pane.
     pub search: String,
     /// The latest status message.
     pub status: Option<(String, Severity)>,
-    /// Whether the scene image is shown.
-    pub image_enabled: bool,
-    /// The scene image.
-    pub scene: Option<Arc<DynamicImage>>,
-    /// The scene image encoded for an area of the terminal.
-    pub scene_protocol: Option<(Rect, Box<Protocol>)>,
+    /// The Scene pane.
+    pub scene: ScenePane,
     /// Scroll offsets of the text panes.
     pub scroll: BTreeMap<Pane, u16>,
     /// Set when the user asked to quit.
@@ -262,32 +232,19 @@ impl App {
             task: demo_task(),
             dataset: init.dataset,
             approach: Approach::MultiImage,
-            agents: fresh_agents(),
-            prompts: init.prompts.clone(),
-            default_prompts: init.prompts,
-            prompt_agent: AgentRole::Skm,
-            prompt_editor: TextArea::default(),
-            plan: Vec::new(),
+            runs: Runs::new(),
+            prompt: PromptPane::new(init.prompts),
+            plan: Steps::default(),
             plan_source: PlanSource::None,
-            plan_selected: 0,
-            ground_truth: demo_ground_truth(0),
+            ground_truth: Steps::new(demo_ground_truth(0)),
             ground_truth_source: GroundTruthSource::Demo { index: 0 },
-            ground_truth_selected: 0,
             scores: None,
             score_generation: 0,
             models: init.models,
-            runs: Vec::new(),
-            active_run: None,
-            run_awaiting_scores: None,
-            graph: KnowledgeGraph::default(),
-            graph_cursor: GraphCursor::default(),
-            graph_view: GraphView::default(),
-            graph_mode: GraphMode::default(),
+            graph: GraphPane::default(),
             search: String::new(),
             status: init.notice,
-            image_enabled: true,
-            scene: Some(Arc::new(DynamicImage::ImageRgb8(demo::scene_image()))),
-            scene_protocol: None,
+            scene: ScenePane::demo(),
             scroll: BTreeMap::new(),
             quit: false,
             session_dirty: false,
@@ -340,15 +297,15 @@ impl App {
     /// Switches to a dataset task: its ground truth, image and published plan.
     pub(crate) fn switch_task(&mut self, task: &Task) -> Vec<Cmd> {
         self.task = task_view(task);
-        self.ground_truth = task.ground_truth.clone();
+        self.ground_truth.items = task.ground_truth.clone();
         self.ground_truth_source = GroundTruthSource::Dataset {
             task: task.id.clone(),
         };
-        self.ground_truth_selected = 0;
+        self.ground_truth.selected = 0;
         if !self.approach.uses_image() && self.task.table.is_none() {
             self.set_approach(Approach::MultiImage);
         }
-        for v in self.agents.values_mut() {
+        for v in self.runs.agents.values_mut() {
             v.output.clear();
             v.status = AgentStatus::Idle;
             v.ran_with = None;
@@ -362,18 +319,18 @@ impl App {
         let key = self.approach.dataset_field();
         match (self.task.id.clone(), self.task.published.get(key)) {
             (Some(task), Some(steps)) => {
-                self.plan = steps.clone();
+                self.plan.items = steps.clone();
                 self.plan_source = PlanSource::Published {
                     task,
                     approach: self.approach,
                 };
             }
             _ => {
-                self.plan.clear();
+                self.plan.items.clear();
                 self.plan_source = PlanSource::None;
             }
         }
-        self.plan_selected = 0;
+        self.plan.selected = 0;
     }
 
     /// Switches the approach, the Prompt pane showing the same agent's
@@ -384,8 +341,8 @@ impl App {
             self.editing = Editing::None;
         }
         self.approach = approach;
-        if !roles(approach).contains(&self.prompt_agent) {
-            self.prompt_agent = planning_role(approach);
+        if !roles(approach).contains(&self.prompt.agent) {
+            self.prompt.agent = planning_role(approach);
         }
         self.load_prompt_editor();
     }
@@ -419,15 +376,21 @@ impl App {
         !matches!(self.editing, Editing::None)
     }
 
+    /// The context that has the keyboard: the open editor's (editors come
+    /// first, see `on_key`), else the open overlay's, else the panes'.
+    pub fn key_context(&self) -> Context {
+        match (&self.editing, &self.overlay) {
+            (Editing::None, Some(overlay)) => overlay.context().unwrap_or(Context::Panes),
+            (editing, _) => editing.context(),
+        }
+    }
+
     /// The contexts whose bindings apply with no editor or overlay open,
     /// the focused pane's first.
     pub fn pane_contexts(&self) -> Vec<Context> {
         let pane = match self.focus {
             Pane::Plan | Pane::GroundTruth => Some(Context::Steps),
-            Pane::Graph => Some(match self.graph_mode {
-                GraphMode::Whole => Context::WholeGraph,
-                GraphMode::Neighbourhood => Context::Graph,
-            }),
+            Pane::Graph => Some(self.graph.context()),
             Pane::Prompt => Some(Context::Prompt),
             _ => None,
         };

@@ -55,30 +55,15 @@ impl App {
                 inserted,
             } => match action {
                 Some(Action::Accept) => {
-                    let text = editor.lines().join(" ").trim().to_string();
-                    let steps = self.steps_mut(list);
-                    if text.is_empty() {
-                        if index < steps.len() {
-                            steps.remove(index);
-                        }
-                    } else if let Some(step) = steps.get_mut(index) {
-                        *step = text;
-                    }
-                    let len = self.steps(list).len();
-                    *self.selected_mut(list) = index.min(len.saturating_sub(1));
-                    if list == StepList::GroundTruth
-                        && !matches!(self.ground_truth_source, GroundTruthSource::Typed)
-                    {
+                    self.steps_mut(list)
+                        .commit(index, &editor.lines().join(" "));
+                    if list == StepList::GroundTruth {
                         self.ground_truth_source = GroundTruthSource::Typed;
                     }
                     vec![self.rescore()]
                 }
                 Some(Action::Leave) => {
-                    if inserted && index < self.steps(list).len() {
-                        self.steps_mut(list).remove(index);
-                    }
-                    let len = self.steps(list).len();
-                    *self.selected_mut(list) = index.min(len.saturating_sub(1));
+                    self.steps_mut(list).discard(index, inserted);
                     vec![self.rescore()]
                 }
                 _ => {
@@ -106,7 +91,7 @@ impl App {
                     self.session_dirty = true;
                     return self.start_run(false);
                 }
-                self.prompt_editor.input(key);
+                self.prompt.editor.input(key);
                 self.editing = Editing::Prompt;
                 self.session_dirty = true;
                 Vec::new()
@@ -135,7 +120,7 @@ impl App {
                 vec![self.rescore()]
             }
             Editing::Prompt => {
-                self.prompt_editor.insert_str(text);
+                self.prompt.editor.insert_str(text);
                 self.session_dirty = true;
                 Vec::new()
             }
@@ -150,27 +135,16 @@ impl App {
 
     /// Moves the focused list's selection to the next step holding the search.
     pub(crate) fn jump_to_search(&mut self) {
-        let needle = self.search.to_lowercase();
-        if needle.is_empty() {
+        if self.search.is_empty() {
             return;
         }
         let list = match self.focus {
             Pane::GroundTruth => StepList::GroundTruth,
             _ => StepList::Plan,
         };
-        let steps = self.steps(list);
-        let start = match list {
-            StepList::Plan => self.plan_selected,
-            StepList::GroundTruth => self.ground_truth_selected,
-        };
-        let n = steps.len();
-        let hit = (1..=n).map(|k| (start + k) % n.max(1)).find(|&i| {
-            steps
-                .get(i)
-                .is_some_and(|s| s.to_lowercase().contains(&needle))
-        });
+        let hit = self.steps(list).next_hit(&self.search);
         match hit {
-            Some(i) => *self.selected_mut(list) = i,
+            Some(i) => self.steps_mut(list).selected = i,
             None => self.set_status(format!("no step holds “{}”", self.search), Severity::Info),
         }
     }

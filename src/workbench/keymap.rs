@@ -29,15 +29,43 @@ pub enum Context {
     PromptEditor,
     /// Typing a search.
     Search,
+    /// A list to choose from: the ground-truth picker.
+    Picker,
+    /// The run history.
+    History,
+    /// A one-line path prompt (the step file).
+    PathPrompt,
+    /// The model form.
+    ModelForm,
+    /// A view to read and close: the framed actions, two runs compared.
+    Viewer,
 }
 
 impl Context {
+    /// Whether this is an overlay's context, whose keys the status bar
+    /// shows in full (every binding of it has a hint) instead of the help.
+    pub fn is_overlay(self) -> bool {
+        matches!(
+            self,
+            Context::Picker
+                | Context::History
+                | Context::PathPrompt
+                | Context::ModelForm
+                | Context::Viewer
+        )
+    }
+
     /// The word the status bar starts with in this context, if it is a mode.
     pub fn mode(self) -> Option<&'static str> {
         match self {
             Context::StepEditor => Some("EDIT step"),
             Context::PromptEditor => Some("EDIT prompt"),
             Context::Search => Some("SEARCH"),
+            Context::Picker => Some("CHOOSE"),
+            Context::History => Some("RUNS"),
+            Context::PathPrompt => Some("PATH"),
+            Context::ModelForm => Some("MODEL"),
+            Context::Viewer => Some("VIEW"),
             _ => None,
         }
     }
@@ -124,6 +152,14 @@ pub enum Action {
     Leave,
     /// Run the agents from the prompt editor.
     RunFromEditor,
+    /// Focus the next field of a form.
+    NextField,
+    /// Focus the previous field of a form.
+    PreviousField,
+    /// Mark the highlighted run for comparison, or unmark it.
+    MarkRun,
+    /// Compare the marked run with the highlighted one.
+    CompareRuns,
 }
 
 /// A key as the table names it: a code, and whether Ctrl is held.
@@ -491,6 +527,176 @@ pub const BINDINGS: &[Binding] = &[
         "t",
         "next theme (NO_COLOR turns colour off)",
     ),
+    hinted(
+        bind(
+            C::Picker,
+            &[
+                (key(KeyCode::Up), A::Move(-1)),
+                (key(KeyCode::Down), A::Move(1)),
+                (ch('k'), A::Move(-1)),
+                (ch('j'), A::Move(1)),
+            ],
+            "↑↓ j k (choosing)",
+            "move",
+        ),
+        "↑↓",
+        "move",
+    ),
+    hinted(
+        bind(
+            C::Picker,
+            &[(key(KeyCode::Enter), A::Accept)],
+            "Enter (choosing)",
+            "choose",
+        ),
+        "Enter",
+        "chooses",
+    ),
+    hinted(
+        bind(
+            C::Picker,
+            &[(key(KeyCode::Esc), A::Leave), (ch('q'), A::Leave)],
+            "Esc q (choosing)",
+            "close",
+        ),
+        "Esc",
+        "closes",
+    ),
+    hinted(
+        bind(
+            C::History,
+            &[
+                (key(KeyCode::Up), A::Move(-1)),
+                (key(KeyCode::Down), A::Move(1)),
+                (ch('k'), A::Move(-1)),
+                (ch('j'), A::Move(1)),
+            ],
+            "↑↓ j k (run history)",
+            "move",
+        ),
+        "↑↓",
+        "move",
+    ),
+    hinted(
+        bind(
+            C::History,
+            &[(key(KeyCode::Enter), A::Accept)],
+            "Enter (run history)",
+            "load the run's plan",
+        ),
+        "Enter",
+        "loads the plan",
+    ),
+    hinted(
+        bind(
+            C::History,
+            &[(ch(' '), A::MarkRun), (ch('m'), A::MarkRun)],
+            "space m (run history)",
+            "mark the run for comparison",
+        ),
+        "space",
+        "marks",
+    ),
+    hinted(
+        bind(
+            C::History,
+            &[(ch('c'), A::CompareRuns)],
+            "c (run history)",
+            "compare the marked run with this one",
+        ),
+        "c",
+        "compares",
+    ),
+    hinted(
+        bind(
+            C::History,
+            &[(key(KeyCode::Esc), A::Leave), (ch('q'), A::Leave)],
+            "Esc q (run history)",
+            "close",
+        ),
+        "Esc",
+        "closes",
+    ),
+    hinted(
+        bind(
+            C::PathPrompt,
+            &[(key(KeyCode::Enter), A::Accept)],
+            "Enter (step file path)",
+            "load the step file",
+        ),
+        "Enter",
+        "loads",
+    ),
+    hinted(
+        bind(
+            C::PathPrompt,
+            &[(key(KeyCode::Esc), A::Leave)],
+            "Esc (step file path)",
+            "cancel",
+        ),
+        "Esc",
+        "cancels",
+    ),
+    hinted(
+        bind(
+            C::ModelForm,
+            &[
+                (key(KeyCode::Tab), A::NextField),
+                (key(KeyCode::Down), A::NextField),
+            ],
+            "Tab ↓ (model form)",
+            "next field",
+        ),
+        "Tab",
+        "next field",
+    ),
+    hinted(
+        bind(
+            C::ModelForm,
+            &[
+                (key(KeyCode::BackTab), A::PreviousField),
+                (key(KeyCode::Up), A::PreviousField),
+            ],
+            "Shift-Tab ↑ (model form)",
+            "previous field",
+        ),
+        "Shift-Tab",
+        "previous",
+    ),
+    hinted(
+        bind(
+            C::ModelForm,
+            &[(key(KeyCode::Enter), A::Accept)],
+            "Enter (model form)",
+            "save the settings",
+        ),
+        "Enter",
+        "saves",
+    ),
+    hinted(
+        bind(
+            C::ModelForm,
+            &[(key(KeyCode::Esc), A::Leave)],
+            "Esc (model form)",
+            "cancel",
+        ),
+        "Esc",
+        "cancels",
+    ),
+    hinted(
+        bind(
+            C::Viewer,
+            &[
+                (key(KeyCode::Esc), A::Leave),
+                (ch('q'), A::Leave),
+                (key(KeyCode::Enter), A::Leave),
+            ],
+            "Esc q Enter (actions, comparison)",
+            "close",
+        ),
+        "Esc",
+        "closes",
+    ),
     bind(
         C::Panes,
         &[],
@@ -522,8 +728,12 @@ pub fn hints(context: Context) -> String {
 }
 
 /// The help's lines: the keys as shown and what they do, in table order.
+/// An overlay's keys are not among them: its status bar shows them all.
 pub fn help_lines() -> impl Iterator<Item = (&'static str, &'static str)> {
-    BINDINGS.iter().map(|b| (b.label, b.help))
+    BINDINGS
+        .iter()
+        .filter(|b| !b.context.is_overlay())
+        .map(|b| (b.label, b.help))
 }
 
 #[cfg(test)]
@@ -545,6 +755,13 @@ mod tests {
                     }
                 }
             }
+        }
+    }
+
+    #[test]
+    fn every_overlay_binding_has_a_status_bar_hint() {
+        for b in BINDINGS.iter().filter(|b| b.context.is_overlay()) {
+            assert!(b.hint.is_some(), "{} has no hint", b.label);
         }
     }
 

@@ -11,11 +11,11 @@ use crate::workbench::session::{Draft, Session, SESSION_VERSION};
 impl App {
     /// The session as it stands, for saving.
     pub fn to_session(&self) -> Session {
-        let mut prompts = self.prompts.clone();
+        let mut prompts = self.prompt.texts.clone();
         if matches!(self.editing, Editing::Prompt) {
-            prompts.insert(self.prompt_name(self.prompt_agent), self.editor_text());
+            prompts.insert(self.prompt_name(self.prompt.agent), self.editor_text());
         }
-        prompts.retain(|name, text| self.default_prompts.get(name) != Some(text));
+        prompts.retain(|name, text| self.prompt.defaults.get(name) != Some(text));
         let draft = match &self.editing {
             Editing::Step {
                 list,
@@ -34,29 +34,32 @@ impl App {
             task_id: self.task.id.clone(),
             approach: self.approach,
             ground_truth_source: self.ground_truth_source.clone(),
-            ground_truth: self.ground_truth.clone(),
+            ground_truth: self.ground_truth.items.clone(),
             plan_source: self.plan_source.clone(),
-            plan: self.plan.clone(),
+            plan: self.plan.items.clone(),
             prompts,
             settings: self
+                .runs
                 .agents
                 .iter()
                 .map(|(a, v)| (*a, v.settings.clone()))
                 .collect(),
             outputs: self
+                .runs
                 .agents
                 .iter()
                 .filter(|(_, v)| v.status == AgentStatus::Done)
                 .map(|(a, v)| (*a, v.output.clone()))
                 .collect(),
             ran_with: self
+                .runs
                 .agents
                 .iter()
                 .filter_map(|(a, v)| v.ran_with.clone().map(|r| (*a, r)))
                 .collect(),
             theme: self.theme.name.clone(),
-            image: self.image_enabled,
-            runs: self.runs.clone(),
+            image: self.scene.enabled,
+            runs: self.runs.history.clone(),
             draft,
         }
     }
@@ -77,15 +80,15 @@ impl App {
         }
         self.set_approach(s.approach);
         self.ground_truth_source = s.ground_truth_source;
-        self.ground_truth = s.ground_truth;
+        self.ground_truth.items = s.ground_truth;
         self.plan_source = s.plan_source;
-        self.plan = s.plan;
+        self.plan.items = s.plan;
         for (name, text) in s.prompts {
-            if let Some(prompt) = self.prompts.get_mut(&name) {
+            if let Some(prompt) = self.prompt.texts.get_mut(&name) {
                 *prompt = text;
             }
         }
-        for (agent, view) in self.agents.iter_mut() {
+        for (agent, view) in self.runs.agents.iter_mut() {
             if let Some(st) = s.settings.get(agent) {
                 view.settings = st.clone();
             }
@@ -100,8 +103,8 @@ impl App {
                 self.theme = theme.clone();
             }
         }
-        self.image_enabled = s.image;
-        self.runs = s.runs;
+        self.scene.enabled = s.image;
+        self.runs.history = s.runs;
         self.refresh_graph();
         if let Some(draft) = s.draft {
             let list = if draft.target == StepList::GroundTruth.key() {
@@ -112,7 +115,7 @@ impl App {
             let len = self.steps(list).len();
             let inserted = draft.index >= len;
             if inserted {
-                self.steps_mut(list).push(String::new());
+                self.steps_mut(list).items.push(String::new());
             }
             let index = draft.index.min(len);
             self.editing = Editing::Step {

@@ -89,7 +89,7 @@ fn render_tabs(frame: &mut Frame, app: &App, area: Rect) {
 
 fn render_status(frame: &mut Frame, app: &App, area: Rect) {
     let t = &app.theme;
-    let context = app.editing.context();
+    let context = app.key_context();
     let hints = keymap::hints(context);
     let mode = match context.mode() {
         Some(mode) => format!("{mode}: {hints}"),

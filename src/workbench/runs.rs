@@ -60,7 +60,37 @@ pub struct ActiveRun {
     pub agents: Vec<AgentRole>,
 }
 
-pub(crate) fn fresh_agents() -> BTreeMap<AgentRole, AgentView> {
+/// The agents of the approach and every run.
+pub struct Runs {
+    /// The agents.
+    pub agents: BTreeMap<AgentRole, AgentView>,
+    /// Every run, oldest first.
+    pub history: Vec<RunRecord>,
+    /// The run in flight.
+    pub active: Option<ActiveRun>,
+    /// A finished run waiting for its scores: (index in `history`, generation).
+    pub awaiting_scores: Option<(usize, u64)>,
+}
+
+impl Runs {
+    /// Idle agents with the demo's settings, and no run.
+    pub fn new() -> Self {
+        Runs {
+            agents: fresh_agents(),
+            history: Vec::new(),
+            active: None,
+            awaiting_scores: None,
+        }
+    }
+}
+
+impl Default for Runs {
+    fn default() -> Self {
+        Self::new()
+    }
+}
+
+fn fresh_agents() -> BTreeMap<AgentRole, AgentView> {
     AgentRole::ALL
         .iter()
         .map(|&a| {
@@ -82,7 +112,7 @@ pub(crate) fn fresh_agents() -> BTreeMap<AgentRole, AgentView> {
 impl App {
     /// Whether an agent's prompt or settings differ from those its output was made with.
     pub fn agent_changed(&self, agent: AgentRole) -> bool {
-        let Some(v) = self.agents.get(&agent) else {
+        let Some(v) = self.runs.agents.get(&agent) else {
             return false;
         };
         let prompt = self.prompt_of(agent);
@@ -105,8 +135,8 @@ impl App {
     /// The note shown when the selected agent's prompt was edited but only
     /// recorded outputs can be replayed.
     pub fn provider_note(&self) -> Option<String> {
-        let agent = self.prompt_agent;
-        let view = self.agents.get(&agent)?;
+        let agent = self.prompt.agent;
+        let view = self.runs.agents.get(&agent)?;
         let prompt = self.prompt_of(agent);
         let why = if self.approach != Approach::MultiImage {
             "the demo's recording has only the multi-image approach"
@@ -119,7 +149,7 @@ impl App {
     }
 
     pub(crate) fn start_run(&mut self, all: bool) -> Vec<Cmd> {
-        if self.active_run.is_some() {
+        if self.runs.active.is_some() {
             self.set_status("a run is in flight: x cancels it", Severity::Warn);
             return Vec::new();
         }
@@ -134,7 +164,7 @@ impl App {
             );
             return Vec::new();
         }
-        let id = self.runs.iter().map(|r| r.id).max().unwrap_or(0) + 1;
+        let id = self.runs.history.iter().map(|r| r.id).max().unwrap_or(0) + 1;
         let approach_agents = roles(self.approach);
         let request = RunRequest {
             run: id,
@@ -147,19 +177,19 @@ impl App {
                 .collect(),
             settings: approach_agents
                 .iter()
-                .filter_map(|a| self.agents.get(a).map(|v| (*a, v.settings.clone())))
+                .filter_map(|a| self.runs.agents.get(a).map(|v| (*a, v.settings.clone())))
                 .collect(),
             demo: self.is_demo(),
             image: self.task.image.clone(),
             table: self.task.table.clone(),
         };
         for &agent in &to_run {
-            if let Some(v) = self.agents.get_mut(&agent) {
+            if let Some(v) = self.runs.agents.get_mut(&agent) {
                 v.status = AgentStatus::Waiting;
                 v.output.clear();
             }
         }
-        self.active_run = Some(ActiveRun {
+        self.runs.active = Some(ActiveRun {
             id,
             started_unix: unix_now(),
             agents: to_run.clone(),
@@ -171,10 +201,10 @@ impl App {
 
     /// Refuses a run the pipeline cannot do; called by the runtime.
     pub fn run_refused(&mut self, run: u64, reason: String) {
-        if self.active_run.as_ref().is_some_and(|r| r.id == run) {
-            if let Some(active) = self.active_run.take() {
+        if self.runs.active.as_ref().is_some_and(|r| r.id == run) {
+            if let Some(active) = self.runs.active.take() {
                 for agent in active.agents {
-                    if let Some(v) = self.agents.get_mut(&agent) {
+                    if let Some(v) = self.runs.agents.get_mut(&agent) {
                         v.status = AgentStatus::Idle;
                     }
                 }
@@ -184,14 +214,14 @@ impl App {
     }
 
     pub(crate) fn finish_run(&mut self, cancelled: bool) -> Vec<Cmd> {
-        let Some(active) = self.active_run.take() else {
+        let Some(active) = self.runs.active.take() else {
             return Vec::new();
         };
         let agents = active
             .agents
             .iter()
             .filter_map(|a| {
-                let v = self.agents.get(a)?;
+                let v = self.runs.agents.get(a)?;
                 Some(AgentRecord {
                     agent: *a,
                     settings: v.settings.clone(),
@@ -206,29 +236,29 @@ impl App {
                 })
             })
             .collect();
-        self.runs.push(RunRecord {
+        self.runs.history.push(RunRecord {
             id: active.id,
             started_unix: active.started_unix,
             approach: self.approach,
             task: self.task.text.clone(),
             agents,
-            plan: self.plan.clone(),
-            ground_truth: self.ground_truth.clone(),
+            plan: self.plan.items.clone(),
+            ground_truth: self.ground_truth.items.clone(),
             scores: None,
             cancelled,
         });
         let cmd = self.rescore();
-        self.run_awaiting_scores = Some((self.runs.len() - 1, self.score_generation));
+        self.runs.awaiting_scores = Some((self.runs.history.len() - 1, self.score_generation));
         vec![cmd]
     }
 
     pub(crate) fn on_agent(&mut self, run: u64, event: AgentEvent) -> Vec<Cmd> {
-        if self.active_run.as_ref().is_none_or(|r| r.id != run) {
+        if self.runs.active.as_ref().is_none_or(|r| r.id != run) {
             return Vec::new();
         }
         match event {
             AgentEvent::Started(agent) => {
-                if let Some(v) = self.agents.get_mut(&agent) {
+                if let Some(v) = self.runs.agents.get_mut(&agent) {
                     v.status = AgentStatus::Running;
                     v.output.clear();
                 }
@@ -242,13 +272,13 @@ impl App {
                     ) {
                         self.editing = Editing::None;
                     }
-                    self.plan.clear();
+                    self.plan.items.clear();
                     self.plan_source = PlanSource::Run { run };
                 }
                 Vec::new()
             }
             AgentEvent::Token { agent, text } => {
-                if let Some(v) = self.agents.get_mut(&agent) {
+                if let Some(v) = self.runs.agents.get_mut(&agent) {
                     v.output.push_str(&text);
                 }
                 match agent {
@@ -257,7 +287,7 @@ impl App {
                         Vec::new()
                     }
                     AgentRole::Planner | AgentRole::Single => {
-                        self.plan = parse_steps(&self.agents[&agent].output);
+                        self.plan.items = parse_steps(&self.runs.agents[&agent].output);
                         vec![self.rescore()]
                     }
                     AgentRole::Gkm => Vec::new(),
@@ -270,7 +300,7 @@ impl App {
                 duration_ms,
             } => {
                 let prompt = self.prompt_of(agent);
-                if let Some(v) = self.agents.get_mut(&agent) {
+                if let Some(v) = self.runs.agents.get_mut(&agent) {
                     v.output = output;
                     v.status = AgentStatus::Done;
                     v.usage = usage;
@@ -282,14 +312,15 @@ impl App {
                 match agent {
                     AgentRole::Skm => self.refresh_graph(),
                     AgentRole::Planner | AgentRole::Single => {
-                        self.plan = parse_steps(&self.agents[&agent].output);
-                        self.plan_selected = 0;
+                        self.plan.items = parse_steps(&self.runs.agents[&agent].output);
+                        self.plan.selected = 0;
                     }
                     AgentRole::Gkm => {}
                 }
-                let all_done = self.active_run.as_ref().is_some_and(|r| {
+                let all_done = self.runs.active.as_ref().is_some_and(|r| {
                     r.agents.iter().all(|a| {
-                        self.agents
+                        self.runs
+                            .agents
                             .get(a)
                             .is_some_and(|v| v.status == AgentStatus::Done)
                     })
@@ -302,7 +333,7 @@ impl App {
                 cmds
             }
             AgentEvent::Failed { agent, error } => {
-                if let Some(v) = self.agents.get_mut(&agent) {
+                if let Some(v) = self.runs.agents.get_mut(&agent) {
                     v.status = AgentStatus::Failed(error.clone());
                 }
                 self.set_status(
@@ -317,11 +348,11 @@ impl App {
     }
 
     pub(crate) fn cancel_run(&mut self) -> Vec<Cmd> {
-        let Some(id) = self.active_run.as_ref().map(|r| r.id) else {
+        let Some(id) = self.runs.active.as_ref().map(|r| r.id) else {
             self.set_status("no run in flight", Severity::Info);
             return Vec::new();
         };
-        for v in self.agents.values_mut() {
+        for v in self.runs.agents.values_mut() {
             if matches!(v.status, AgentStatus::Running | AgentStatus::Waiting) {
                 v.status = AgentStatus::Cancelled;
             }
@@ -336,9 +367,9 @@ impl App {
         if outcome.generation > self.score_generation {
             return;
         }
-        if let Some((index, generation)) = self.run_awaiting_scores {
+        if let Some((index, generation)) = self.runs.awaiting_scores {
             if outcome.generation >= generation {
-                if let Some(run) = self.runs.get_mut(index) {
+                if let Some(run) = self.runs.history.get_mut(index) {
                     let report = match &outcome.pg2s {
                         Pg2sOutcome::Ready(r) => Some(r),
                         _ => None,
@@ -350,7 +381,7 @@ impl App {
                         pg2s: report.and_then(|r| r.pg2s()),
                     });
                 }
-                self.run_awaiting_scores = None;
+                self.runs.awaiting_scores = None;
                 self.session_dirty = true;
             }
         }

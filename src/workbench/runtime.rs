@@ -80,7 +80,7 @@ pub fn prepare_image(app: &mut App, picker: &Picker) {
     let Some(area) = app.image_area_wanted() else {
         return;
     };
-    let Some(scene) = app.scene.clone() else {
+    let Some(scene) = app.scene.image.clone() else {
         return;
     };
     let image: DynamicImage = (*scene).clone();
@@ -89,7 +89,7 @@ pub fn prepare_image(app: &mut App, picker: &Picker) {
             app.update(Msg::ImageReady(area, Box::new(protocol)));
         }
         Err(e) => {
-            app.image_enabled = false;
+            app.scene.enabled = false;
             app.status = Some((
                 format!("the scene image cannot be drawn here ({e}); i tries again"),
                 Severity::Warn,

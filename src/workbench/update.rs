@@ -14,7 +14,6 @@ use crate::workbench::layout::{pane_rects, Screen};
 use crate::workbench::message::{Cmd, Msg};
 use crate::workbench::overlays::pickers::GroundTruthChoice;
 use crate::workbench::overlays::Overlay;
-use crate::workbench::panes::graph::{GraphCursor, GraphMode};
 use crate::workbench::panes::steps::StepList;
 use crate::workbench::panes::{list_window, Pane};
 use crate::workbench::session::GroundTruthSource;
@@ -60,9 +59,9 @@ impl App {
                         );
                         return Vec::new();
                     }
-                    self.ground_truth = steps;
+                    self.ground_truth.items = steps;
                     self.ground_truth_source = GroundTruthSource::File { path };
-                    self.ground_truth_selected = 0;
+                    self.ground_truth.selected = 0;
                     vec![self.rescore()]
                 }
                 Err(e) => {
@@ -72,14 +71,14 @@ impl App {
             },
             Msg::SceneImage(result) => {
                 match result {
-                    Ok(img) => self.scene = Some(img),
+                    Ok(img) => self.scene.image = Some(img),
                     Err(e) => self.set_status(e, Severity::Warn),
                 }
-                self.scene_protocol = None;
+                self.scene.protocol = None;
                 Vec::new()
             }
             Msg::ImageReady(rect, protocol) => {
-                self.scene_protocol = Some((rect, protocol));
+                self.scene.protocol = Some((rect, protocol));
                 Vec::new()
             }
             Msg::Saved(result) => {
@@ -144,50 +143,27 @@ impl App {
             }
             Action::NextHit => self.jump_to_search(),
             Action::Move(delta) => self.move_selection(self.focus, delta),
-            Action::GraphEnter => self.graph_enter(),
-            Action::GraphBack => self.graph_back(),
-            Action::GraphNode(step) => {
-                let n = self.graph.nodes.len().max(1) as isize;
-                self.graph_cursor = GraphCursor {
-                    node: (self.graph_cursor.node as isize + step).rem_euclid(n) as usize,
-                    ..GraphCursor::default()
-                };
-            }
-            Action::GraphSelect(step) => {
-                if step > 0 {
-                    self.graph_view.select_next();
-                } else {
-                    self.graph_view.select_prev();
-                }
-            }
-            Action::GraphStep(direction) => {
-                self.graph_view.step(direction);
-            }
-            Action::GraphZoom(step) => {
-                if step > 0 {
-                    self.graph_view.zoom_in();
-                } else {
-                    self.graph_view.zoom_out();
-                }
-            }
-            Action::GraphMode => {
-                self.graph_mode = match self.graph_mode {
-                    GraphMode::Whole => GraphMode::Neighbourhood,
-                    GraphMode::Neighbourhood => GraphMode::Whole,
-                };
-            }
+            Action::GraphEnter
+            | Action::GraphBack
+            | Action::GraphNode(_)
+            | Action::GraphSelect(_)
+            | Action::GraphStep(_)
+            | Action::GraphZoom(_)
+            | Action::GraphMode => self.graph.on_action(action),
             Action::PromptStep(step) => self.move_selection(Pane::Prompt, step),
             Action::EditPrompt => {
-                self.prompt_editor
+                self.prompt
+                    .editor
                     .move_cursor(ratatui_textarea::CursorMove::Bottom);
-                self.prompt_editor
+                self.prompt
+                    .editor
                     .move_cursor(ratatui_textarea::CursorMove::End);
                 self.editing = Editing::Prompt;
             }
             Action::PromptOf(position) => {
                 if let Some(&agent) = roles(self.approach).get(position) {
                     self.store_prompt_editor();
-                    self.prompt_agent = agent;
+                    self.prompt.agent = agent;
                     self.load_prompt_editor();
                 }
             }
@@ -215,7 +191,7 @@ impl App {
             Action::NextApproach => return self.cycle_approach(),
             Action::PublishedPlan => {
                 self.load_published_plan();
-                if self.plan.is_empty() {
+                if self.plan.items.is_empty() {
                     self.set_status(
                         format!("this task has no published {} plan", self.approach),
                         Severity::Info,
@@ -225,7 +201,7 @@ impl App {
             }
             Action::ModelForm => {
                 let agent = if self.focus == Pane::Prompt {
-                    self.prompt_agent
+                    self.prompt.agent
                 } else {
                     match self.focus {
                         Pane::Graph => AgentRole::Skm,
@@ -236,7 +212,7 @@ impl App {
                 self.open_model_form(agent);
             }
             Action::ToggleImage => {
-                self.image_enabled = !self.image_enabled;
+                self.scene.enabled = !self.scene.enabled;
                 self.session_dirty = true;
             }
             Action::NextTheme => {
@@ -256,11 +232,17 @@ impl App {
             Action::Actions => self.overlay = Some(Overlay::Actions),
             Action::History => {
                 self.overlay = Some(Overlay::Runs {
-                    selected: self.runs.len().saturating_sub(1),
+                    selected: self.runs.history.len().saturating_sub(1),
                     marked: None,
                 })
             }
-            Action::Accept | Action::Leave | Action::RunFromEditor => {}
+            Action::Accept
+            | Action::Leave
+            | Action::RunFromEditor
+            | Action::NextField
+            | Action::PreviousField
+            | Action::MarkRun
+            | Action::CompareRuns => {}
         }
         Vec::new()
     }
@@ -276,25 +258,22 @@ impl App {
             (sel as isize + delta).clamp(0, len.saturating_sub(1) as isize) as usize
         };
         match pane {
-            Pane::Plan => self.plan_selected = moved(self.plan_selected, self.plan.len()),
+            Pane::Plan => self.plan.selected = moved(self.plan.selected, self.plan.items.len()),
             Pane::GroundTruth => {
-                self.ground_truth_selected =
-                    moved(self.ground_truth_selected, self.ground_truth.len())
+                self.ground_truth.selected =
+                    moved(self.ground_truth.selected, self.ground_truth.items.len())
             }
-            Pane::Graph => {
-                let n = self.graph_neighbours().len();
-                self.graph_cursor.neighbour = moved(self.graph_cursor.neighbour, n);
-            }
+            Pane::Graph => self.graph.move_neighbour(delta),
             Pane::Prompt => {
                 let shown = roles(self.approach);
                 let idx = shown
                     .iter()
-                    .position(|a| *a == self.prompt_agent)
+                    .position(|a| *a == self.prompt.agent)
                     .unwrap_or(0);
                 let next = shown[moved(idx, shown.len())];
-                if next != self.prompt_agent {
+                if next != self.prompt.agent {
                     self.store_prompt_editor();
-                    self.prompt_agent = next;
+                    self.prompt.agent = next;
                     self.load_prompt_editor();
                 }
             }
@@ -334,23 +313,24 @@ impl App {
                 let height = rect.height.saturating_sub(2) as usize;
                 match pane {
                     Pane::Plan => {
-                        let first = list_window(self.plan_selected, self.plan.len(), 2, height).0;
+                        let first =
+                            list_window(self.plan.selected, self.plan.items.len(), 2, height).0;
                         let target = first + row / 2;
-                        if target < self.plan.len() {
-                            self.plan_selected = target;
+                        if target < self.plan.items.len() {
+                            self.plan.selected = target;
                         }
                     }
                     Pane::GroundTruth => {
                         let first = list_window(
-                            self.ground_truth_selected,
-                            self.ground_truth.len(),
+                            self.ground_truth.selected,
+                            self.ground_truth.items.len(),
                             2,
                             height,
                         )
                         .0;
                         let target = first + row / 2;
-                        if target < self.ground_truth.len() {
-                            self.ground_truth_selected = target;
+                        if target < self.ground_truth.items.len() {
+                            self.ground_truth.selected = target;
                         }
                     }
                     _ => {}

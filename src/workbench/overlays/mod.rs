@@ -7,9 +7,7 @@ pub mod model_form;
 pub mod pickers;
 pub mod runs;
 
-use std::path::PathBuf;
-
-use crossterm::event::{KeyCode, KeyEvent};
+use crossterm::event::KeyEvent;
 use ratatui::layout::{Constraint, Layout, Rect};
 use ratatui::text::{Line, Span};
 use ratatui::widgets::{Block, Borders, Clear, Paragraph};
@@ -17,12 +15,12 @@ use ratatui::Frame;
 use ratatui_textarea::TextArea;
 
 use crate::agents::AgentRole;
-use crate::workbench::app::{App, Severity};
+use crate::workbench::app::App;
 use crate::workbench::component::{self, Component};
+use crate::workbench::keymap::{self, Action, Context};
 use crate::workbench::message::Cmd;
 use crate::workbench::overlays::help::{Close, Help};
 use crate::workbench::panes::list_window;
-use crate::workbench::session::PlanSource;
 use crate::workbench::theme::Theme;
 
 /// A modal view over the panes.
@@ -64,153 +62,57 @@ pub enum Overlay {
     Actions,
 }
 
+impl Overlay {
+    /// The key context of this overlay; `None` for the help, which any key
+    /// closes.
+    pub fn context(&self) -> Option<Context> {
+        match self {
+            Overlay::Help => None,
+            Overlay::GroundTruthPicker { .. } => Some(Context::Picker),
+            Overlay::StepFilePath(_) => Some(Context::PathPrompt),
+            Overlay::ModelForm { .. } => Some(Context::ModelForm),
+            Overlay::Runs { .. } => Some(Context::History),
+            Overlay::Compare { .. } | Overlay::Actions => Some(Context::Viewer),
+        }
+    }
+}
+
+/// `selected` moved by `delta` within a list of `len` items.
+pub(crate) fn moved(selected: usize, delta: isize, len: usize) -> usize {
+    selected
+        .saturating_add_signed(delta)
+        .min(len.saturating_sub(1))
+}
+
 impl App {
+    /// A key while an overlay is open: looked up in the overlay's context
+    /// and handled by the overlay's module.
     pub(crate) fn on_overlay_key(&mut self, key: KeyEvent) -> Vec<Cmd> {
         let Some(overlay) = self.overlay.take() else {
             return Vec::new();
         };
-        let down = matches!(key.code, KeyCode::Down | KeyCode::Char('j'));
-        let up = matches!(key.code, KeyCode::Up | KeyCode::Char('k'));
+        let action = overlay
+            .context()
+            .and_then(|context| keymap::action(&[context], &key));
         match overlay {
             Overlay::Help => {
                 let Close = component::dispatch(&mut Help, &key);
                 Vec::new()
             }
             Overlay::Actions | Overlay::Compare { .. } => {
-                if !matches!(key.code, KeyCode::Esc | KeyCode::Char('q') | KeyCode::Enter) {
+                if action != Some(Action::Leave) {
                     self.overlay = Some(overlay);
                 }
                 Vec::new()
             }
-            Overlay::GroundTruthPicker { selected } => {
-                let choices = self.ground_truth_choices();
-                let last = choices.len().saturating_sub(1);
-                match key.code {
-                    KeyCode::Enter => {
-                        if let Some((choice, _)) = choices.get(selected) {
-                            return self.choose_ground_truth(choice.clone());
-                        }
-                    }
-                    KeyCode::Esc | KeyCode::Char('q') => {}
-                    _ => {
-                        let selected = if down {
-                            (selected + 1).min(last)
-                        } else if up {
-                            selected.saturating_sub(1)
-                        } else {
-                            selected
-                        };
-                        self.overlay = Some(Overlay::GroundTruthPicker { selected });
-                    }
-                }
-                Vec::new()
-            }
-            Overlay::StepFilePath(mut editor) => match key.code {
-                KeyCode::Enter => {
-                    let path = PathBuf::from(editor.lines().join("").trim());
-                    vec![Cmd::ReadStepFile(path)]
-                }
-                KeyCode::Esc => Vec::new(),
-                _ => {
-                    editor.input(key);
-                    self.overlay = Some(Overlay::StepFilePath(editor));
-                    Vec::new()
-                }
-            },
+            Overlay::GroundTruthPicker { selected } => self.on_picker_key(selected, action),
+            Overlay::StepFilePath(editor) => self.on_path_key(editor, action, key),
             Overlay::ModelForm {
                 agent,
-                mut fields,
+                fields,
                 field,
-            } => match key.code {
-                KeyCode::Esc => Vec::new(),
-                KeyCode::Enter => {
-                    self.apply_model_form(agent, &fields);
-                    Vec::new()
-                }
-                KeyCode::Tab | KeyCode::Down => {
-                    self.overlay = Some(Overlay::ModelForm {
-                        agent,
-                        field: (field + 1) % fields.len(),
-                        fields,
-                    });
-                    Vec::new()
-                }
-                KeyCode::BackTab | KeyCode::Up => {
-                    let n = fields.len();
-                    self.overlay = Some(Overlay::ModelForm {
-                        agent,
-                        field: (field + n - 1) % n,
-                        fields,
-                    });
-                    Vec::new()
-                }
-                _ => {
-                    if let Some(f) = fields.get_mut(field) {
-                        f.input(key);
-                    }
-                    self.overlay = Some(Overlay::ModelForm {
-                        agent,
-                        fields,
-                        field,
-                    });
-                    Vec::new()
-                }
-            },
-            Overlay::Runs { selected, marked } => {
-                let last = self.runs.len().saturating_sub(1);
-                match key.code {
-                    KeyCode::Esc | KeyCode::Char('q') => Vec::new(),
-                    KeyCode::Char(' ') | KeyCode::Char('m') => {
-                        self.overlay = Some(Overlay::Runs {
-                            selected,
-                            marked: if marked == Some(selected) {
-                                None
-                            } else {
-                                Some(selected)
-                            },
-                        });
-                        Vec::new()
-                    }
-                    KeyCode::Char('c') => {
-                        let left = marked.unwrap_or(selected.saturating_sub(1));
-                        self.overlay = if self.runs.len() >= 2 && left != selected {
-                            Some(Overlay::Compare {
-                                left,
-                                right: selected,
-                            })
-                        } else {
-                            self.set_status(
-                                "mark a run with space, select another, then press c",
-                                Severity::Info,
-                            );
-                            Some(Overlay::Runs { selected, marked })
-                        };
-                        Vec::new()
-                    }
-                    KeyCode::Enter => {
-                        if let Some(run) = self.runs.get(selected) {
-                            self.plan = run.plan.clone();
-                            self.plan_source = PlanSource::Run { run: run.id };
-                            self.plan_selected = 0;
-                            let id = run.id;
-                            self.set_status(format!("plan of run {id} loaded"), Severity::Info);
-                            return vec![self.rescore()];
-                        }
-                        Vec::new()
-                    }
-                    _ => {
-                        let selected = if down {
-                            (selected + 1).min(last)
-                        } else if up {
-                            selected.saturating_sub(1)
-                        } else {
-                            selected
-                        };
-                        self.overlay = Some(Overlay::Runs { selected, marked });
-                        Vec::new()
-                    }
-                }
-            }
+            } => self.on_model_form_key(agent, fields, field, action, key),
+            Overlay::Runs { selected, marked } => self.on_history_key(selected, marked, action),
         }
     }
 }

@@ -1,11 +1,15 @@
 //! The ground-truth picker and the step-file path prompt.
 
+use std::path::PathBuf;
+
+use crossterm::event::KeyEvent;
 use ratatui_textarea::TextArea;
 
 use crate::workbench::app::App;
 use crate::workbench::editing::Editing;
+use crate::workbench::keymap::Action;
 use crate::workbench::message::Cmd;
-use crate::workbench::overlays::Overlay;
+use crate::workbench::overlays::{moved, Overlay};
 use crate::workbench::panes::steps::{demo_ground_truth, StepList};
 use crate::workbench::panes::Pane;
 use crate::workbench::session::GroundTruthSource;
@@ -24,6 +28,47 @@ pub enum GroundTruthChoice {
 }
 
 impl App {
+    /// A key of the ground-truth picker.
+    pub(crate) fn on_picker_key(&mut self, selected: usize, action: Option<Action>) -> Vec<Cmd> {
+        let choices = self.ground_truth_choices();
+        match action {
+            Some(Action::Accept) => {
+                if let Some((choice, _)) = choices.get(selected) {
+                    return self.choose_ground_truth(choice.clone());
+                }
+            }
+            Some(Action::Leave) => {}
+            Some(Action::Move(delta)) => {
+                self.overlay = Some(Overlay::GroundTruthPicker {
+                    selected: moved(selected, delta, choices.len()),
+                });
+            }
+            _ => self.overlay = Some(Overlay::GroundTruthPicker { selected }),
+        }
+        Vec::new()
+    }
+
+    /// A key of the step-file path prompt: other keys are typed.
+    pub(crate) fn on_path_key(
+        &mut self,
+        mut editor: Box<TextArea<'static>>,
+        action: Option<Action>,
+        key: KeyEvent,
+    ) -> Vec<Cmd> {
+        match action {
+            Some(Action::Accept) => {
+                let path = PathBuf::from(editor.lines().join("").trim());
+                vec![Cmd::ReadStepFile(path)]
+            }
+            Some(Action::Leave) => Vec::new(),
+            _ => {
+                editor.input(key);
+                self.overlay = Some(Overlay::StepFilePath(editor));
+                Vec::new()
+            }
+        }
+    }
+
     /// The ground truths the picker offers, with their labels.
     pub fn ground_truth_choices(&self) -> Vec<(GroundTruthChoice, String)> {
         let mut out = Vec::new();
@@ -54,7 +99,7 @@ impl App {
         self.overlay = None;
         match choice {
             GroundTruthChoice::Demo(index) => {
-                self.ground_truth = demo_ground_truth(index);
+                self.ground_truth.items = demo_ground_truth(index);
                 self.ground_truth_source = GroundTruthSource::Demo { index };
             }
             GroundTruthChoice::Task(index) => {
@@ -75,7 +120,7 @@ impl App {
                 return Vec::new();
             }
             GroundTruthChoice::Typed => {
-                self.ground_truth = vec![String::new()];
+                self.ground_truth.items = vec![String::new()];
                 self.ground_truth_source = GroundTruthSource::Typed;
                 self.focus = Pane::GroundTruth;
                 self.editing = Editing::Step {
@@ -86,7 +131,7 @@ impl App {
                 };
             }
         }
-        self.ground_truth_selected = 0;
+        self.ground_truth.selected = 0;
         vec![self.rescore()]
     }
 }

@@ -5,9 +5,65 @@ use ratatui::text::{Line, Span};
 use ratatui::widgets::{Paragraph, Sparkline, Wrap};
 use ratatui::Frame;
 
-use crate::workbench::app::App;
-use crate::workbench::overlays::{fmt_score, open_box};
-use crate::workbench::session::RunRecord;
+use crate::workbench::app::{App, Severity};
+use crate::workbench::keymap::Action;
+use crate::workbench::message::Cmd;
+use crate::workbench::overlays::{fmt_score, moved, open_box, Overlay};
+use crate::workbench::session::{PlanSource, RunRecord};
+
+impl App {
+    /// A key of the run history.
+    pub(crate) fn on_history_key(
+        &mut self,
+        selected: usize,
+        marked: Option<usize>,
+        action: Option<Action>,
+    ) -> Vec<Cmd> {
+        let mut next = Overlay::Runs { selected, marked };
+        match action {
+            Some(Action::Leave) => return Vec::new(),
+            Some(Action::MarkRun) => {
+                next = Overlay::Runs {
+                    selected,
+                    marked: (marked != Some(selected)).then_some(selected),
+                };
+            }
+            Some(Action::CompareRuns) => {
+                let left = marked.unwrap_or(selected.saturating_sub(1));
+                if self.runs.history.len() >= 2 && left != selected {
+                    next = Overlay::Compare {
+                        left,
+                        right: selected,
+                    };
+                } else {
+                    self.set_status(
+                        "mark a run with space, select another, then press c",
+                        Severity::Info,
+                    );
+                }
+            }
+            Some(Action::Accept) => {
+                if let Some(run) = self.runs.history.get(selected) {
+                    self.plan.replace(run.plan.clone());
+                    self.plan_source = PlanSource::Run { run: run.id };
+                    let id = run.id;
+                    self.set_status(format!("plan of run {id} loaded"), Severity::Info);
+                    return vec![self.rescore()];
+                }
+                return Vec::new();
+            }
+            Some(Action::Move(delta)) => {
+                next = Overlay::Runs {
+                    selected: moved(selected, delta, self.runs.history.len()),
+                    marked,
+                };
+            }
+            _ => {}
+        }
+        self.overlay = Some(next);
+        Vec::new()
+    }
+}
 
 pub(crate) fn draw(
     frame: &mut Frame,
@@ -24,13 +80,14 @@ pub(crate) fn draw(
         (100, 24),
         "Runs (space marks, c compares, Enter loads the plan)",
     );
-    if app.runs.is_empty() {
+    if app.runs.history.is_empty() {
         frame.render_widget(Paragraph::new(Span::styled("No runs yet.", t.muted)), inner);
         return;
     }
     let [spark, table] = Layout::vertical([Constraint::Length(3), Constraint::Min(1)]).areas(inner);
     let data: Vec<u64> = app
         .runs
+        .history
         .iter()
         .map(|r| {
             r.scores
@@ -46,8 +103,13 @@ pub(crate) fn draw(
         "   run  approach       PG2S   S_plan S_goal KAS     ms      tokens  steps",
         t.muted,
     ))];
-    let (first, count) = super::list_window(selected, app.runs.len(), 1, table.height as usize - 1);
-    for (i, r) in app.runs.iter().enumerate().skip(first).take(count) {
+    let (first, count) = super::list_window(
+        selected,
+        app.runs.history.len(),
+        1,
+        table.height as usize - 1,
+    );
+    for (i, r) in app.runs.history.iter().enumerate().skip(first).take(count) {
         let s = r.scores.unwrap_or_default();
         let mark = if marked == Some(i) { "●" } else { " " };
         let (ms, tokens) = (r.total_ms(), r.total_tokens());
@@ -139,7 +201,7 @@ pub(crate) fn draw_compare(frame: &mut Frame, app: &App, area: Rect, left: usize
         (area.width, area.height),
         "Compare runs (Esc closes; differences highlighted)",
     );
-    let (Some(a), Some(b)) = (app.runs.get(left), app.runs.get(right)) else {
+    let (Some(a), Some(b)) = (app.runs.history.get(left), app.runs.history.get(right)) else {
         return;
     };
     let [l, r] =

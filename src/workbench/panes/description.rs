@@ -17,6 +17,7 @@ pub(crate) fn draw(frame: &mut Frame, app: &App, area: Rect) {
         Some(agent_badge(app, AgentRole::Gkm)),
     );
     let output = app
+        .runs
         .agents
         .get(&AgentRole::Gkm)
         .map(|v| v.output.as_str())

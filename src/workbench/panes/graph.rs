@@ -9,7 +9,8 @@ use ratatui::Frame;
 use crate::agents::graph::{parse_triples, KnowledgeGraph};
 use crate::agents::AgentRole;
 use crate::workbench::app::App;
-use crate::workbench::graph_view::GraphWidget;
+use crate::workbench::graph_view::{GraphView, GraphWidget};
+use crate::workbench::keymap::{Action, Context};
 use crate::workbench::panes::{agent_badge, pane_block, Pane};
 
 /// The graph view's position.
@@ -33,54 +34,115 @@ pub enum GraphMode {
     Neighbourhood,
 }
 
+/// The Knowledge Graph pane's state: the graph of the SKM's output, the
+/// whole-graph view and the neighbourhood cursor.
+#[derive(Debug, Clone, Default)]
+pub struct GraphPane {
+    /// The knowledge graph of the SKM output.
+    pub kg: KnowledgeGraph,
+    /// The neighbourhood view's position.
+    pub cursor: GraphCursor,
+    /// The whole-graph view: layout, selection, zoom and pan.
+    pub view: GraphView,
+    /// Which of the two drawings the pane shows.
+    pub mode: GraphMode,
+}
+
+impl GraphPane {
+    /// Rebuilds the graph from the SKM's output (whole or streaming).
+    pub fn set_output(&mut self, skm_output: &str) {
+        self.kg = KnowledgeGraph::from_triples(&parse_triples(skm_output).triples);
+        if self.cursor.node >= self.kg.nodes.len() {
+            self.cursor = GraphCursor::default();
+        }
+        self.view.set_graph(&self.kg);
+    }
+
+    /// The key context of the mode shown.
+    pub fn context(&self) -> Context {
+        match self.mode {
+            GraphMode::Whole => Context::WholeGraph,
+            GraphMode::Neighbourhood => Context::Graph,
+        }
+    }
+
+    /// The neighbours of the cursor's node in the order the view lists
+    /// them: the sources of the edges into it, then the targets of the edges
+    /// out of it (a neighbour joined both ways appears twice).
+    pub fn neighbours(&self) -> Vec<usize> {
+        let node = self.cursor.node;
+        self.kg
+            .incoming(node)
+            .map(|e| e.from)
+            .chain(self.kg.outgoing(node).map(|e| e.to))
+            .collect()
+    }
+
+    /// Moves the highlighted neighbour by `delta`.
+    pub fn move_neighbour(&mut self, delta: isize) {
+        let last = self.neighbours().len().saturating_sub(1);
+        self.cursor.neighbour = self.cursor.neighbour.saturating_add_signed(delta).min(last);
+    }
+
+    /// A key of the graph contexts; other actions do nothing.
+    pub fn on_action(&mut self, action: Action) {
+        match action {
+            Action::GraphEnter => {
+                if let Some(&next) = self.neighbours().get(self.cursor.neighbour) {
+                    let here = self.cursor.node;
+                    self.cursor.back.push(here);
+                    self.cursor.node = next;
+                    self.cursor.neighbour = 0;
+                }
+            }
+            Action::GraphBack => {
+                if let Some(prev) = self.cursor.back.pop() {
+                    self.cursor.node = prev;
+                    self.cursor.neighbour = 0;
+                }
+            }
+            Action::GraphNode(step) => {
+                let n = self.kg.nodes.len().max(1) as isize;
+                self.cursor = GraphCursor {
+                    node: (self.cursor.node as isize + step).rem_euclid(n) as usize,
+                    ..GraphCursor::default()
+                };
+            }
+            Action::GraphSelect(step) if step > 0 => self.view.select_next(),
+            Action::GraphSelect(_) => self.view.select_prev(),
+            Action::GraphStep(direction) => {
+                self.view.step(direction);
+            }
+            Action::GraphZoom(step) if step > 0 => self.view.zoom_in(),
+            Action::GraphZoom(_) => self.view.zoom_out(),
+            Action::GraphMode => {
+                self.mode = match self.mode {
+                    GraphMode::Whole => GraphMode::Neighbourhood,
+                    GraphMode::Neighbourhood => GraphMode::Whole,
+                };
+            }
+            _ => {}
+        }
+    }
+}
+
 impl App {
+    /// Rebuilds the graph from the SKM's latest output.
     pub(crate) fn refresh_graph(&mut self) {
         let output = self
+            .runs
             .agents
             .get(&AgentRole::Skm)
             .map(|v| v.output.as_str())
             .unwrap_or_default();
-        self.graph = KnowledgeGraph::from_triples(&parse_triples(output).triples);
-        if self.graph_cursor.node >= self.graph.nodes.len() {
-            self.graph_cursor = GraphCursor::default();
-        }
-        self.graph_view.set_graph(&self.graph);
-    }
-
-    /// The neighbours of the graph view's node in the order the view lists
-    /// them: the sources of the edges into it, then the targets of the edges
-    /// out of it (a neighbour joined both ways appears twice).
-    pub fn graph_neighbours(&self) -> Vec<usize> {
-        let node = self.graph_cursor.node;
-        self.graph
-            .incoming(node)
-            .map(|e| e.from)
-            .chain(self.graph.outgoing(node).map(|e| e.to))
-            .collect()
-    }
-
-    pub(crate) fn graph_enter(&mut self) {
-        let neighbours = self.graph_neighbours();
-        if let Some(&next) = neighbours.get(self.graph_cursor.neighbour) {
-            let here = self.graph_cursor.node;
-            self.graph_cursor.back.push(here);
-            self.graph_cursor.node = next;
-            self.graph_cursor.neighbour = 0;
-        }
-    }
-
-    pub(crate) fn graph_back(&mut self) {
-        if let Some(prev) = self.graph_cursor.back.pop() {
-            self.graph_cursor.node = prev;
-            self.graph_cursor.neighbour = 0;
-        }
+        self.graph.set_output(output);
     }
 }
 
 /// Draws the Knowledge Graph pane.
 pub(crate) fn draw(frame: &mut Frame, app: &App, area: Rect) {
     let t = &app.theme;
-    let g = &app.graph;
+    let g = &app.graph.kg;
     let block = pane_block(app, Pane::Graph, Some(agent_badge(app, AgentRole::Skm)));
     let inner = block.inner(area);
     frame.render_widget(block, area);
@@ -95,19 +157,19 @@ pub(crate) fn draw(frame: &mut Frame, app: &App, area: Rect) {
         );
         return;
     }
-    if app.graph_mode == GraphMode::Whole {
-        let widget = GraphWidget::new(&app.graph_view, t).focused(app.focus == Pane::Graph);
+    if app.graph.mode == GraphMode::Whole {
+        let widget = GraphWidget::new(&app.graph.view, t).focused(app.focus == Pane::Graph);
         frame.render_widget(widget, inner);
         return;
     }
-    let node = app.graph_cursor.node.min(g.nodes.len() - 1);
+    let node = app.graph.cursor.node.min(g.nodes.len() - 1);
     let name = &g.nodes[node];
     let incoming: Vec<(&str, usize)> = g
         .incoming(node)
         .map(|e| (e.label.as_str(), e.from))
         .collect();
     let outgoing: Vec<(&str, usize)> = g.outgoing(node).map(|e| (e.label.as_str(), e.to)).collect();
-    let selected = app.graph_cursor.neighbour;
+    let selected = app.graph.cursor.neighbour;
     let box_width = name.chars().count() + 4;
     let [header, body, footer] = Layout::vertical([
         Constraint::Length(3),

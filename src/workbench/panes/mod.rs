@@ -97,7 +97,7 @@ pub(crate) fn render_pane(frame: &mut Frame, app: &App, pane: Pane, area: Rect) 
 /// A short word for an agent's state, with its style.
 pub(crate) fn agent_badge<'a>(app: &App, agent: AgentRole) -> Span<'a> {
     let t = &app.theme;
-    let Some(v) = app.agents.get(&agent) else {
+    let Some(v) = app.runs.agents.get(&agent) else {
         return Span::raw("");
     };
     match &v.status {

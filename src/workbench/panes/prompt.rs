@@ -1,5 +1,7 @@
 //! The Prompt pane: the selected agent's template and its editor.
 
+use std::collections::BTreeMap;
+
 use ratatui::layout::{Constraint, Layout, Rect};
 use ratatui::text::{Line, Span};
 use ratatui::widgets::{Paragraph, Wrap};
@@ -13,6 +15,31 @@ use crate::workbench::app::App;
 use crate::workbench::editing::Editing;
 use crate::workbench::panes::{agent_badge, highlighted, pane_block, Pane};
 
+/// The Prompt pane's state: every template's text, the agent shown and
+/// its editor.
+pub struct PromptPane {
+    /// Every prompt template's text by name, as edited.
+    pub texts: BTreeMap<String, String>,
+    /// The templates' texts the workbench started with.
+    pub defaults: BTreeMap<String, String>,
+    /// The agent whose prompt the pane shows.
+    pub agent: AgentRole,
+    /// The editor, holding the shown agent's prompt.
+    pub editor: TextArea<'static>,
+}
+
+impl PromptPane {
+    /// The pane on the SKM's prompt, `texts` being the templates as started.
+    pub fn new(texts: BTreeMap<String, String>) -> Self {
+        PromptPane {
+            defaults: texts.clone(),
+            texts,
+            agent: AgentRole::Skm,
+            editor: TextArea::default(),
+        }
+    }
+}
+
 impl App {
     /// The name of `agent`'s prompt template in the current approach.
     pub fn prompt_name(&self, agent: AgentRole) -> String {
@@ -22,45 +49,49 @@ impl App {
     /// The text of `agent`'s prompt template in the current approach, with
     /// the editor's text when it is being edited.
     pub fn prompt_of(&self, agent: AgentRole) -> String {
-        if agent == self.prompt_agent && matches!(self.editing, Editing::Prompt) {
+        if agent == self.prompt.agent && matches!(self.editing, Editing::Prompt) {
             return self.editor_text();
         }
-        self.prompts
+        self.prompt
+            .texts
             .get(&self.prompt_name(agent))
             .cloned()
             .unwrap_or_default()
     }
 
     pub(crate) fn editor_text(&self) -> String {
-        self.prompt_editor.lines().join("\n")
+        self.prompt.editor.lines().join("\n")
     }
 
     pub(crate) fn load_prompt_editor(&mut self) {
         let text = self
-            .prompts
-            .get(&self.prompt_name(self.prompt_agent))
+            .prompt
+            .texts
+            .get(&self.prompt_name(self.prompt.agent))
             .cloned()
             .unwrap_or_default();
-        self.prompt_editor = TextArea::new(text.lines().map(str::to_string).collect());
-        self.prompt_editor
+        self.prompt.editor = TextArea::new(text.lines().map(str::to_string).collect());
+        self.prompt
+            .editor
             .set_wrap_mode(ratatui_textarea::WrapMode::Word);
     }
 
     pub(crate) fn store_prompt_editor(&mut self) {
         let text = self.editor_text();
-        self.prompts
-            .insert(self.prompt_name(self.prompt_agent), text);
+        self.prompt
+            .texts
+            .insert(self.prompt_name(self.prompt.agent), text);
     }
 }
 
 pub(crate) fn draw(frame: &mut Frame, app: &App, area: Rect) {
     let t = &app.theme;
-    let block = pane_block(app, Pane::Prompt, Some(agent_badge(app, app.prompt_agent)));
+    let block = pane_block(app, Pane::Prompt, Some(agent_badge(app, app.prompt.agent)));
     let inner = block.inner(area);
     frame.render_widget(block, area);
     let mut tabs = Vec::new();
     for (i, agent) in roles(app.approach).iter().enumerate() {
-        let style = if *agent == app.prompt_agent {
+        let style = if *agent == app.prompt.agent {
             t.selection
         } else {
             t.base
@@ -70,7 +101,7 @@ pub(crate) fn draw(frame: &mut Frame, app: &App, area: Rect) {
             style,
         ));
     }
-    if let Some(v) = app.agents.get(&app.prompt_agent) {
+    if let Some(v) = app.runs.agents.get(&app.prompt.agent) {
         tabs.push(Span::styled(
             format!(
                 "  {}/{} · t={} · max {}",
@@ -83,7 +114,7 @@ pub(crate) fn draw(frame: &mut Frame, app: &App, area: Rect) {
         ));
     }
     let note = app.provider_note();
-    let changed = app.agent_changed(app.prompt_agent);
+    let changed = app.agent_changed(app.prompt.agent);
     let footer_height = if note.is_some() { 3 } else { 1 };
     let [tab_row, body, footer] = Layout::vertical([
         Constraint::Length(1),
@@ -93,10 +124,11 @@ pub(crate) fn draw(frame: &mut Frame, app: &App, area: Rect) {
     .areas(inner);
     frame.render_widget(Paragraph::new(Line::from(tabs)), tab_row);
     if matches!(app.editing, Editing::Prompt) {
-        frame.render_widget(&app.prompt_editor, body);
+        frame.render_widget(&app.prompt.editor, body);
     } else {
         let text: Vec<Line> = app
-            .prompt_editor
+            .prompt
+            .editor
             .lines()
             .iter()
             .map(|l| Line::from(highlighted(l, &app.search, t.base, t.highlight)))

@@ -7,6 +7,7 @@ use ratatui::layout::Rect;
 use ratatui::text::{Line, Span};
 use ratatui::widgets::{Block, Paragraph, Wrap};
 use ratatui::Frame;
+use ratatui_image::protocol::Protocol;
 use ratatui_image::Image;
 
 use crate::demo;
@@ -15,20 +16,41 @@ use crate::workbench::layout::{pane_rects, Screen};
 use crate::workbench::message::Cmd;
 use crate::workbench::panes::{highlighted, pane_block, Pane};
 
+/// The Scene pane's state: the image and its encoding for the terminal.
+pub struct ScenePane {
+    /// Whether the image is shown.
+    pub enabled: bool,
+    /// The image, once read.
+    pub image: Option<Arc<DynamicImage>>,
+    /// The image encoded for an area of the terminal.
+    pub protocol: Option<(Rect, Box<Protocol>)>,
+}
+
+impl ScenePane {
+    /// The built-in demo's scene, shown.
+    pub fn demo() -> Self {
+        ScenePane {
+            enabled: true,
+            image: Some(Arc::new(DynamicImage::ImageRgb8(demo::scene_image()))),
+            protocol: None,
+        }
+    }
+}
+
 impl App {
     pub(crate) fn load_scene(&mut self) -> Vec<Cmd> {
-        self.scene_protocol = None;
+        self.scene.protocol = None;
         match &self.task.image {
             Some(path) => {
-                self.scene = None;
+                self.scene.image = None;
                 vec![Cmd::LoadImage(path.clone())]
             }
             None if self.is_demo() => {
-                self.scene = Some(Arc::new(DynamicImage::ImageRgb8(demo::scene_image())));
+                self.scene.image = Some(Arc::new(DynamicImage::ImageRgb8(demo::scene_image())));
                 Vec::new()
             }
             None => {
-                self.scene = None;
+                self.scene.image = None;
                 Vec::new()
             }
         }
@@ -37,7 +59,7 @@ impl App {
     /// The terminal area the scene image should be encoded for, when it is
     /// shown and not yet encoded for that area.
     pub fn image_area_wanted(&self) -> Option<Rect> {
-        if !self.image_enabled || self.scene.is_none() {
+        if !self.scene.enabled || self.scene.image.is_none() {
             return None;
         }
         let screen = Rect::new(0, 0, self.size.0, self.size.1);
@@ -49,7 +71,7 @@ impl App {
         if inner.width == 0 || inner.height == 0 {
             return None;
         }
-        match &self.scene_protocol {
+        match &self.scene.protocol {
             Some((r, _)) if *r == inner => None,
             _ => Some(inner),
         }
@@ -69,12 +91,12 @@ pub(crate) fn draw(frame: &mut Frame, app: &App, area: Rect) {
     ));
     frame.render_widget(Paragraph::new(caption), Rect { height: 1, ..inner });
     let image_area = scene_image_area(area);
-    let note = if !app.image_enabled {
+    let note = if !app.scene.enabled {
         "image off (i shows it)"
-    } else if app.scene.is_none() {
+    } else if app.scene.image.is_none() {
         "no image for this task"
     } else {
-        match &app.scene_protocol {
+        match &app.scene.protocol {
             Some((rect, protocol)) if *rect == image_area => {
                 frame.render_widget(Image::new(protocol), image_area);
                 return;

@@ -77,6 +77,7 @@ pub(crate) fn draw(frame: &mut Frame, app: &App, area: Rect) {
     }
     let history: Vec<u64> = app
         .runs
+        .history
         .iter()
         .filter_map(|r| r.scores)
         .map(|s| (s.pg2s.or(s.kas).unwrap_or(0.0) * 100.0).round() as u64)
@@ -100,7 +101,10 @@ pub(crate) fn draw(frame: &mut Frame, app: &App, area: Rect) {
     .areas(rest);
     frame.render_widget(
         Paragraph::new(Span::styled(
-            format!("runs: {} (H lists and compares them)", app.runs.len()),
+            format!(
+                "runs: {} (H lists and compares them)",
+                app.runs.history.len()
+            ),
             t.muted,
         )),
         label,
@@ -111,6 +115,7 @@ pub(crate) fn draw(frame: &mut Frame, app: &App, area: Rect) {
     );
     let rows: Vec<Line> = app
         .runs
+        .history
         .iter()
         .rev()
         .take(table.height as usize)

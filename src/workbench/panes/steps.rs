@@ -45,33 +45,141 @@ pub(crate) fn demo_ground_truth(index: usize) -> Vec<String> {
     })
 }
 
+/// A list of steps with a selection: the plan or the ground truth. Both
+/// panes edit, move and search their steps through this one type.
+#[derive(Debug, Clone, Default, PartialEq, Eq)]
+pub struct Steps {
+    /// The steps, one sentence each.
+    pub items: Vec<String>,
+    /// The selected step (0 when the list is empty).
+    pub selected: usize,
+}
+
+impl Steps {
+    /// `items`, with the first one selected.
+    pub fn new(items: Vec<String>) -> Self {
+        Steps { items, selected: 0 }
+    }
+
+    /// How many steps there are.
+    pub fn len(&self) -> usize {
+        self.items.len()
+    }
+
+    /// Whether there are none.
+    pub fn is_empty(&self) -> bool {
+        self.items.is_empty()
+    }
+
+    /// Replaces every step and selects the first.
+    pub fn replace(&mut self, items: Vec<String>) {
+        *self = Steps::new(items);
+    }
+
+    /// Selects `index`, or the last step when there are fewer.
+    pub fn select(&mut self, index: usize) {
+        self.selected = index.min(self.len().saturating_sub(1));
+    }
+
+    /// Moves the selection by `delta` steps, stopping at either end.
+    pub fn move_by(&mut self, delta: isize) {
+        self.select(self.selected.saturating_add_signed(delta));
+    }
+
+    /// Where an edit opens: a new empty step at `insert`, or the selected
+    /// step (a new one at the end when there is none). Returns the step's
+    /// index and whether it was inserted for the edit.
+    pub fn open_edit(&mut self, insert: Option<usize>) -> (usize, bool) {
+        let (index, inserted) = match insert {
+            Some(at) => {
+                let at = at.min(self.len());
+                self.items.insert(at, String::new());
+                (at, true)
+            }
+            None if self.selected >= self.len() => {
+                self.items.push(String::new());
+                (self.len() - 1, true)
+            }
+            None => (self.selected, false),
+        };
+        self.selected = index;
+        (index, inserted)
+    }
+
+    /// Keeps an edit: the step becomes `text`, or goes when `text` is blank.
+    pub fn commit(&mut self, index: usize, text: &str) {
+        let text = text.trim();
+        if text.is_empty() {
+            if index < self.len() {
+                self.items.remove(index);
+            }
+        } else if let Some(step) = self.items.get_mut(index) {
+            *step = text.to_string();
+        }
+        self.select(index);
+    }
+
+    /// Drops an edit: a step inserted for it goes again.
+    pub fn discard(&mut self, index: usize, inserted: bool) {
+        if inserted && index < self.len() {
+            self.items.remove(index);
+        }
+        self.select(index);
+    }
+
+    /// Deletes or moves the selected step for [`Action::DeleteStep`],
+    /// [`Action::StepDown`] and [`Action::StepUp`]; whether the steps changed.
+    pub fn rearrange(&mut self, action: Action) -> bool {
+        let (sel, len) = (self.selected, self.len());
+        match action {
+            Action::DeleteStep if sel < len => {
+                self.items.remove(sel);
+                self.selected = sel.min(len.saturating_sub(2));
+            }
+            Action::StepDown if sel + 1 < len => {
+                self.items.swap(sel, sel + 1);
+                self.selected = sel + 1;
+            }
+            Action::StepUp if sel > 0 && sel < len => {
+                self.items.swap(sel, sel - 1);
+                self.selected = sel - 1;
+            }
+            _ => return false,
+        }
+        true
+    }
+
+    /// The next step after the selected one (wrapping) holding `needle`,
+    /// ignoring case.
+    pub fn next_hit(&self, needle: &str) -> Option<usize> {
+        let needle = needle.to_lowercase();
+        let n = self.len();
+        (1..=n)
+            .map(|k| (self.selected + k) % n)
+            .find(|&i| self.items[i].to_lowercase().contains(&needle))
+    }
+}
+
 impl App {
     /// The steps of a list.
-    pub fn steps(&self, list: StepList) -> &Vec<String> {
+    pub fn steps(&self, list: StepList) -> &Steps {
         match list {
             StepList::Plan => &self.plan,
             StepList::GroundTruth => &self.ground_truth,
         }
     }
 
-    pub(crate) fn steps_mut(&mut self, list: StepList) -> &mut Vec<String> {
+    pub(crate) fn steps_mut(&mut self, list: StepList) -> &mut Steps {
         match list {
             StepList::Plan => &mut self.plan,
             StepList::GroundTruth => &mut self.ground_truth,
         }
     }
 
-    pub(crate) fn selected_mut(&mut self, list: StepList) -> &mut usize {
-        match list {
-            StepList::Plan => &mut self.plan_selected,
-            StepList::GroundTruth => &mut self.ground_truth_selected,
-        }
-    }
-
     /// The plan and ground truth as scored: with the step being edited as typed.
     pub fn scored_lists(&self) -> (Vec<String>, Vec<String>) {
-        let mut gt = self.ground_truth.clone();
-        let mut plan = self.plan.clone();
+        let mut gt = self.ground_truth.items.clone();
+        let mut plan = self.plan.items.clone();
         if let Editing::Step {
             list,
             index,
@@ -92,62 +200,29 @@ impl App {
         (gt, plan)
     }
 
+    /// Opens the step editor on `list` (see [`Steps::open_edit`]).
     pub(crate) fn edit_step(&mut self, list: StepList, insert: Option<usize>) -> Vec<Cmd> {
-        let (index, inserted) = match insert {
-            Some(at) => {
-                let at = at.min(self.steps(list).len());
-                self.steps_mut(list).insert(at, String::new());
-                (at, true)
-            }
-            None => {
-                let sel = match list {
-                    StepList::Plan => self.plan_selected,
-                    StepList::GroundTruth => self.ground_truth_selected,
-                };
-                if sel >= self.steps(list).len() {
-                    self.steps_mut(list).push(String::new());
-                    (self.steps(list).len() - 1, true)
-                } else {
-                    (sel, false)
-                }
-            }
-        };
-        *self.selected_mut(list) = index;
-        let text = self.steps(list)[index].clone();
+        let steps = self.steps_mut(list);
+        let (index, inserted) = steps.open_edit(insert);
+        let editor = single_line_editor(&steps.items[index]);
         self.editing = Editing::Step {
             list,
             index,
-            editor: single_line_editor(&text),
+            editor,
             inserted,
         };
         Vec::new()
     }
 
+    /// A key of the Steps context on `list`.
     pub(crate) fn step_command(&mut self, list: StepList, action: Action) -> Vec<Cmd> {
-        let sel = match list {
-            StepList::Plan => self.plan_selected,
-            StepList::GroundTruth => self.ground_truth_selected,
-        };
-        let len = self.steps(list).len();
+        let steps = self.steps(list);
+        let (sel, len) = (steps.selected, steps.len());
         match action {
             Action::EditStep => self.edit_step(list, None),
             Action::InsertAfter => self.edit_step(list, Some(sel + usize::from(len > 0))),
             Action::InsertBefore => self.edit_step(list, Some(sel)),
-            Action::DeleteStep if sel < len => {
-                self.steps_mut(list).remove(sel);
-                *self.selected_mut(list) = sel.min(len.saturating_sub(2));
-                vec![self.rescore()]
-            }
-            Action::StepDown if sel + 1 < len => {
-                self.steps_mut(list).swap(sel, sel + 1);
-                *self.selected_mut(list) = sel + 1;
-                vec![self.rescore()]
-            }
-            Action::StepUp if sel > 0 && sel < len => {
-                self.steps_mut(list).swap(sel, sel - 1);
-                *self.selected_mut(list) = sel - 1;
-                vec![self.rescore()]
-            }
+            _ if self.steps_mut(list).rearrange(action) => vec![self.rescore()],
             _ => Vec::new(),
         }
     }
@@ -269,18 +344,20 @@ pub(crate) fn ground_truth_mark(app: &App, index: usize) -> Line<'static> {
 pub(crate) fn draw(frame: &mut Frame, app: &App, list: StepList, area: Rect) {
     let t = &app.theme;
     let (pane, selected) = match list {
-        StepList::Plan => (Pane::Plan, app.plan_selected),
-        StepList::GroundTruth => (Pane::GroundTruth, app.ground_truth_selected),
+        StepList::Plan => (Pane::Plan, app.plan.selected),
+        StepList::GroundTruth => (Pane::GroundTruth, app.ground_truth.selected),
     };
     let extra = match list {
         StepList::Plan => match &app.plan_source {
             PlanSource::None => None,
-            PlanSource::Run { run } => Some(match app.agents.get(&planning_role(app.approach)) {
-                Some(v) if v.status == AgentStatus::Running => {
-                    Span::styled(format!("run {run} · streaming…"), t.warn)
-                }
-                _ => Span::styled(format!("run {run}"), t.muted),
-            }),
+            PlanSource::Run { run } => {
+                Some(match app.runs.agents.get(&planning_role(app.approach)) {
+                    Some(v) if v.status == AgentStatus::Running => {
+                        Span::styled(format!("run {run} · streaming…"), t.warn)
+                    }
+                    _ => Span::styled(format!("run {run}"), t.muted),
+                })
+            }
             PlanSource::Published { approach, .. } => Some(Span::styled(
                 format!("published {}", approach.name()),
                 t.muted,
@@ -303,7 +380,7 @@ pub(crate) fn draw(frame: &mut Frame, app: &App, list: StepList, area: Rect) {
     let block = pane_block(app, pane, extra);
     let inner = block.inner(area);
     frame.render_widget(block, area);
-    let items = app.steps(list);
+    let items = &app.steps(list).items;
     if items.is_empty() {
         let hint = match list {
             StepList::Plan => {
