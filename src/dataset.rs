@@ -295,11 +295,19 @@ pub fn open_pairs(path: &Path) -> Result<PairsReader, DatasetError> {
     } else {
         path.to_path_buf()
     };
-    Ok(PairsReader {
-        path: shown,
-        lines: lines::BoundedLines::new(source, MAX_PAIR_LINE_BYTES),
-        failed: false,
-    })
+    Ok(PairsReader::new(source, shown))
+}
+
+impl PairsReader {
+    /// The pairs of any reader (a file, standard input, bytes in memory),
+    /// with errors naming `shown` as the file.
+    pub fn new(source: Box<dyn BufRead + Send>, shown: PathBuf) -> Self {
+        Self {
+            path: shown,
+            lines: lines::BoundedLines::new(source, MAX_PAIR_LINE_BYTES),
+            failed: false,
+        }
+    }
 }
 
 impl Iterator for PairsReader {

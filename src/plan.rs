@@ -224,4 +224,63 @@ mod tests {
         assert!(parse_steps("").is_empty());
         assert!(parse_steps("\n \n").is_empty());
     }
+
+    mod properties {
+        use super::{bound_steps, parse_steps, MAX_STEPS, MAX_STEP_CHARS};
+        use proptest::prelude::*;
+
+        proptest! {
+            #![proptest_config(ProptestConfig::with_cases(256))]
+
+            /// Any text, markers and odd characters included: no panic, and
+            /// each step is one trimmed, non-empty line.
+            #[test]
+            fn any_text_gives_trimmed_one_line_steps(
+                text in "([0-9]{0,2}[.):]? ?(\\*\\*)?(STEP|Step|-|•|\\*)? ?[a-zé.,:\t ]{0,12}\r?\n?){0,8}"
+            ) {
+                let steps = parse_steps(&text);
+                prop_assert!(steps.len() <= text.lines().count());
+                for step in &steps {
+                    prop_assert!(!step.is_empty());
+                    prop_assert_eq!(step.trim(), step.as_str());
+                    prop_assert!(!step.contains('\n'));
+                }
+            }
+
+            /// Steps written as a numbered list (or one a line) read back
+            /// as the same steps.
+            #[test]
+            fn a_numbered_list_reads_back_as_its_steps(
+                steps in prop::collection::vec("[A-Z][a-z]{0,8}( [a-z]{1,8}){0,5}\\.", 1..12),
+                numbered in any::<bool>(),
+            ) {
+                let text: String = steps
+                    .iter()
+                    .enumerate()
+                    .map(|(i, s)| if numbered { format!("{}. {s}\n", i + 1) } else { format!("{s}\n") })
+                    .collect();
+                prop_assert_eq!(parse_steps(&text), steps);
+            }
+
+            /// The bounds hold for any plan, and the note says exactly when
+            /// they cut.
+            #[test]
+            fn bounds_hold_and_are_said(
+                count in 0usize..(MAX_STEPS + 3),
+                long in prop::collection::vec(0usize..(MAX_STEP_CHARS + 3), 0..4),
+            ) {
+                let mut steps: Vec<String> = (0..count).map(|i| format!("Step {i}.")).collect();
+                for (i, len) in long.iter().enumerate() {
+                    if i < steps.len() {
+                        steps[i] = "é".repeat(*len);
+                    }
+                }
+                let before = steps.clone();
+                let note = bound_steps(&mut steps);
+                prop_assert!(steps.len() <= MAX_STEPS);
+                prop_assert!(steps.iter().all(|s| s.chars().count() <= MAX_STEP_CHARS));
+                prop_assert_eq!(note.is_some(), steps != before);
+            }
+        }
+    }
 }

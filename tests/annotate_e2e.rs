@@ -3,98 +3,25 @@
 
 mod common;
 
+use common::tmux::{wait, Tmux};
+
 use std::path::{Path, PathBuf};
 use std::process::Command;
-use std::time::{Duration, Instant};
 
 use mapvlm::annotate::order::{single_units, Unit};
 use mapvlm::annotate::{Annotations, Subject};
 use mapvlm::dataset::Pair;
 
-struct Tmux {
-    socket: String,
-}
-
-impl Tmux {
-    fn new(name: &str) -> Tmux {
-        let version = Command::new("tmux").arg("-V").output();
-        assert!(
-            version.is_ok_and(|o| o.status.success()),
-            "tmux is not installed: install it to run the end-to-end tests (.ci/run does)"
-        );
-        Tmux {
-            socket: format!("mapvlm-annotate-{name}-{}", std::process::id()),
-        }
-    }
-
-    fn cmd(&self, args: &[&str]) -> String {
-        let out = Command::new("tmux")
-            .arg("-L")
-            .arg(&self.socket)
-            .args(args)
-            .output()
-            .unwrap_or_else(|e| panic!("tmux {args:?}: {e}"));
-        String::from_utf8_lossy(&out.stdout).into_owned()
-    }
-
-    /// Opens the annotation screen in a new session `name`; `exec` makes the
-    /// pane's process mapvlm itself, so it can be killed.
-    fn open(&self, name: &str, dir: &Path, args: &str) {
-        let command = format!(
-            "exec env -u NO_COLOR TERM=xterm-256color HOME={} {} annotate {args}",
-            dir.display(),
-            env!("CARGO_BIN_EXE_mapvlm"),
-        );
-        self.cmd(&[
-            "new-session",
-            "-d",
-            "-s",
-            name,
-            "-x",
-            "160",
-            "-y",
-            "40",
-            &command,
-        ]);
-    }
-
-    fn screen(&self, name: &str) -> String {
-        self.cmd(&["capture-pane", "-p", "-t", name])
-    }
-
-    fn keys(&self, name: &str, keys: &[&str]) {
-        let mut args = vec!["send-keys", "-t", name];
-        args.extend(keys);
-        self.cmd(&args);
-    }
-
-    fn wait_for(&self, name: &str, what: &str, ok: impl Fn(&str) -> bool) -> String {
-        wait(what, || {
-            let screen = self.screen(name);
-            ok(&screen).then_some(screen.clone()).ok_or(screen)
-        })
-    }
-}
-
-impl Drop for Tmux {
-    fn drop(&mut self) {
-        self.cmd(&["kill-server"]);
-    }
-}
-
-/// Polls `probe` until it gives a value; fails with its last state after 30 s.
-fn wait<T>(what: &str, probe: impl Fn() -> Result<T, String>) -> T {
-    let start = Instant::now();
-    loop {
-        match probe() {
-            Ok(v) => return v,
-            Err(state) => assert!(
-                start.elapsed() < Duration::from_secs(30),
-                "timed out waiting for {what}; last state:\n{state}"
-            ),
-        }
-        std::thread::sleep(Duration::from_millis(50));
-    }
+/// Opens the annotation screen in a new session `name`; `exec` makes the
+/// pane's process mapvlm itself, so it can be killed. HOME and the cache
+/// folder are the test's own.
+fn open(tmux: &Tmux, name: &str, dir: &Path, args: &str) {
+    let command = format!(
+        "exec env -u NO_COLOR TERM=xterm-256color HOME={home} XDG_CACHE_HOME={home}/.cache {} annotate {args}",
+        env!("CARGO_BIN_EXE_mapvlm"),
+        home = dir.display(),
+    );
+    tmux.open(name, 160, 40, &command);
 }
 
 fn items() -> Vec<Pair> {
@@ -147,10 +74,10 @@ fn first_key_rates_undo_withdraws_and_a_killed_session_resumes_at_the_withdrawn_
         })
         .collect();
     let args = format!("{} --annotator ana", items_path.display());
-    let tmux = Tmux::new("resume");
+    let tmux = Tmux::new("annotate-resume");
     // Keeps the server up while no screen is open (between kill and reopen).
     tmux.cmd(&["new-session", "-d", "-s", "keep", "sleep 300"]);
-    tmux.open("one", dir.path(), &args);
+    open(&tmux, "one", dir.path(), &args);
     // A missing image is said in its place, and judging goes on.
     let screen = tmux.wait_for("one", "the first item", |s| {
         s.contains("Item 1 of 4") && s.contains("cannot")
@@ -208,7 +135,7 @@ fn first_key_rates_undo_withdraws_and_a_killed_session_resumes_at_the_withdrawn_
     );
     assert!(lines[3].verdict.is_none(), "the last line is a withdrawal");
 
-    tmux.open("two", dir.path(), &args);
+    open(&tmux, "two", dir.path(), &args);
     tmux.wait_for("two", "judging resumes at the withdrawn item", |s| {
         s.contains("Item 3 of 4") && s.contains("2/4 judged")
     });
@@ -229,7 +156,7 @@ fn first_key_rates_undo_withdraws_and_a_killed_session_resumes_at_the_withdrawn_
 }
 
 fn mapvlm(args: &[&str]) -> (bool, String) {
-    let out = Command::new(env!("CARGO_BIN_EXE_mapvlm"))
+    let out = common::mapvlm_command()
         .arg("annotate")
         .args(args)
         .output()

@@ -5,12 +5,12 @@
 mod common;
 
 use std::path::{Path, PathBuf};
-use std::process::{Command, Output};
+use std::process::Output;
 
 use serde_json::Value;
 
 fn mapvlm(args: &[&str]) -> Output {
-    Command::new(env!("CARGO_BIN_EXE_mapvlm"))
+    common::mapvlm_command()
         .args(args)
         .output()
         .unwrap_or_else(|e| panic!("running mapvlm: {e}"))

@@ -293,3 +293,51 @@ async fn eval_reports_tokens_and_cost_per_task_and_cached_answers_cost_nothing()
     assert_eq!(result["cost"]["agents"][0]["billing"], "cached");
     assert_eq!(result["cost"]["usd"].as_f64(), Some(0.0));
 }
+
+#[test]
+fn no_cache_turns_the_embedding_cache_off_too() {
+    let home = tempfile::tempdir().unwrap();
+    let data = home.path().join("data");
+    std::fs::create_dir_all(&data).unwrap();
+    let task = r#"{"id": "t-1", "task": "Wash the mug", "ground_truth": ["Walk to the sink.", "Wash the mug."], "single_agent_image": ["Go to the sink.", "Rinse the mug."]}"#;
+    std::fs::write(data.join("tasks.jsonl"), task).unwrap();
+    let pack = mapvlm::models::models_dir(None);
+    let embeddings = home.path().join("cache/mapvlm/embeddings");
+    let stored = || {
+        std::fs::read_dir(&embeddings)
+            .map(|dir| dir.count())
+            .unwrap_or(0)
+    };
+    for (out, extra) in [("uncached", Some("--no-cache")), ("cached", None)] {
+        let out = home.path().join(out);
+        let mut args = vec![
+            "eval",
+            "--dataset",
+            data.to_str().unwrap(),
+            "--from-dataset-plans",
+            "--metrics",
+            "kas,pg2s",
+            "--out",
+            out.to_str().unwrap(),
+        ];
+        args.extend(extra);
+        let run = mapvlm_command(&args, home.path())
+            .env("MAPVLM_MODELS", &pack)
+            .output()
+            .unwrap();
+        assert!(
+            run.status.success(),
+            "{}",
+            String::from_utf8_lossy(&run.stderr)
+        );
+        let result: Value = serde_json::from_str(
+            &std::fs::read_to_string(out.join("tasks/t-1.single-image.json")).unwrap(),
+        )
+        .unwrap();
+        assert!(result["pg2s"].as_f64().is_some(), "{result}");
+        if extra.is_some() {
+            assert_eq!(stored(), 0, "--no-cache stores no embedding");
+        }
+    }
+    assert!(stored() > 0, "without --no-cache the embeddings are stored");
+}

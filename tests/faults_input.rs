@@ -4,10 +4,12 @@
 
 use std::io::Write as _;
 use std::path::Path;
-use std::process::{Command, Output, Stdio};
+use std::process::{Output, Stdio};
+
+mod common;
 
 fn mapvlm_with_stdin(args: &[&str], stdin: &[u8]) -> Output {
-    let mut child = Command::new(env!("CARGO_BIN_EXE_mapvlm"))
+    let mut child = common::mapvlm_command()
         .args(args)
         .stdin(Stdio::piped())
         .stdout(Stdio::piped())
@@ -169,6 +171,38 @@ fn an_overlong_step_is_cut_and_said_so() {
 }
 
 #[test]
+fn parse_cuts_a_line_of_any_length_and_says_so_never_skips_it() {
+    // Over the reader's 40 KB of one line and under it: both cut alike.
+    let huge = "Walk to the counter and ".repeat(5_000);
+    let long = "Open the fridge door and ".repeat(600);
+    let input = format!("{huge}\n{long}\nPick up the apple.\n");
+    let out = mapvlm_with_stdin(&["parse", "--json"], input.as_bytes());
+    no_panic(&out);
+    assert!(out.status.success(), "{}", stderr(&out));
+    let texts: Vec<String> = String::from_utf8_lossy(&out.stdout)
+        .lines()
+        .map(|l| {
+            let v: serde_json::Value =
+                serde_json::from_str(l).unwrap_or_else(|e| panic!("{e}: {l}"));
+            v["text"].as_str().unwrap_or_default().to_string()
+        })
+        .collect();
+    let limit = 10_000; // the documented limit of `mapvlm parse`
+    assert_eq!(texts.len(), 3, "no line skipped");
+    assert_eq!(texts[0].chars().count(), limit);
+    assert!(huge.starts_with(&texts[0]));
+    assert_eq!(texts[1].chars().count(), limit);
+    assert_eq!(texts[2], "Pick up the apple.");
+    let err = stderr(&out);
+    for line in [1, 2] {
+        assert!(
+            err.contains(&format!("line {line}: longer than {limit} characters")),
+            "{err}"
+        );
+    }
+}
+
+#[test]
 fn out_of_range_score_thresholds_are_refused() {
     for (flag, value) in [
         ("--sentence-threshold", "NaN"),
@@ -191,7 +225,7 @@ fn out_of_range_score_thresholds_are_refused() {
 fn a_model_pack_path_that_is_a_file_is_one_clear_line() {
     let dir = tempfile::tempdir().unwrap_or_else(|e| panic!("{e}"));
     let file = write(dir.path(), "pack", b"x");
-    let out = Command::new(env!("CARGO_BIN_EXE_mapvlm"))
+    let out = common::mapvlm_command()
         .args(["score", "--metrics", "pg2s"])
         .env("MAPVLM_MODELS", &file)
         .output()

@@ -4,11 +4,16 @@
 
 mod agents_support;
 
+use std::collections::BTreeMap;
 use std::path::Path;
-use std::process::Output;
+use std::process::{Command, Output};
+use std::sync::{Arc, Mutex};
 
 use agents_support::*;
-use mapvlm::agents::ProviderKind;
+use mapvlm::agents::cache::ResponseCache;
+use mapvlm::agents::replay::Recording;
+use mapvlm::agents::{Approach, ProviderKind};
+use mapvlm::workbench::session::{self, GroundTruthSource, PlanSource, Session, SESSION_VERSION};
 use wiremock::MockServer;
 
 /// Runs mapvlm off the async runtime, so that the mock server keeps answering.
@@ -272,6 +277,189 @@ async fn an_echoed_key_never_reaches_cache_record_or_output() {
                 assert!(!contains(&bytes, KEY), "{label}: key in {}", path.display());
             }
         }
+    }
+}
+
+/// The echoed answer of the planner, streamed with the key split across
+/// pieces or whole.
+fn echo(provider: ProviderKind, stream: bool) -> wiremock::ResponseTemplate {
+    let (head, tail) = KEY.split_at(9);
+    if stream {
+        let pieces = [
+            "1. Walk to the sink, key ",
+            head,
+            tail,
+            ".\n2. Wash the mug.",
+        ];
+        streamed(provider, &pieces, true)
+    } else {
+        whole(
+            provider,
+            &format!("1. Walk to the sink, key {KEY}.\n2. Wash the mug."),
+        )
+    }
+}
+
+/// The session the workbench would save after `record`'s run.
+fn session_of(record: &mapvlm::agents::pipeline::PlanRecord) -> Session {
+    let agents: Vec<session::AgentRecord> = record
+        .agents
+        .iter()
+        .map(|a| session::AgentRecord {
+            agent: a.role,
+            settings: session::AgentSettings {
+                provider: a.provider.name().into(),
+                model: a.model.clone(),
+                temperature: a.temperature,
+                max_tokens: a.max_tokens,
+            },
+            prompt: a.prompt.clone(),
+            output: a.output.clone().unwrap_or_default(),
+            duration_ms: a.elapsed_ms,
+            usage: mapvlm::agents::Usage::default(),
+            error: a.error.clone(),
+        })
+        .collect();
+    Session {
+        version: SESSION_VERSION,
+        task_id: None,
+        approach: record.approach,
+        ground_truth_source: GroundTruthSource::Typed,
+        ground_truth: vec!["Walk to the sink.".into()],
+        plan_source: PlanSource::Run { run: 1 },
+        plan: record.steps.clone(),
+        prompts: BTreeMap::new(),
+        settings: agents
+            .iter()
+            .map(|a| (a.agent, a.settings.clone()))
+            .collect(),
+        outputs: agents.iter().map(|a| (a.agent, a.output.clone())).collect(),
+        ran_with: BTreeMap::new(),
+        theme: "dark".into(),
+        image: true,
+        runs: vec![session::RunRecord {
+            id: 1,
+            started_unix: 0,
+            approach: record.approach,
+            task: record.task.clone(),
+            agents,
+            plan: record.steps.clone(),
+            ground_truth: vec!["Walk to the sink.".into()],
+            scores: None,
+            cancelled: false,
+        }],
+        draft: None,
+    }
+}
+
+/// `grep -r -F -l NEEDLE DIR`: the files under `dir` holding `needle`.
+/// Fails the test when grep cannot run.
+fn grep_files(needle: &str, dir: &Path) -> Vec<String> {
+    let out = Command::new("grep")
+        .args(["-r", "-F", "-l", "--", needle])
+        .arg(dir)
+        .output()
+        .unwrap_or_else(|e| panic!("grep is needed for this test: {e}"));
+    let code = out.status.code();
+    assert!(
+        matches!(code, Some(0 | 1)),
+        "grep failed: {}",
+        String::from_utf8_lossy(&out.stderr)
+    );
+    String::from_utf8_lossy(&out.stdout)
+        .lines()
+        .map(str::to_string)
+        .collect()
+}
+
+/// The echo case as a reviewer would check it: a server echoing the key in
+/// a successful answer (both providers, streamed and whole), answered to
+/// the binary (`RUST_LOG=debug`, its stdout and stderr kept in files, its
+/// response cache and record) and to the library (every tracing event at
+/// TRACE written to a log file, its cache and recording, and the session
+/// the workbench saves through the session module); then `grep -r` of the
+/// key over all of it finds nothing, while the redacted echo is there.
+#[tokio::test(flavor = "multi_thread")]
+async fn grep_finds_no_echoed_key_in_cache_record_session_log_or_output() {
+    let home = tempfile::tempdir().unwrap();
+    let log_path = home.path().join("log/trace.log");
+    std::fs::create_dir_all(home.path().join("log")).unwrap();
+    let log = std::fs::File::create(&log_path).unwrap();
+    let subscriber = tracing_subscriber::fmt()
+        .with_max_level(tracing::Level::TRACE)
+        .with_ansi(false)
+        .with_writer(Mutex::new(log))
+        .finish();
+    // Global, so that events from the runtime's worker threads are kept too.
+    tracing::subscriber::set_global_default(subscriber).unwrap();
+    let recording = Arc::new(Mutex::new(Recording::new("echo")));
+    for provider in [ProviderKind::Openai, ProviderKind::Anthropic] {
+        for stream in [true, false] {
+            let label = format!(
+                "{}-{}",
+                provider.name(),
+                if stream { "stream" } else { "whole" }
+            );
+            let server = MockServer::start().await;
+            answer(&server, provider, PLANNER_MARK, echo(provider, stream)).await;
+            let record = home.path().join(format!("records/{label}.json"));
+            let mut extra = vec!["--provider", provider.name(), "--json", "--record"];
+            extra.push(record.to_str().unwrap());
+            if !stream {
+                extra.push("--no-stream");
+            }
+            let args = plan_args(home.path(), &base_url(&server, provider), &extra);
+            let run_home = home.path().to_path_buf();
+            let out = tokio::task::spawn_blocking(move || {
+                mapvlm_command(&args, &run_home)
+                    .env("ANTHROPIC_API_KEY", KEY)
+                    .env("RUST_LOG", "debug")
+                    .output()
+                    .unwrap()
+            })
+            .await
+            .unwrap();
+            assert!(out.status.success(), "{label}: {}", err_of(&out));
+            let outputs = home.path().join("output");
+            std::fs::create_dir_all(&outputs).unwrap();
+            std::fs::write(outputs.join(format!("{label}.stdout")), &out.stdout).unwrap();
+            std::fs::write(outputs.join(format!("{label}.stderr")), &out.stderr).unwrap();
+
+            let runner = runner(settings(&server, provider, stream))
+                .with_cache(ResponseCache::new(home.path().join("library-cache")))
+                .with_recorder(recording.clone());
+            let image = image_input(scene(home.path()));
+            let (done, _) = plan_with_events(&runner, Approach::SingleImage, &image).await;
+            assert!(!done.steps.is_empty(), "{label}: planned");
+            let path = home.path().join(format!("state/{label}.session.json"));
+            session::save(&path, &session_of(&done)).unwrap();
+        }
+    }
+    let recorded = home.path().join("records/library.json");
+    recording.lock().unwrap().save(&recorded).unwrap();
+    assert!(
+        std::fs::metadata(&log_path).unwrap().len() > 0,
+        "tracing wrote the log"
+    );
+
+    assert_eq!(
+        grep_files(KEY, home.path()),
+        Vec::<String>::new(),
+        "the key on disk"
+    );
+    let redacted = grep_files("[redacted]", home.path());
+    for part in [
+        "/cache/",
+        "/library-cache/",
+        "/records/",
+        "/state/",
+        "/output/",
+    ] {
+        let under = |f: &String| f.contains(part);
+        assert!(
+            redacted.iter().any(under),
+            "no redacted echo under {part}: {redacted:?}"
+        );
     }
 }
 

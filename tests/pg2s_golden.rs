@@ -4,8 +4,6 @@
 
 mod common;
 
-use std::process::Command;
-
 use serde_json::Value;
 
 /// Cosines are float32 sums whose order differs from PyTorch's.
@@ -23,7 +21,7 @@ fn number_eq(got: &Value, want: &Value, tolerance: f64) -> bool {
 #[test]
 fn score_pairs_equals_the_golden_explanation_on_every_pair() {
     let pairs = common::shared().join("golden/pairs.dev.jsonl");
-    let output = Command::new(env!("CARGO_BIN_EXE_mapvlm"))
+    let output = common::mapvlm_command()
         .args(["score", "--json", "--pairs"])
         .arg(&pairs)
         .output()

@@ -3,6 +3,8 @@
 
 use std::sync::Arc;
 
+mod common;
+
 use crossterm::event::{KeyCode, KeyEvent, KeyModifiers};
 use mapvlm::agents::replay::Pace;
 use mapvlm::agents::AgentRole;
@@ -350,7 +352,7 @@ fn published_plans_score_as_in_mapvlm_score() {
         let pred_file = dir.path().join("pred.txt");
         std::fs::write(&gt_file, task.ground_truth.join("\n")).unwrap();
         std::fs::write(&pred_file, plan.join("\n")).unwrap();
-        let out = std::process::Command::new(env!("CARGO_BIN_EXE_mapvlm"))
+        let out = common::mapvlm_command()
             .args(["score", "--json", "--gt"])
             .arg(&gt_file)
             .arg("--pred")

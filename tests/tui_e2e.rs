@@ -1,56 +1,16 @@
 //! End to end: the real binary in tmux, driven with keys and read from the
 //! screen, as a person would use it.
 
+mod common;
+
 use std::path::Path;
 use std::process::Command;
 use std::time::{Duration, Instant};
 
-struct Tmux {
-    socket: String,
-}
+use common::tmux::Tmux;
 
-impl Tmux {
-    fn cmd(&self, args: &[&str]) -> String {
-        let out = Command::new("tmux")
-            .arg("-L")
-            .arg(&self.socket)
-            .args(args)
-            .output()
-            .unwrap_or_else(|e| panic!("tmux {args:?}: {e}"));
-        String::from_utf8_lossy(&out.stdout).into_owned()
-    }
-
-    fn screen(&self) -> String {
-        self.cmd(&["capture-pane", "-p", "-t", "e2e"])
-    }
-
-    fn keys(&self, keys: &[&str]) {
-        let mut args = vec!["send-keys", "-t", "e2e"];
-        args.extend(keys);
-        self.cmd(&args);
-    }
-
-    fn wait_for(&self, what: &str, ok: impl Fn(&str) -> bool) -> String {
-        let start = Instant::now();
-        loop {
-            let screen = self.screen();
-            if ok(&screen) {
-                return screen;
-            }
-            assert!(
-                start.elapsed() < Duration::from_secs(30),
-                "timed out waiting for {what}; screen:\n{screen}"
-            );
-            std::thread::sleep(Duration::from_millis(50));
-        }
-    }
-}
-
-impl Drop for Tmux {
-    fn drop(&mut self) {
-        self.cmd(&["kill-server"]);
-    }
-}
+/// The tmux session each test runs mapvlm in.
+const E2E: &str = "e2e";
 
 /// The KAS shown in the Scores pane (three decimals).
 fn kas_on(screen: &str) -> Option<String> {
@@ -78,33 +38,15 @@ fn start(name: &str, dir: &Path, session: &Path) -> Tmux {
 /// Starts mapvlm with `flags` as a user would in tmux: TERM=xterm-256color,
 /// and its exit status written to `dir/status` when it ends.
 fn start_with(name: &str, dir: &Path, session: &Path, flags: &str) -> Tmux {
-    let version = Command::new("tmux").arg("-V").output();
-    assert!(
-        version.is_ok_and(|o| o.status.success()),
-        "tmux is not installed: install it to run the end-to-end tests (.ci/run does)"
-    );
-    let tmux = Tmux {
-        socket: format!("mapvlm-{name}-{}", std::process::id()),
-    };
+    let tmux = Tmux::new(name);
     let command = format!(
-        "env -u NO_COLOR TERM=xterm-256color HOME={} MAPVLM_MODELS={} {} {flags} --replay-delay 1 --session {}; echo $? > {}/status",
-        dir.display(),
-        mapvlm::models::models_dir(None).display(),
+        "env -u NO_COLOR TERM=xterm-256color HOME={home} XDG_CACHE_HOME={home}/.cache MAPVLM_MODELS={} {} {flags} --replay-delay 1 --session {}; echo $? > {home}/status",
+        common::pack_dir().display(),
         env!("CARGO_BIN_EXE_mapvlm"),
         session.display(),
-        dir.display(),
+        home = dir.display(),
     );
-    tmux.cmd(&[
-        "new-session",
-        "-d",
-        "-s",
-        "e2e",
-        "-x",
-        "200",
-        "-y",
-        "60",
-        &command,
-    ]);
+    tmux.open(E2E, 200, 60, &command);
     tmux
 }
 
@@ -135,8 +77,8 @@ fn first_frame(screen: &str) -> bool {
 fn q_as_the_first_key_quits_without_halfblocks() {
     let dir = tempfile::tempdir().unwrap();
     let tmux = start_with("first-q", dir.path(), &dir.path().join("s.json"), "");
-    tmux.wait_for("the first frame", first_frame);
-    tmux.keys(&["q"]);
+    tmux.wait_for(E2E, "the first frame", first_frame);
+    tmux.keys(E2E, &["q"]);
     assert_eq!(exit_status(dir.path()), "0");
 }
 
@@ -144,14 +86,14 @@ fn q_as_the_first_key_quits_without_halfblocks() {
 fn help_as_the_first_key_and_a_resize_drawn_at_once_without_halfblocks() {
     let dir = tempfile::tempdir().unwrap();
     let tmux = start_with("first-help", dir.path(), &dir.path().join("s.json"), "");
-    tmux.wait_for("the first frame", first_frame);
-    tmux.keys(&["?"]);
-    tmux.wait_for("the help", |s| s.contains("Keys (any key closes)"));
-    tmux.cmd(&["resize-window", "-t", "e2e", "-x", "120", "-y", "40"]);
+    tmux.wait_for(E2E, "the first frame", first_frame);
+    tmux.keys(E2E, &["?"]);
+    tmux.wait_for(E2E, "the help", |s| s.contains("Keys (any key closes)"));
+    tmux.cmd(&["resize-window", "-t", E2E, "-x", "120", "-y", "40"]);
     // Redrawn for 120 columns: the rightmost pane closes in the last column.
     let start = Instant::now();
     loop {
-        let screen = tmux.screen();
+        let screen = tmux.screen(E2E);
         let redrawn = screen
             .lines()
             .nth(1)
@@ -166,11 +108,11 @@ fn help_as_the_first_key_and_a_resize_drawn_at_once_without_halfblocks() {
         std::thread::sleep(Duration::from_millis(20));
     }
     // Esc and q sent together would read as Alt-q: wait for the help to close.
-    tmux.keys(&["Escape"]);
-    tmux.wait_for("the help to close", |s| {
+    tmux.keys(E2E, &["Escape"]);
+    tmux.wait_for(E2E, "the help to close", |s| {
         !s.contains("Keys (any key closes)")
     });
-    tmux.keys(&["q"]);
+    tmux.keys(E2E, &["q"]);
     assert_eq!(exit_status(dir.path()), "0");
 }
 
@@ -179,37 +121,37 @@ fn demo_ground_truth_switch_step_edit_and_quit_in_tmux() {
     let dir = tempfile::tempdir().unwrap();
     let session = dir.path().join("session.json");
     let tmux = start("e2e", dir.path(), &session);
-    let screen = tmux.wait_for("the demo's plan and scores", |s| {
+    let screen = tmux.wait_for(E2E, "the demo's plan and scores", |s| {
         s.contains("run 1 finished") && kas_on(s).is_some() && score_on(s, "PG2S").is_some()
     });
     assert!(screen.contains("Grounded Description (GKM)"));
     assert!(screen.contains("7. Place the mug on the drip tray under the spout."));
     let first = kas_on(&screen).unwrap();
 
-    tmux.keys(&["g"]);
-    tmux.wait_for("the ground-truth picker", |s| {
+    tmux.keys(E2E, &["g"]);
+    tmux.wait_for(E2E, "the ground-truth picker", |s| {
         s.contains("annotator B's ground truth")
     });
-    tmux.keys(&["Down", "Enter"]);
-    let screen = tmux.wait_for("annotator B's scores", |s| {
+    tmux.keys(E2E, &["Down", "Enter"]);
+    let screen = tmux.wait_for(E2E, "annotator B's scores", |s| {
         s.contains("demo annotator B") && kas_on(s).is_some_and(|k| k != first)
     });
     let second = kas_on(&screen).unwrap();
 
-    tmux.keys(&["Enter"]);
-    tmux.wait_for("the step editor", |s| s.contains("EDIT step"));
-    tmux.keys(&["End"]);
-    tmux.keys(&["-l", " Then wave."]);
-    tmux.keys(&["Enter"]);
-    tmux.wait_for("the edited step and a new score", |s| {
+    tmux.keys(E2E, &["Enter"]);
+    tmux.wait_for(E2E, "the step editor", |s| s.contains("EDIT step"));
+    tmux.keys(E2E, &["End"]);
+    tmux.keys(E2E, &["-l", " Then wave."]);
+    tmux.keys(E2E, &["Enter"]);
+    tmux.wait_for(E2E, "the edited step and a new score", |s| {
         s.contains("under the window. Then wave.")
             && !s.contains("EDIT step")
             && kas_on(s).is_some_and(|k| k != second)
     });
 
-    tmux.keys(&["q"]);
+    tmux.keys(E2E, &["q"]);
     let start = Instant::now();
-    while tmux.cmd(&["list-sessions"]).contains("e2e") {
+    while tmux.cmd(&["list-sessions"]).contains(E2E) {
         assert!(
             start.elapsed() < Duration::from_secs(10),
             "mapvlm did not quit"
@@ -233,14 +175,16 @@ fn a_kill_while_typing_loses_at_most_the_last_second() {
     let dir = tempfile::tempdir().unwrap();
     let session = dir.path().join("session.json");
     let tmux = start("kill", dir.path(), &session);
-    tmux.wait_for("the demo's plan", |s| s.contains("run 1 finished"));
-    tmux.keys(&["Enter"]);
-    tmux.wait_for("the step editor", |s| s.contains("EDIT step"));
-    tmux.keys(&["End"]);
-    tmux.keys(&["-l", " typed before the kill"]);
-    tmux.wait_for("the typed text", |s| s.contains("typed before the kill"));
+    tmux.wait_for(E2E, "the demo's plan", |s| s.contains("run 1 finished"));
+    tmux.keys(E2E, &["Enter"]);
+    tmux.wait_for(E2E, "the step editor", |s| s.contains("EDIT step"));
+    tmux.keys(E2E, &["End"]);
+    tmux.keys(E2E, &["-l", " typed before the kill"]);
+    tmux.wait_for(E2E, "the typed text", |s| {
+        s.contains("typed before the kill")
+    });
     std::thread::sleep(Duration::from_millis(1000));
-    let pid = tmux.cmd(&["display-message", "-p", "-t", "e2e", "#{pane_pid}"]);
+    let pid = tmux.cmd(&["display-message", "-p", "-t", E2E, "#{pane_pid}"]);
     let status = Command::new("kill")
         .args(["-KILL", pid.trim()])
         .status()
@@ -281,7 +225,8 @@ impl Pty {
             .env_remove("NO_COLOR")
             .env("TERM", "xterm-256color")
             .env("HOME", dir)
-            .env("MAPVLM_MODELS", mapvlm::models::models_dir(None))
+            .env("XDG_CACHE_HOME", dir.join(".cache"))
+            .env("MAPVLM_MODELS", common::pack_dir())
             .stdin(Stdio::piped())
             .stdout(Stdio::piped())
             .stderr(Stdio::null())

@@ -5,7 +5,7 @@ use tokio_util::sync::CancellationToken;
 
 use super::provider::{
     is_json, Assembler, BoxFuture, ChatRequest, Completion, HttpEndpoint, HttpSettings, Provider,
-    TokenSink,
+    SseEvent, StreamStep, TokenSink,
 };
 use super::{AgentError, Secret, Usage};
 
@@ -61,40 +61,9 @@ impl Anthropic {
             let complete = self
                 .endpoint
                 .read_events(response, cancel, |event| {
-                    let value: Value = serde_json::from_str(&event.data).map_err(|err| {
-                        self.endpoint
-                            .invalid(format!("invalid JSON in stream event ({err})"))
-                    })?;
-                    let kind = value.get("type").and_then(Value::as_str).unwrap_or("");
-                    match kind {
-                        "message_start" => {
-                            let usage = value.pointer("/message/usage");
-                            answer.usage.input_tokens = count(usage, "input_tokens");
-                            answer.usage.output_tokens = count(usage, "output_tokens");
-                        }
-                        "content_block_delta" => {
-                            if let Some(text) = value.pointer("/delta/text").and_then(Value::as_str)
-                            {
-                                answer.push(text);
-                            }
-                        }
-                        "message_delta" => {
-                            let output = count(value.get("usage"), "output_tokens");
-                            answer.usage.output_tokens = answer.usage.output_tokens.max(output);
-                        }
-                        "message_stop" => return Ok(true),
-                        "error" => {
-                            let message = value
-                                .pointer("/error/message")
-                                .and_then(Value::as_str)
-                                .unwrap_or("unknown error");
-                            return Err(self
-                                .endpoint
-                                .invalid(format!("error in stream: {message}")));
-                        }
-                        _ => {}
-                    }
-                    Ok(false)
+                    let step = apply_event(&event, &mut answer)
+                        .map_err(|message| self.endpoint.invalid(message))?;
+                    Ok(step == StreamStep::Done)
                 })
                 .await?;
             if !complete {
@@ -123,6 +92,40 @@ impl Provider for Anthropic {
     ) -> BoxFuture<'a, Result<Completion, AgentError>> {
         Box::pin(self.run(request, on_token, cancel))
     }
+}
+
+/// Adds one Messages stream event to `answer`: its text and usage. Says
+/// whether the answer goes on or is done (`message_stop`); an event that is
+/// not JSON or is an `error` event is the message to report.
+pub fn apply_event(event: &SseEvent, answer: &mut Assembler<'_>) -> Result<StreamStep, String> {
+    let value: Value = serde_json::from_str(&event.data)
+        .map_err(|err| format!("invalid JSON in stream event ({err})"))?;
+    match value.get("type").and_then(Value::as_str).unwrap_or("") {
+        "message_start" => {
+            let usage = value.pointer("/message/usage");
+            answer.usage.input_tokens = count(usage, "input_tokens");
+            answer.usage.output_tokens = count(usage, "output_tokens");
+        }
+        "content_block_delta" => {
+            if let Some(text) = value.pointer("/delta/text").and_then(Value::as_str) {
+                answer.push(text);
+            }
+        }
+        "message_delta" => {
+            let output = count(value.get("usage"), "output_tokens");
+            answer.usage.output_tokens = answer.usage.output_tokens.max(output);
+        }
+        "message_stop" => return Ok(StreamStep::Done),
+        "error" => {
+            let message = value
+                .pointer("/error/message")
+                .and_then(Value::as_str)
+                .unwrap_or("unknown error");
+            return Err(format!("error in stream: {message}"));
+        }
+        _ => {}
+    }
+    Ok(StreamStep::More)
 }
 
 /// The text and usage of a whole Messages answer (also the `message` of

@@ -254,23 +254,13 @@ impl Settings {
                 .or(from_file.provider)
                 .or(file.defaults.provider)
                 .unwrap_or(ProviderKind::Openai);
-            let (key_var, url_var, default_url, default_model) = match provider {
-                ProviderKind::Openai => (
-                    "OPENAI_API_KEY",
-                    "OPENAI_BASE_URL",
-                    openai::DEFAULT_BASE_URL,
-                    "gpt-4o",
-                ),
-                ProviderKind::Anthropic => (
-                    "ANTHROPIC_API_KEY",
-                    "ANTHROPIC_BASE_URL",
-                    anthropic::DEFAULT_BASE_URL,
-                    "claude-sonnet-4-5",
-                ),
+            let (default_url, default_model) = match provider {
+                ProviderKind::Openai => (openai::DEFAULT_BASE_URL, "gpt-4o"),
+                ProviderKind::Anthropic => (anthropic::DEFAULT_BASE_URL, "claude-sonnet-4-5"),
             };
             let from_env = AgentLayer {
-                api_key: env(key_var).and_then(Secret::new),
-                base_url: env(url_var).filter(|v| !v.trim().is_empty()),
+                api_key: env(provider.key_variable()).and_then(Secret::new),
+                base_url: env(provider.base_url_variable()).filter(|v| !v.trim().is_empty()),
                 ..AgentLayer::default()
             };
             let merged = file

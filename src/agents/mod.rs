@@ -71,6 +71,24 @@ impl ProviderKind {
             Self::Anthropic => "anthropic",
         }
     }
+
+    /// The environment variable holding this provider's API key: the one
+    /// place its name is written, for the configuration and for messages
+    /// that tell the user what to set.
+    pub fn key_variable(self) -> &'static str {
+        match self {
+            Self::Openai => "OPENAI_API_KEY",
+            Self::Anthropic => "ANTHROPIC_API_KEY",
+        }
+    }
+
+    /// The environment variable holding this provider's base URL.
+    pub fn base_url_variable(self) -> &'static str {
+        match self {
+            Self::Openai => "OPENAI_BASE_URL",
+            Self::Anthropic => "ANTHROPIC_BASE_URL",
+        }
+    }
 }
 
 impl FromStr for ProviderKind {
@@ -341,10 +359,10 @@ pub enum AgentError {
 /// The environment variable holding the API key of the provider named
 /// `provider`, for messages that tell the user what to set.
 pub fn key_variable(provider: &str) -> &'static str {
-    match provider {
-        "anthropic" => "ANTHROPIC_API_KEY",
-        _ => "OPENAI_API_KEY",
-    }
+    provider
+        .parse::<ProviderKind>()
+        .unwrap_or(ProviderKind::Openai)
+        .key_variable()
 }
 
 /// The SHA-256 of `bytes`, as lowercase hex.

@@ -7,7 +7,7 @@ use tokio_util::sync::CancellationToken;
 
 use super::provider::{
     is_json, Assembler, BoxFuture, ChatRequest, Completion, HttpEndpoint, HttpSettings, Provider,
-    TokenSink,
+    SseEvent, StreamStep, TokenSink,
 };
 use super::{AgentError, Secret, Usage};
 
@@ -78,32 +78,10 @@ impl OpenAi {
             let complete = self
                 .endpoint
                 .read_events(response, cancel, |event| {
-                    if event.data.trim() == "[DONE]" {
-                        return Ok(true);
-                    }
-                    let value: Value = serde_json::from_str(&event.data).map_err(|err| {
-                        self.endpoint
-                            .invalid(format!("invalid JSON in stream event ({err})"))
-                    })?;
-                    if let Some(message) = value.pointer("/error/message").and_then(Value::as_str) {
-                        return Err(self.endpoint.invalid(format!("error in stream: {message}")));
-                    }
-                    if let Some(piece) = value
-                        .pointer("/choices/0/delta/content")
-                        .and_then(Value::as_str)
-                    {
-                        answer.push(piece);
-                    }
-                    if value
-                        .pointer("/choices/0/finish_reason")
-                        .is_some_and(|reason| !reason.is_null())
-                    {
-                        finished = true;
-                    }
-                    if let Some(usage) = value.get("usage").and_then(usage_of) {
-                        answer.usage = usage;
-                    }
-                    Ok(false)
+                    let step = apply_event(&event, &mut answer)
+                        .map_err(|message| self.endpoint.invalid(message))?;
+                    finished |= step == StreamStep::Finished;
+                    Ok(step == StreamStep::Done)
                 })
                 .await?;
             if !complete && !finished {
@@ -134,6 +112,38 @@ impl Provider for OpenAi {
     ) -> BoxFuture<'a, Result<Completion, AgentError>> {
         Box::pin(self.run(request, on_token, cancel))
     }
+}
+
+/// Adds one Chat Completions stream event to `answer`: its text piece and
+/// usage. Says whether the answer goes on, was finished (a finish reason;
+/// the usage may still follow) or is done (`[DONE]`); an event that is not
+/// JSON or carries an error is the message to report.
+pub fn apply_event(event: &SseEvent, answer: &mut Assembler<'_>) -> Result<StreamStep, String> {
+    if event.data.trim() == "[DONE]" {
+        return Ok(StreamStep::Done);
+    }
+    let value: Value = serde_json::from_str(&event.data)
+        .map_err(|err| format!("invalid JSON in stream event ({err})"))?;
+    if let Some(message) = value.pointer("/error/message").and_then(Value::as_str) {
+        return Err(format!("error in stream: {message}"));
+    }
+    if let Some(piece) = value
+        .pointer("/choices/0/delta/content")
+        .and_then(Value::as_str)
+    {
+        answer.push(piece);
+    }
+    if let Some(usage) = value.get("usage").and_then(usage_of) {
+        answer.usage = usage;
+    }
+    let finished = value
+        .pointer("/choices/0/finish_reason")
+        .is_some_and(|reason| !reason.is_null());
+    Ok(if finished {
+        StreamStep::Finished
+    } else {
+        StreamStep::More
+    })
 }
 
 /// The text and usage of a whole Chat Completions answer (also the body of

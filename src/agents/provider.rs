@@ -514,6 +514,23 @@ pub fn elapsed_ms(start: Instant) -> u64 {
     start.elapsed().as_millis() as u64
 }
 
+/// Where a stream stands after one event, as a provider's decoder reads it.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub enum StreamStep {
+    /// More is to come.
+    More,
+    /// The answer's text is finished, though the stream may still carry
+    /// its usage before it ends.
+    Finished,
+    /// The answer is complete: stop reading.
+    Done,
+}
+
+/// A provider's stream decoder: adds one event to the answer and says where
+/// the stream stands, or gives the message of an event it cannot take
+/// (`openai::apply_event`, `anthropic::apply_event`).
+pub type EventDecoder = fn(&SseEvent, &mut Assembler<'_>) -> Result<StreamStep, String>;
+
 /// One server-sent event.
 #[derive(Debug, Clone, PartialEq, Eq)]
 pub struct SseEvent {
@@ -651,5 +668,126 @@ mod tests {
     fn shorten_cuts_on_characters() {
         assert_eq!(shorten("héllo", 2), "hé…");
         assert_eq!(shorten("hi", 5), "hi");
+    }
+
+    mod properties {
+        use super::super::*;
+        use crate::agents::{anthropic, openai};
+        use proptest::prelude::*;
+
+        /// A key with no border (no proper prefix that is also a suffix),
+        /// so that its occurrences in a text never overlap.
+        const KEY: &str = "sk-abc123";
+
+        fn events(pieces: &[&[u8]]) -> Vec<SseEvent> {
+            let mut parser = SseParser::default();
+            let mut events: Vec<SseEvent> = pieces.iter().flat_map(|p| parser.feed(p)).collect();
+            events.extend(parser.finish());
+            events
+        }
+
+        fn key() -> Option<Secret> {
+            Secret::new(KEY)
+        }
+
+        proptest! {
+            #![proptest_config(ProptestConfig::with_cases(256))]
+
+            /// Events written as a stream read back as written, however the
+            /// stream is cut into network pieces.
+            #[test]
+            fn a_stream_reads_back_as_its_events_in_any_pieces(
+                written in prop::collection::vec(
+                    (prop::option::of("[a-z_]{1,8}"), prop::collection::vec("[ -~é]{0,12}", 1..3)),
+                    0..6,
+                ),
+                cut in 1usize..9,
+                crlf in any::<bool>(),
+            ) {
+                let end = if crlf { "\r\n" } else { "\n" };
+                let mut body = String::new();
+                let mut want = Vec::new();
+                for (event, data) in &written {
+                    if let Some(name) = event {
+                        body.push_str(&format!("event: {name}{end}"));
+                    }
+                    for line in data {
+                        body.push_str(&format!("data: {line}{end}"));
+                    }
+                    body.push_str(end);
+                    want.push(SseEvent { event: event.clone(), data: data.join("\n") });
+                }
+                let pieces: Vec<&[u8]> = body.as_bytes().chunks(cut).collect();
+                prop_assert_eq!(events(&pieces), want);
+            }
+
+            /// Any bytes: no panic, and the same events in any pieces.
+            #[test]
+            fn any_bytes_give_the_same_events_in_any_pieces(
+                bytes in prop::collection::vec(prop::sample::select(b"data: {}\"[]\r\n:event\xff".to_vec()), 0..120),
+                cut in 1usize..9,
+            ) {
+                let pieces: Vec<&[u8]> = bytes.chunks(cut).collect();
+                prop_assert_eq!(events(&pieces), events(&[&bytes]));
+            }
+
+            /// However an answer is cut into pieces, what is passed on and
+            /// kept is the whole answer with every key replaced.
+            #[test]
+            fn the_key_is_redacted_in_any_pieces(
+                pieces in prop::collection::vec("(sk-abc123|sk-ab|c123|sk|[sk\\-abc123 é])*", 0..12),
+            ) {
+                let shown = std::sync::Mutex::new(String::new());
+                let sink = |piece: &str| {
+                    if let Ok(mut all) = shown.lock() {
+                        all.push_str(piece);
+                    }
+                };
+                let mut answer = Assembler::new(&sink, key());
+                for piece in &pieces {
+                    answer.push(piece);
+                }
+                let whole: String = pieces.concat();
+                let want = whole.replace(KEY, "[redacted]");
+                match answer.finish("p", "m") {
+                    Ok(done) => {
+                        prop_assert_eq!(&done.text, &want);
+                        let joined: String = done.chunks.iter().map(|c| c.text.as_str()).collect();
+                        prop_assert_eq!(&joined, &want);
+                    }
+                    Err(_) => prop_assert!(want.trim().is_empty()),
+                }
+                prop_assert_eq!(shown.lock().map(|s| s.clone()).unwrap_or_default(), want);
+            }
+
+            /// Either provider's decoder on any event: no panic, and a key
+            /// inside the event's text never reaches the answer.
+            #[test]
+            fn decoders_never_panic_nor_pass_the_key(
+                kind in prop::sample::select(vec!["content_block_delta", "message_start", "message_delta", "error", "message_stop", "x"]),
+                text in "(sk-abc123|[a-z \"\\\\{}])*",
+                raw in "[ -~]{0,30}",
+            ) {
+                let text_json = serde_json::to_string(&text).unwrap_or_default();
+                let datas = [
+                    format!(r#"{{"choices":[{{"delta":{{"content":{text_json}}},"finish_reason":null}}]}}"#),
+                    format!(r#"{{"type":"{kind}","delta":{{"text":{text_json}}},"usage":{{"output_tokens":3}}}}"#),
+                    format!(r#"{{"error":{{"message":{text_json}}}}}"#),
+                    raw,
+                ];
+                for data in datas {
+                    let event = SseEvent { event: None, data };
+                    let decoders: [EventDecoder; 2] = [openai::apply_event, anthropic::apply_event];
+                    for decode in decoders {
+                        let sink = |piece: &str| assert!(!piece.contains(KEY));
+                        let mut answer = Assembler::new(&sink, key());
+                        let _ = decode(&event, &mut answer);
+                        if let Ok(done) = answer.finish("p", "m") {
+                            prop_assert!(!done.text.contains(KEY));
+                        }
+                    }
+                }
+            }
+        }
     }
 }

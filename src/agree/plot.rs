@@ -1,6 +1,7 @@
 //! The figure of `agree --plot`: one scatter plot per metric against the
 //! human score, as SVG or PNG, drawn with plotters and an embedded font
-//! (DejaVu Sans, `assets/fonts/`), so no system font library is needed.
+//! (DejaVu Sans, shipped by the `dejavu` crate), so no system font library
+//! is needed and no font file lives in this repository.
 
 use std::path::Path;
 
@@ -12,9 +13,6 @@ use super::{HumanAgreement, MetricAgreement};
 
 /// The figure's size in pixels.
 const SIZE: (u32, u32) = (1200, 900);
-
-/// The embedded font, registered for plotters' sans-serif family.
-static FONT: &[u8] = include_bytes!("../../assets/fonts/DejaVuSans.ttf");
 
 /// Why the figure could not be written.
 #[derive(Debug, thiserror::Error)]
@@ -40,7 +38,7 @@ pub fn write_figure(human: &HumanAgreement, path: &Path) -> Result<(), PlotError
         path: name.clone(),
         message,
     };
-    register_font("sans-serif", FontStyle::Normal, FONT)
+    register_font("sans-serif", FontStyle::Normal, dejavu::sans::regular())
         .map_err(|_| fail("the embedded font is not a font".into()))?;
     let extension = path
         .extension()

@@ -219,7 +219,7 @@ fn pg2s_scorer(args: &EvalArgs) -> anyhow::Result<Option<Arc<Pg2sScorer>>> {
         return Ok(None);
     }
     match super::load_scorer(
-        &args.models,
+        &args.models.with_no_cache(args.agents.no_cache),
         Pg2sSettings::default(),
         &super::say,
         &crate::models::Progress::stderr(),

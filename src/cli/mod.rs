@@ -121,6 +121,14 @@ pub struct ModelArgs {
 }
 
 impl ModelArgs {
+    /// These settings, with the embedding cache off too when `no_cache`
+    /// (a command's `--no-cache` turns off every cache it reads).
+    fn with_no_cache(&self, no_cache: bool) -> Self {
+        let mut models = self.clone();
+        models.no_embedding_cache |= no_cache;
+        models
+    }
+
     /// The sentence encoder of the pack `dir`: behind the embedding cache
     /// unless `--no-cache` (or the model is not verified as it is now), and
     /// loaded only when a sentence is not in the cache.

@@ -32,8 +32,15 @@ struct Analysis<'a> {
 }
 
 /// The longest line analysed, in characters: the parser's memory grows with
-/// a sentence's length, and no sentence needs more. A longer line is cut.
+/// a sentence's length, and no sentence needs more. A longer line, however
+/// long, is cut to its first `MAX_SENTENCE_CHARS` characters, and stderr
+/// says so; it is never skipped.
 pub const MAX_SENTENCE_CHARS: usize = 10_000;
+
+/// The bytes of a line kept in memory: enough for `MAX_SENTENCE_CHARS`
+/// characters of four bytes and one more, so that a line cut by the reader
+/// always has more characters than the limit and its cut is said.
+const MAX_LINE_BYTES: usize = MAX_SENTENCE_CHARS * 4 + 4;
 
 /// Runs `mapvlm parse`; lines that are not UTF-8 are reported and skipped,
 /// and make the exit status a failure.
@@ -43,7 +50,7 @@ pub fn run(args: &ParseArgs) -> anyhow::Result<ExitCode> {
     let stdin = std::io::stdin().lock();
     let mut out = std::io::BufWriter::new(std::io::stdout().lock());
     let mut failed = false;
-    for line in BoundedLines::new(stdin, MAX_SENTENCE_CHARS * 4) {
+    for line in BoundedLines::cutting(stdin, MAX_LINE_BYTES) {
         let (n, text) = line.context("cannot read standard input")?;
         let mut text = match text {
             Ok(text) => text,

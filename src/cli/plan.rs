@@ -62,7 +62,8 @@ pub struct AgentArgs {
     /// The response cache folder (default: $XDG_CACHE_HOME/mapvlm/responses).
     #[arg(long, value_name = "DIR")]
     pub cache_dir: Option<PathBuf>,
-    /// Always ask the models, and store nothing.
+    /// Neither read nor write any cache: ask the models again, store no
+    /// answer, and (in `eval`) embed every sentence anew.
     #[arg(long)]
     pub no_cache: bool,
     /// Write every answer received to FILE, for --replay.

@@ -99,10 +99,8 @@ pub fn run(args: &ScoreArgs) -> anyhow::Result<ExitCode> {
     }
     let pairs = read_pairs(args)?;
     let scorer = if args.metrics.contains(&Metric::Pg2s) {
-        let mut models = args.models.clone();
-        models.no_embedding_cache |= args.no_cache;
         Some(super::load_scorer(
-            &models,
+            &args.models.with_no_cache(args.no_cache),
             args.settings(),
             &super::say,
             &crate::models::Progress::stderr(),

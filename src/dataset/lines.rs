@@ -1,7 +1,7 @@
 //! Reading text files line by line with bounded memory: a line longer than
-//! a limit is skipped (not kept whole in memory), a line that is not UTF-8
-//! is reported with its number while the others are read, and a UTF-8
-//! byte-order mark at the start is dropped.
+//! a limit is skipped or cut (never kept whole in memory), a line that is
+//! not UTF-8 is reported with its number while the others are read, and a
+//! UTF-8 byte-order mark at the start is dropped.
 
 use std::io::{self, BufRead};
 
@@ -49,6 +49,7 @@ pub type NumberedLine = (usize, Result<String, LineProblem>);
 pub struct BoundedLines<R> {
     source: R,
     limit: usize,
+    cut: bool,
     line: usize,
     buf: Vec<u8>,
 }
@@ -59,8 +60,19 @@ impl<R: BufRead> BoundedLines<R> {
         Self {
             source,
             limit,
+            cut: false,
             line: 0,
             buf: Vec::new(),
+        }
+    }
+
+    /// Lines of `source`, a line longer than `limit` bytes cut to its first
+    /// `limit` bytes (less a character the cut would split) instead of
+    /// skipped, for readers where the start of a line is still worth having.
+    pub fn cutting(source: R, limit: usize) -> Self {
+        Self {
+            cut: true,
+            ..Self::new(source, limit)
         }
     }
 
@@ -110,7 +122,10 @@ impl<R: BufRead> Iterator for BoundedLines<R> {
         if self.line == 1 && self.buf.starts_with(BOM.as_bytes()) {
             self.buf.drain(..BOM.len());
         }
-        if self.buf.len() > self.limit {
+        let cut = self.buf.len() > self.limit;
+        if cut && self.cut {
+            self.buf.truncate(self.limit);
+        } else if cut {
             return Some(Ok((
                 self.line,
                 Err(LineProblem::TooLong {
@@ -121,6 +136,10 @@ impl<R: BufRead> Iterator for BoundedLines<R> {
         }
         let text = match std::str::from_utf8(&self.buf) {
             Ok(text) => Ok(text.to_string()),
+            // The cut split a character: keep what comes before it.
+            Err(err) if cut && err.error_len().is_none() => {
+                Ok(String::from_utf8_lossy(&self.buf[..err.valid_up_to()]).into_owned())
+            }
             Err(err) => Err(LineProblem::NotUtf8 {
                 offset: err.valid_up_to(),
             }),
@@ -167,5 +186,71 @@ mod tests {
         let reader = io::BufReader::with_capacity(4, &text[..]);
         let got: Vec<_> = BoundedLines::new(reader, 10).flatten().collect();
         assert_eq!(got[1], (2, Ok("short".to_string())));
+    }
+
+    #[test]
+    fn a_cutting_reader_keeps_the_start_of_a_long_line_on_a_character_boundary() {
+        let mut text = "é".repeat(30).into_bytes();
+        text.extend_from_slice(b"\nshort\n");
+        let reader = io::BufReader::with_capacity(4, &text[..]);
+        let got: Vec<_> = BoundedLines::cutting(reader, 11).flatten().collect();
+        assert_eq!(got[0], (1, Ok("é".repeat(5))));
+        assert_eq!(got[1], (2, Ok("short".to_string())));
+    }
+
+    mod properties {
+        use super::super::*;
+        use proptest::prelude::*;
+
+        fn read(bytes: &[u8], limit: usize, capacity: usize, cutting: bool) -> Vec<NumberedLine> {
+            let reader = io::BufReader::with_capacity(capacity, bytes);
+            let lines = if cutting {
+                BoundedLines::cutting(reader, limit)
+            } else {
+                BoundedLines::new(reader, limit)
+            };
+            lines.map(|l| l.unwrap_or_else(|e| panic!("{e}"))).collect()
+        }
+
+        proptest! {
+            #![proptest_config(ProptestConfig::with_cases(256))]
+
+            /// Any bytes: numbered lines, none kept over the limit, and the
+            /// same lines however the reader's buffer cuts the input.
+            #[test]
+            fn lines_are_bounded_and_independent_of_the_buffer(
+                bytes in prop::collection::vec(prop::sample::select(b"ab\xc3\xa9\xff\r\n".to_vec()), 0..200),
+                limit in 1usize..40,
+                capacity in 1usize..16,
+                cutting in any::<bool>(),
+            ) {
+                let lines = read(&bytes, limit, capacity, cutting);
+                prop_assert_eq!(&lines, &read(&bytes, limit, 1 << 16, cutting));
+                for (i, (n, text)) in lines.iter().enumerate() {
+                    prop_assert_eq!(*n, i + 1);
+                    match text {
+                        Ok(text) => prop_assert!(text.len() <= limit),
+                        Err(LineProblem::TooLong { bytes, .. }) => {
+                            prop_assert!(!cutting);
+                            prop_assert!(*bytes > limit);
+                        }
+                        Err(LineProblem::NotUtf8 { .. }) => {}
+                    }
+                }
+            }
+
+            /// Lines within the limit come back exactly as written.
+            #[test]
+            fn short_lines_read_back_as_written(
+                written in prop::collection::vec("[a-zé水 ]{0,10}", 0..20),
+                crlf in any::<bool>(),
+            ) {
+                let end = if crlf { "\r\n" } else { "\n" };
+                let text: String = written.iter().map(|l| format!("{l}{end}")).collect();
+                let lines = read(text.as_bytes(), 40, 5, false);
+                let back: Vec<String> = lines.into_iter().map(|(_, t)| t.unwrap_or_default()).collect();
+                prop_assert_eq!(back, written);
+            }
+        }
     }
 }

@@ -308,6 +308,16 @@ fn v1_to_v2(value: &mut serde_json::Value) {
     }
 }
 
+/// The session in the bytes of a session file, brought up to this version
+/// ([`migrate`]), or why they are not one: the part of [`restore`] that
+/// reads, kept apart from the file so that it can be checked on any bytes.
+pub fn decode(bytes: &[u8]) -> Result<Session, String> {
+    let value = serde_json::from_slice::<serde_json::Value>(bytes)
+        .map_err(|e| format!("not a session file ({e})"))?;
+    serde_json::from_value::<Session>(migrate(value)?)
+        .map_err(|e| format!("not a session file ({e})"))
+}
+
 /// Reads the session at `path`. A file that is not a session of this
 /// version (after [`migrate`]) is renamed to `<name>.corrupt-<unix seconds>` and reported.
 pub fn restore(path: &Path) -> Result<Restored, SessionError> {
@@ -316,15 +326,9 @@ pub fn restore(path: &Path) -> Result<Restored, SessionError> {
         Err(e) if e.kind() == std::io::ErrorKind::NotFound => return Ok(Restored::Fresh),
         Err(e) => return Err(io_error(path)(e)),
     };
-    let reason = match serde_json::from_slice::<serde_json::Value>(&bytes) {
-        Ok(value) => match migrate(value) {
-            Ok(value) => match serde_json::from_value::<Session>(value) {
-                Ok(s) => return Ok(Restored::Loaded(Box::new(s))),
-                Err(e) => format!("not a session file ({e})"),
-            },
-            Err(reason) => reason,
-        },
-        Err(e) => format!("not a session file ({e})"),
+    let reason = match decode(&bytes) {
+        Ok(s) => return Ok(Restored::Loaded(Box::new(s))),
+        Err(reason) => reason,
     };
     let stamp = std::time::SystemTime::now()
         .duration_since(std::time::UNIX_EPOCH)
@@ -442,6 +446,115 @@ mod tests {
                 assert!(reason.contains("not a session file"), "{reason}");
             }
             other => panic!("{other:?}"),
+        }
+    }
+
+    mod properties {
+        use super::*;
+        use proptest::prelude::*;
+
+        fn settings() -> impl Strategy<Value = AgentSettings> {
+            (
+                "[a-z]{1,8}",
+                "[a-z0-9.-]{1,12}",
+                -1.0e6f32..1.0e6,
+                any::<u32>(),
+            )
+                .prop_map(|(provider, model, temperature, max_tokens)| AgentSettings {
+                    provider,
+                    model,
+                    temperature,
+                    max_tokens,
+                })
+        }
+
+        fn session() -> impl Strategy<Value = Session> {
+            let text = || "[ -~é水\n\t\"\\\\]{0,20}";
+            let steps = || prop::collection::vec("[ -~é]{0,16}", 0..5);
+            let role = || prop::sample::select(AgentRole::ALL.to_vec());
+            (
+                (
+                    prop::option::of("[a-z0-9-]{1,10}"),
+                    prop::sample::select(Approach::ALL.to_vec()),
+                ),
+                (
+                    steps(),
+                    steps(),
+                    prop::collection::btree_map("[a-z-]{1,12}", text(), 0..3),
+                ),
+                (
+                    prop::collection::btree_map(role(), settings(), 0..3),
+                    prop::collection::btree_map(role(), text(), 0..3),
+                    prop::collection::btree_map(role(), (text(), settings()), 0..2),
+                ),
+                (any::<bool>(), prop::option::of((text(), any::<usize>()))),
+                (any::<u64>(), prop::option::of(-1.0e300f64..1.0e300)),
+            )
+                .prop_map(|(head, plans, agents, (image, draft), (run, kas))| {
+                    Session {
+                        version: SESSION_VERSION,
+                        task_id: head.0,
+                        approach: head.1,
+                        ground_truth_source: GroundTruthSource::Typed,
+                        ground_truth: plans.0.clone(),
+                        plan_source: PlanSource::Run { run },
+                        plan: plans.1.clone(),
+                        prompts: plans.2,
+                        settings: agents.0.clone(),
+                        outputs: agents.1,
+                        ran_with: agents.2,
+                        theme: "dark".into(),
+                        image,
+                        runs: vec![RunRecord {
+                            id: run,
+                            started_unix: run / 2,
+                            approach: head.1,
+                            task: "Do it.".into(),
+                            agents: Vec::new(),
+                            plan: plans.1,
+                            ground_truth: plans.0,
+                            scores: Some(ScoreRecord {
+                                kas,
+                                ..ScoreRecord::default()
+                            }),
+                            cancelled: image,
+                        }],
+                        draft: draft.map(|(text, index)| Draft {
+                            target: "plan".into(),
+                            index,
+                            text,
+                        }),
+                    }
+                })
+        }
+
+        proptest! {
+            #![proptest_config(ProptestConfig::with_cases(64))]
+
+            /// A saved session is restored unchanged.
+            #[test]
+            fn a_saved_session_restores_unchanged(session in session()) {
+                let dir = tempfile::tempdir().map_err(|e| TestCaseError::fail(e.to_string()))?;
+                let path = dir.path().join("session.json");
+                save(&path, &session).map_err(|e| TestCaseError::fail(e.to_string()))?;
+                match restore(&path) {
+                    Ok(Restored::Loaded(back)) => prop_assert_eq!(*back, session),
+                    other => prop_assert!(false, "{other:?}"),
+                }
+            }
+
+            /// Any bytes: no panic; what decodes is a session of this
+            /// version that decodes again after saving.
+            #[test]
+            fn any_bytes_decode_without_panic_and_round_trip(
+                bytes in prop::collection::vec(any::<u8>(), 0..200),
+            ) {
+                if let Ok(session) = decode(&bytes) {
+                    prop_assert_eq!(session.version, SESSION_VERSION);
+                    let saved = serde_json::to_vec(&session).unwrap_or_default();
+                    prop_assert_eq!(decode(&saved), Ok(session));
+                }
+            }
         }
     }
 }

@@ -1,13 +1,43 @@
-//! Helpers shared by the integration tests: the shared data folder and the
-//! golden files.
+//! Helpers shared by the integration tests: the real binary with a cache of
+//! its own, the shared data folder, the golden files and a tmux driver.
 #![allow(dead_code)]
+
+pub mod tmux;
 
 use std::path::PathBuf;
 use std::process::{Command, Output};
+use std::sync::OnceLock;
 
-/// Runs the real `mapvlm` binary with `args` and waits for it.
+/// The real `mapvlm` binary, ready to run: its caches (`XDG_CACHE_HOME`,
+/// e.g. the sentence embeddings PG2S writes) go to a temporary folder of
+/// this test process, never to the user's, while the model pack is still
+/// the user's (`MAPVLM_MODELS`, resolved before the cache is moved).
+pub fn mapvlm_command() -> Command {
+    let mut command = Command::new(env!("CARGO_BIN_EXE_mapvlm"));
+    command
+        .env("XDG_CACHE_HOME", test_cache_home())
+        .env("MAPVLM_MODELS", pack_dir());
+    command
+}
+
+/// The model pack the user has, wherever the environment points.
+pub fn pack_dir() -> PathBuf {
+    static PACK: OnceLock<PathBuf> = OnceLock::new();
+    PACK.get_or_init(|| mapvlm::models::models_dir(None))
+        .clone()
+}
+
+/// The cache folder of the test binaries, inside Cargo's temporary folder
+/// of the build (`target/tmp`): kept between runs as the user's cache would
+/// be, but never the user's.
+pub fn test_cache_home() -> PathBuf {
+    PathBuf::from(env!("CARGO_TARGET_TMPDIR")).join("xdg-cache")
+}
+
+/// Runs the real `mapvlm` binary with `args` (see [`mapvlm_command`]) and
+/// waits for it.
 pub fn mapvlm(args: &[&str]) -> Output {
-    Command::new(env!("CARGO_BIN_EXE_mapvlm"))
+    mapvlm_command()
         .args(args)
         .output()
         .unwrap_or_else(|e| panic!("running mapvlm: {e}"))

@@ -1,0 +1,97 @@
+//! A tmux driver for the end-to-end tests: the real binary in a terminal of
+//! its own, driven with keys and read from the screen as a person would.
+//! Each driver has its own `-L` socket, so parallel runs never collide.
+
+use std::process::Command;
+use std::time::{Duration, Instant};
+
+/// How long a wait lasts before it fails the test with the last state seen.
+const WAIT_LIMIT: Duration = Duration::from_secs(30);
+
+/// One tmux server of a test, killed when the driver is dropped.
+pub struct Tmux {
+    socket: String,
+}
+
+impl Tmux {
+    /// A tmux server on the socket `mapvlm-LABEL-PID`; fails the test when
+    /// tmux is missing (`.ci/run` installs it).
+    pub fn new(label: &str) -> Tmux {
+        let version = Command::new("tmux").arg("-V").output();
+        assert!(
+            version.is_ok_and(|o| o.status.success()),
+            "tmux is not installed: install it to run the end-to-end tests (.ci/run does)"
+        );
+        Tmux {
+            socket: format!("mapvlm-{label}-{}", std::process::id()),
+        }
+    }
+
+    /// Runs `tmux ARGS` on this server and returns what it printed.
+    pub fn cmd(&self, args: &[&str]) -> String {
+        let out = Command::new("tmux")
+            .arg("-L")
+            .arg(&self.socket)
+            .args(args)
+            .output()
+            .unwrap_or_else(|e| panic!("tmux {args:?}: {e}"));
+        String::from_utf8_lossy(&out.stdout).into_owned()
+    }
+
+    /// Opens session `name`, `width`×`height`, running the shell `command`.
+    pub fn open(&self, name: &str, width: u16, height: u16, command: &str) {
+        let (width, height) = (width.to_string(), height.to_string());
+        self.cmd(&[
+            "new-session",
+            "-d",
+            "-s",
+            name,
+            "-x",
+            &width,
+            "-y",
+            &height,
+            command,
+        ]);
+    }
+
+    /// The text on session `name`'s screen.
+    pub fn screen(&self, name: &str) -> String {
+        self.cmd(&["capture-pane", "-p", "-t", name])
+    }
+
+    /// Sends `keys` (tmux `send-keys` arguments) to session `name`.
+    pub fn keys(&self, name: &str, keys: &[&str]) {
+        let mut args = vec!["send-keys", "-t", name];
+        args.extend(keys);
+        self.cmd(&args);
+    }
+
+    /// Waits until session `name`'s screen satisfies `ok` and returns it.
+    pub fn wait_for(&self, name: &str, what: &str, ok: impl Fn(&str) -> bool) -> String {
+        wait(what, || {
+            let screen = self.screen(name);
+            ok(&screen).then_some(screen.clone()).ok_or(screen)
+        })
+    }
+}
+
+impl Drop for Tmux {
+    fn drop(&mut self) {
+        self.cmd(&["kill-server"]);
+    }
+}
+
+/// Polls `probe` until it gives a value; fails with its last state after 30 s.
+pub fn wait<T>(what: &str, probe: impl Fn() -> Result<T, String>) -> T {
+    let start = Instant::now();
+    loop {
+        match probe() {
+            Ok(v) => return v,
+            Err(state) => assert!(
+                start.elapsed() < WAIT_LIMIT,
+                "timed out waiting for {what}; last state:\n{state}"
+            ),
+        }
+        std::thread::sleep(Duration::from_millis(50));
+    }
+}
