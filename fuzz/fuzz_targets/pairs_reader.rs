@@ -41,7 +41,8 @@ fuzz_target!(|input: &[u8]| {
         }
         assert!(expected - 1 <= lines);
     }
-    let reader = PairsReader::new(Box::new(BufReader::new(bytes)), PathBuf::from("fuzz.jsonl"));
+    let source = Box::new(BufReader::new(std::io::Cursor::new(bytes.to_vec())));
+    let reader = PairsReader::new(source, PathBuf::from("fuzz.jsonl"));
     for item in reader {
         if let Err(error) = item {
             assert!(error.line <= lines, "line {} of {lines}", error.line);
