@@ -360,19 +360,11 @@ async fn run(args: Vec<String>, home: &Path) -> Output {
 
 /// Every file under `dir` whose bytes contain the key.
 fn files_with_key(dir: &Path) -> Vec<PathBuf> {
-    let mut found = Vec::new();
-    let Ok(entries) = std::fs::read_dir(dir) else {
-        return found;
-    };
-    for entry in entries.flatten() {
-        let path = entry.path();
-        if path.is_dir() {
-            found.extend(files_with_key(&path));
-        } else if String::from_utf8_lossy(&std::fs::read(&path).unwrap()).contains(KEY) {
-            found.push(path);
-        }
-    }
-    found
+    common::files_under(dir)
+        .into_iter()
+        .filter(|(_, bytes)| String::from_utf8_lossy(bytes).contains(KEY))
+        .map(|(path, _)| path)
+        .collect()
 }
 
 fn task_json(out: &Path, file: &str) -> Value {

@@ -3,6 +3,7 @@
 //! cannot be written.
 
 mod agents_support;
+mod common;
 
 use std::collections::BTreeMap;
 use std::path::Path;
@@ -185,23 +186,6 @@ fn err_of(out: &Output) -> String {
     err
 }
 
-/// Every file under `dir`, read as bytes.
-fn files_under(dir: &Path) -> Vec<(std::path::PathBuf, Vec<u8>)> {
-    let mut found = Vec::new();
-    let Ok(entries) = std::fs::read_dir(dir) else {
-        return found;
-    };
-    for entry in entries.flatten() {
-        let path = entry.path();
-        if path.is_dir() {
-            found.extend(files_under(&path));
-        } else {
-            found.push((path.clone(), std::fs::read(&path).unwrap()));
-        }
-    }
-    found
-}
-
 fn contains(haystack: &[u8], needle: &str) -> bool {
     haystack
         .windows(needle.len())
@@ -265,7 +249,7 @@ async fn an_echoed_key_never_reaches_cache_record_or_output() {
                 !contains(&out.stdout, KEY) && !err.contains(KEY),
                 "{label}: key in output"
             );
-            let files = files_under(home.path());
+            let files = common::files_under(home.path());
             assert!(
                 files
                     .iter()

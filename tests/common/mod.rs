@@ -97,3 +97,21 @@ pub fn model_dir(folder: &str) -> PathBuf {
     );
     dir
 }
+
+/// Every file under `dir` with its bytes (nothing when `dir` does not
+/// exist), for tests that search everything a run left on disk.
+pub fn files_under(dir: &std::path::Path) -> Vec<(PathBuf, Vec<u8>)> {
+    let mut found = Vec::new();
+    let Ok(entries) = std::fs::read_dir(dir) else {
+        return found;
+    };
+    for entry in entries.flatten() {
+        let path = entry.path();
+        if path.is_dir() {
+            found.extend(files_under(&path));
+        } else {
+            found.push((path.clone(), std::fs::read(&path).unwrap()));
+        }
+    }
+    found
+}
