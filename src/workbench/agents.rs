@@ -191,10 +191,7 @@ pub fn provider_needed(agent: AgentRole, why: &str) -> String {
 }
 
 fn key_needed(role: AgentRole, provider: ProviderKind, config_path: Option<&PathBuf>) -> String {
-    let (key_var, url_var) = match provider {
-        ProviderKind::Openai => ("OPENAI_API_KEY", "OPENAI_BASE_URL"),
-        ProviderKind::Anthropic => ("ANTHROPIC_API_KEY", "ANTHROPIC_BASE_URL"),
-    };
+    let (key_var, url_var) = (provider.key_variable(), provider.base_url_variable());
     let file = config_path.map_or_else(
         || "the config file".to_string(),
         |p| p.display().to_string(),
