@@ -7,6 +7,7 @@
 use crossterm::event::{KeyCode, KeyEvent, KeyModifiers};
 
 use super::graph_view::Direction;
+use crate::annotate::{Preference, StepLabelKind};
 
 /// Where a binding applies: the mode or pane that has the keyboard.
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
@@ -39,6 +40,14 @@ pub enum Context {
     ModelForm,
     /// A view to read and close: the framed actions, two runs compared.
     Viewer,
+    /// The annotation screen, rating single plans or choosing between two.
+    Annotate,
+    /// The annotation screen rating single plans.
+    AnnotateRating,
+    /// The annotation screen choosing between two plans.
+    AnnotatePairwise,
+    /// Writing a note on the annotation screen.
+    AnnotateNote,
 }
 
 impl Context {
@@ -52,6 +61,18 @@ impl Context {
                 | Context::PathPrompt
                 | Context::ModelForm
                 | Context::Viewer
+        )
+    }
+
+    /// Whether this context belongs to the annotation screen, whose keys
+    /// its own help lists (the workbench's help leaves them out).
+    pub fn is_annotate(self) -> bool {
+        matches!(
+            self,
+            Context::Annotate
+                | Context::AnnotateRating
+                | Context::AnnotatePairwise
+                | Context::AnnotateNote
         )
     }
 
@@ -160,6 +181,26 @@ pub enum Action {
     MarkRun,
     /// Compare the marked run with the highlighted one.
     CompareRuns,
+    /// Rate the plan on screen 1–5, save, and move on (annotation).
+    Rate(u8),
+    /// Prefer one plan of the pair, save, and move on (annotation).
+    Prefer(Preference),
+    /// Put a label on the selected step; the same label again takes it off.
+    Label(StepLabelKind),
+    /// Take the label off the selected step.
+    ClearLabel,
+    /// Write or change the note of the judgement.
+    WriteNote,
+    /// Show the next item.
+    NextItem,
+    /// Show the previous item.
+    PreviousItem,
+    /// Show the next item not judged yet.
+    NextUnjudged,
+    /// Leave this item for later and show the next one not judged.
+    SkipItem,
+    /// Withdraw the last judgement and show its item again.
+    Undo,
 }
 
 /// A key as the table names it: a code, and whether Ctrl is held.
@@ -697,6 +738,208 @@ pub const BINDINGS: &[Binding] = &[
         "Esc",
         "closes",
     ),
+    hinted(
+        bind(
+            C::AnnotateRating,
+            &[
+                (ch('1'), A::Rate(1)),
+                (ch('2'), A::Rate(2)),
+                (ch('3'), A::Rate(3)),
+                (ch('4'), A::Rate(4)),
+                (ch('5'), A::Rate(5)),
+            ],
+            "1–5",
+            "rate the plan (the scale is on screen), save, next",
+        ),
+        "1–5",
+        "rate",
+    ),
+    hinted(
+        bind(
+            C::AnnotatePairwise,
+            &[(ch('1'), A::Prefer(Preference::Left))],
+            "1",
+            "the left plan is better; save, next",
+        ),
+        "1",
+        "left",
+    ),
+    hinted(
+        bind(
+            C::AnnotatePairwise,
+            &[(ch('2'), A::Prefer(Preference::Right))],
+            "2",
+            "the right plan is better; save, next",
+        ),
+        "2",
+        "right",
+    ),
+    hinted(
+        bind(
+            C::AnnotatePairwise,
+            &[(ch('0'), A::Prefer(Preference::Neither))],
+            "0",
+            "neither is better; save, next",
+        ),
+        "0",
+        "neither",
+    ),
+    hinted(
+        bind(
+            C::AnnotateRating,
+            &[
+                (key(KeyCode::Down), A::Move(1)),
+                (ch('j'), A::Move(1)),
+                (key(KeyCode::Up), A::Move(-1)),
+                (ch('k'), A::Move(-1)),
+            ],
+            "↓ j, ↑ k",
+            "select the next or previous step",
+        ),
+        "↑↓",
+        "step",
+    ),
+    bind(
+        C::AnnotateRating,
+        &[(ch('o'), A::Label(StepLabelKind::Ok))],
+        "o",
+        "label the step: ok",
+    ),
+    hinted(
+        bind(
+            C::AnnotateRating,
+            &[(ch('w'), A::Label(StepLabelKind::WrongObject))],
+            "w",
+            "label the step: wrong object",
+        ),
+        "w a r m x ! o",
+        "label",
+    ),
+    bind(
+        C::AnnotateRating,
+        &[(ch('a'), A::Label(StepLabelKind::WrongAction))],
+        "a",
+        "label the step: wrong action",
+    ),
+    bind(
+        C::AnnotateRating,
+        &[(ch('r'), A::Label(StepLabelKind::WrongOrder))],
+        "r",
+        "label the step: wrong order",
+    ),
+    bind(
+        C::AnnotateRating,
+        &[(ch('m'), A::Label(StepLabelKind::MissingStepBefore))],
+        "m",
+        "label the step: missing step before",
+    ),
+    bind(
+        C::AnnotateRating,
+        &[(ch('x'), A::Label(StepLabelKind::Unnecessary))],
+        "x",
+        "label the step: unnecessary",
+    ),
+    bind(
+        C::AnnotateRating,
+        &[(ch('!'), A::Label(StepLabelKind::Unsafe))],
+        "!",
+        "label the step: unsafe",
+    ),
+    bind(
+        C::AnnotateRating,
+        &[
+            (key(KeyCode::Backspace), A::ClearLabel),
+            (key(KeyCode::Delete), A::ClearLabel),
+        ],
+        "Backspace, Delete",
+        "take the label off the step",
+    ),
+    hinted(
+        bind(
+            C::Annotate,
+            &[(ch('e'), A::WriteNote)],
+            "e",
+            "write a note (Enter keeps it, Esc drops the change)",
+        ),
+        "e",
+        "note",
+    ),
+    hinted(
+        bind(
+            C::Annotate,
+            &[
+                (key(KeyCode::Right), A::NextItem),
+                (ch('n'), A::NextItem),
+                (key(KeyCode::Left), A::PreviousItem),
+                (ch('p'), A::PreviousItem),
+            ],
+            "→ n, ← p",
+            "next or previous item",
+        ),
+        "→ ←",
+        "move",
+    ),
+    bind(
+        C::Annotate,
+        &[(key(KeyCode::Tab), A::NextUnjudged)],
+        "Tab",
+        "next item not judged yet",
+    ),
+    hinted(
+        bind(
+            C::Annotate,
+            &[(ch('s'), A::SkipItem)],
+            "s",
+            "skip: leave this one for later",
+        ),
+        "s",
+        "skip",
+    ),
+    hinted(
+        bind(
+            C::Annotate,
+            &[(ch('u'), A::Undo)],
+            "u",
+            "undo the last judgement (it is withdrawn)",
+        ),
+        "u",
+        "undo",
+    ),
+    hinted(
+        bind(C::Annotate, &[(ch('?'), A::Help)], "?", "this help"),
+        "?",
+        "keys",
+    ),
+    hinted(
+        bind(
+            C::Annotate,
+            &[(ch('q'), A::Quit), (key(KeyCode::Esc), A::Quit)],
+            "q, Esc",
+            "quit (every judgement is already saved)",
+        ),
+        "q",
+        "quit",
+    ),
+    hinted(
+        bind(
+            C::AnnotateNote,
+            &[(key(KeyCode::Enter), A::Accept)],
+            "Enter (writing a note)",
+            "keep the note; it is saved with the judgement",
+        ),
+        "Enter",
+        "keeps the note",
+    ),
+    hinted(
+        bind(
+            C::AnnotateNote,
+            &[(key(KeyCode::Esc), A::Leave)],
+            "Esc (writing a note)",
+            "drop the change to the note",
+        ),
+        "Esc",
+        "drops the change",
+    ),
     bind(
         C::Panes,
         &[],
@@ -719,20 +962,37 @@ pub fn action(contexts: &[Context], event: &KeyEvent) -> Option<Action> {
 
 /// The status-bar hints of `context`: "key hint" pairs joined by dots.
 pub fn hints(context: Context) -> String {
-    BINDINGS
-        .iter()
-        .filter(|b| b.context == context)
-        .filter_map(|b| b.hint.map(|(key, hint)| format!("{key} {hint}")))
-        .collect::<Vec<_>>()
-        .join(" · ")
+    hints_of(&[context]).join(" · ")
 }
 
-/// The help's lines: the keys as shown and what they do, in table order.
-/// An overlay's keys are not among them: its status bar shows them all.
+/// The status-bar hints of every context of `contexts`, each "key hint",
+/// in table order.
+pub fn hints_of(contexts: &[Context]) -> Vec<String> {
+    BINDINGS
+        .iter()
+        .filter(|b| contexts.contains(&b.context))
+        .filter_map(|b| b.hint.map(|(key, hint)| format!("{key} {hint}")))
+        .collect()
+}
+
+/// The workbench help's lines: the keys as shown and what they do, in table
+/// order. An overlay's keys are not among them (its status bar shows them
+/// all), nor the annotation screen's (its own help lists them).
 pub fn help_lines() -> impl Iterator<Item = (&'static str, &'static str)> {
     BINDINGS
         .iter()
-        .filter(|b| !b.context.is_overlay())
+        .filter(|b| !b.context.is_overlay() && !b.context.is_annotate())
+        .map(|b| (b.label, b.help))
+}
+
+/// The help lines of the bindings of `contexts`, in table order: what a
+/// screen with exactly these contexts lists in its help.
+pub fn help_lines_of(
+    contexts: &[Context],
+) -> impl Iterator<Item = (&'static str, &'static str)> + '_ {
+    BINDINGS
+        .iter()
+        .filter(|b| contexts.contains(&b.context))
         .map(|b| (b.label, b.help))
 }
 
