@@ -6,11 +6,12 @@ use std::sync::Arc;
 mod common;
 
 use crossterm::event::{KeyCode, KeyEvent, KeyModifiers};
+use mapvlm::agents::pipeline::AgentEvent;
 use mapvlm::agents::replay::Pace;
 use mapvlm::agents::AgentRole;
 use mapvlm::metrics::pg2s::{Pg2sScorer, Pg2sSettings};
 use mapvlm::metrics::{ModelError, SentenceEncoder};
-use mapvlm::workbench::agents::{run_blocking, AgentEvent, AgentsPipeline};
+use mapvlm::workbench::agents::{run_blocking, AgentsPipeline};
 use mapvlm::workbench::app::{App, AppInit};
 use mapvlm::workbench::keymap::{self, Action, Context, BINDINGS};
 use mapvlm::workbench::message::{Cmd, Msg};
@@ -82,8 +83,8 @@ impl Harness {
                         match run_blocking(&self.pipeline, req) {
                             Ok(events) => {
                                 for mut e in events {
-                                    if let AgentEvent::Finished { duration_ms, .. } = &mut e {
-                                        *duration_ms = 100;
+                                    if let AgentEvent::Finished { elapsed_ms, .. } = &mut e {
+                                        *elapsed_ms = 100;
                                     }
                                     next.extend(self.app.update(Msg::Agent(run, e)));
                                 }

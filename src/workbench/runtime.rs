@@ -25,15 +25,16 @@ use tokio::sync::{mpsc, watch};
 use tokio::task::JoinHandle;
 
 use super::agents::Pipeline;
-use super::app::{App, AppInit, ModelStatus, Severity};
+use super::app::{App, AppInit, Severity};
 use super::scoring::{ModelSlot, ScorerLoader, SharedModels};
 use super::session::{Restored, Session};
 use super::snapshot::{Snapshot, SnapshotPacer, SNAPSHOT_EVERY};
+use crate::agents::pipeline::AgentEvent;
 use crate::dataset::Dataset;
 
 use super::message::{Cmd, Msg};
-use super::{agents, scoring, session};
 use super::{render, terminal_query, theme, Options, TuiError, SAVE_EVERY, SCORE_DEBOUNCE};
+use super::{scoring, session};
 
 /// Puts the terminal back as it was: raw mode off, main screen, no mouse capture.
 fn restore_terminal() {
@@ -101,7 +102,7 @@ pub fn prepare_image(app: &mut App, picker: &Picker) {
 /// Everything the loop hands work to.
 struct Runtime {
     msgs: mpsc::UnboundedSender<Msg>,
-    agent_events: mpsc::UnboundedSender<(u64, agents::AgentEvent)>,
+    agent_events: mpsc::UnboundedSender<(u64, AgentEvent)>,
     scores: watch::Sender<Option<scoring::ScoreRequest>>,
     pipeline: Arc<dyn Pipeline>,
     runs: HashMap<u64, JoinHandle<()>>,
@@ -290,7 +291,7 @@ async fn run_async(options: Options) -> Result<(), TuiError> {
         session: restored,
         notice,
         size: (size.width, size.height),
-        models: ModelStatus::Loading("starting".to_string()),
+        models: ModelSlot::Loading("starting".to_string()),
         prompts: options.prompts.clone(),
     });
     terminal.draw(|f| render::render(f, &app))?;
@@ -352,8 +353,8 @@ async fn run_async(options: Options) -> Result<(), TuiError> {
         scoring::spawn_loader(wrapped, models.clone(), done_tx);
         let msgs = msg_tx.clone();
         tokio::spawn(async move {
-            if let Some(result) = done_rx.recv().await {
-                let _ = msgs.send(Msg::ModelsLoaded(result));
+            if let Some(slot) = done_rx.recv().await {
+                let _ = msgs.send(Msg::ModelsLoaded(slot));
             }
         });
     }
