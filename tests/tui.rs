@@ -97,7 +97,10 @@ impl Harness {
                         outcome.millis = 0.0;
                         next.extend(self.app.update(Msg::Scored(outcome)));
                     }
-                    Cmd::CancelRun(_) | Cmd::ReadStepFile(_) | Cmd::LoadImage(_) => {}
+                    Cmd::CancelRun(_)
+                    | Cmd::ReadStepFile(_)
+                    | Cmd::LoadImage(_)
+                    | Cmd::Corrupt(_) => {}
                 }
             }
             queue = next;

@@ -11,6 +11,7 @@ use ratatui_image::protocol::Protocol;
 
 use crate::agents::pipeline::AgentEvent;
 use crate::workbench::agents::RunRequest;
+use crate::workbench::corrupting::{CorruptRequest, Corrupted};
 use crate::workbench::scoring::{ModelSlot, ScoreOutcome, ScoreRequest};
 
 /// A message: something that happened.
@@ -39,6 +40,8 @@ pub enum Msg {
     ImageReady(Rect, Box<Protocol>),
     /// The session was saved, or why not.
     Saved(Result<(), String>),
+    /// The plan was corrupted, or why not.
+    Corrupted(Result<Corrupted, String>),
     /// The process was asked to stop (a signal).
     Quit,
 }
@@ -56,4 +59,6 @@ pub enum Cmd {
     ReadStepFile(PathBuf),
     /// Read the scene image.
     LoadImage(PathBuf),
+    /// Corrupt the plan into a new run.
+    Corrupt(CorruptRequest),
 }

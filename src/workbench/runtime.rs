@@ -30,6 +30,7 @@ use super::snapshot::{Snapshot, SnapshotPacer, SNAPSHOT_EVERY};
 use crate::agents::pipeline::AgentEvent;
 use crate::dataset::Dataset;
 
+use super::corrupting::{self, SharedCorruptionModels};
 use super::message::{Cmd, Msg};
 use super::{render, terminal_query, theme, Options, TuiError, SAVE_EVERY, SCORE_DEBOUNCE};
 use super::{scene_image, scoring, session};
@@ -103,6 +104,7 @@ struct Runtime {
     scores: watch::Sender<Option<scoring::ScoreRequest>>,
     pipeline: Arc<dyn Pipeline>,
     runs: HashMap<u64, JoinHandle<()>>,
+    corruption: SharedCorruptionModels,
 }
 
 impl Runtime {
@@ -141,6 +143,18 @@ impl Runtime {
                 let msgs = self.msgs.clone();
                 tokio::task::spawn_blocking(move || {
                     let _ = msgs.send(Msg::SceneImage(scene_image::read(&path)));
+                });
+            }
+            Cmd::Corrupt(request) => {
+                let models = self
+                    .corruption
+                    .read()
+                    .map(|slot| slot.clone())
+                    .unwrap_or_else(|p| p.into_inner().clone());
+                let msgs = self.msgs.clone();
+                tokio::task::spawn_blocking(move || {
+                    let result = models.and_then(|m| corrupting::corrupt_plan(&m, &request));
+                    let _ = msgs.send(Msg::Corrupted(result));
                 });
             }
         }
@@ -310,6 +324,8 @@ async fn run_async(options: Options) -> Result<(), TuiError> {
     let (score_tx, score_rx) = watch::channel(None);
     let (save_tx, save_rx) = watch::channel::<Option<Session>>(None);
     let models: SharedModels = Arc::new(RwLock::new(ModelSlot::Loading("starting".into())));
+    let corruption: SharedCorruptionModels =
+        Arc::new(RwLock::new(Err(corrupting::STILL_LOADING.to_string())));
 
     spawn_input_thread(msg_tx.clone());
     spawn_signal_watch(msg_tx.clone());
@@ -344,7 +360,7 @@ async fn run_async(options: Options) -> Result<(), TuiError> {
                 report(line);
             })
         });
-        scoring::spawn_loader(wrapped, models.clone(), done_tx);
+        scoring::spawn_loader(wrapped, models.clone(), corruption.clone(), done_tx);
         let msgs = msg_tx.clone();
         tokio::spawn(async move {
             if let Some(slot) = done_rx.recv().await {
@@ -360,6 +376,7 @@ async fn run_async(options: Options) -> Result<(), TuiError> {
         scores: score_tx,
         pipeline: options.pipeline,
         runs: HashMap::new(),
+        corruption,
     };
     for cmd in first_cmds {
         runtime.execute(&mut app, cmd);

@@ -75,6 +75,7 @@ impl App {
                 self.scene.protocol = None;
                 Vec::new()
             }
+            Msg::Corrupted(result) => self.on_corrupted(result),
             Msg::ImageReady(rect, protocol) => {
                 self.scene.protocol = Some((rect, protocol));
                 Vec::new()
@@ -230,6 +231,7 @@ impl App {
                 }
             }
             Action::Actions => self.overlay = Some(Overlay::Actions),
+            Action::Corrupt => self.open_corrupt_picker(),
             Action::History => {
                 self.overlay = Some(Overlay::Runs {
                     selected: self.runs.history.len().saturating_sub(1),
