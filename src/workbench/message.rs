@@ -10,8 +10,29 @@ use ratatui::layout::Rect;
 use ratatui_image::protocol::Protocol;
 
 use crate::agents::pipeline::AgentEvent;
+use crate::dataset::DatasetError;
 use crate::workbench::agents::RunRequest;
 use crate::workbench::scoring::{ModelSlot, ScoreOutcome, ScoreRequest};
+use crate::workbench::session::SessionError;
+
+/// Why a file the workbench asked the runtime for could not be read.
+#[derive(Debug, thiserror::Error)]
+pub enum ReadError {
+    /// A text file (a step file) could not be read.
+    #[error(transparent)]
+    Text(#[from] DatasetError),
+    /// The scene image could not be read or decoded.
+    #[error("{}: cannot read the image: {error}", path.display())]
+    Image {
+        /// The image file.
+        path: PathBuf,
+        /// What went wrong.
+        error: image::ImageError,
+    },
+    /// The reading task ended abnormally.
+    #[error("{0}")]
+    Stopped(#[from] tokio::task::JoinError),
+}
 
 /// A message: something that happened.
 pub enum Msg {
@@ -32,13 +53,13 @@ pub enum Msg {
     /// The models loaded ([`ModelSlot::Ready`]), or why not.
     ModelsLoaded(ModelSlot),
     /// A step file was read.
-    StepFile(PathBuf, Result<String, String>),
+    StepFile(PathBuf, Result<String, ReadError>),
     /// The scene image was read.
-    SceneImage(Result<Arc<DynamicImage>, String>),
+    SceneImage(Result<Arc<DynamicImage>, ReadError>),
     /// The scene image was encoded for this area of the terminal.
-    ImageReady(Rect, Box<Protocol>),
+    ImageReady(Rect, Result<Box<Protocol>, ratatui_image::errors::Errors>),
     /// The session was saved, or why not.
-    Saved(Result<(), String>),
+    Saved(Result<(), SessionError>),
     /// The process was asked to stop (a signal).
     Quit,
 }

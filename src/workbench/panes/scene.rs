@@ -7,8 +7,9 @@ use ratatui::layout::Rect;
 use ratatui::text::{Line, Span};
 use ratatui::widgets::{Block, Paragraph, Wrap};
 use ratatui::Frame;
+use ratatui_image::picker::Picker;
 use ratatui_image::protocol::Protocol;
-use ratatui_image::Image;
+use ratatui_image::{Image, Resize};
 
 use crate::demo;
 use crate::workbench::app::App;
@@ -24,6 +25,8 @@ pub struct ScenePane {
     pub image: Option<Arc<DynamicImage>>,
     /// The image encoded for an area of the terminal.
     pub protocol: Option<(Rect, Box<Protocol>)>,
+    /// The area an encoding is under way for, off the loop.
+    pub requested: Option<Rect>,
 }
 
 impl ScenePane {
@@ -33,6 +36,7 @@ impl ScenePane {
             enabled: true,
             image: Some(Arc::new(DynamicImage::ImageRgb8(demo::scene_image()))),
             protocol: None,
+            requested: None,
         }
     }
 }
@@ -40,6 +44,7 @@ impl ScenePane {
 impl App {
     pub(crate) fn load_scene(&mut self) -> Vec<Cmd> {
         self.scene.protocol = None;
+        self.scene.requested = None;
         match &self.task.image {
             Some(path) => {
                 self.scene.image = None;
@@ -71,11 +76,31 @@ impl App {
         if inner.width == 0 || inner.height == 0 {
             return None;
         }
-        match &self.scene.protocol {
-            Some((r, _)) if *r == inner => None,
-            _ => Some(inner),
-        }
+        let encoded = matches!(&self.scene.protocol, Some((r, _)) if *r == inner);
+        (!encoded && self.scene.requested != Some(inner)).then_some(inner)
     }
+
+    /// Notes that the scene is being encoded for `area` and returns what the
+    /// encoding needs, when the image is wanted in an area it is not
+    /// encoded (or being encoded) for: the loop hands it to a task.
+    pub fn request_image(&mut self) -> Option<(Rect, Arc<DynamicImage>)> {
+        let area = self.image_area_wanted()?;
+        let image = self.scene.image.clone()?;
+        self.scene.requested = Some(area);
+        Some((area, image))
+    }
+}
+
+/// Resizes and encodes `image` for `area` of the terminal with `picker`:
+/// the slow part of showing the scene, done off the loop.
+pub fn encode_scene(
+    picker: &Picker,
+    image: &DynamicImage,
+    area: Rect,
+) -> Result<Box<Protocol>, ratatui_image::errors::Errors> {
+    picker
+        .new_protocol(image.clone(), area.as_size(), Resize::Scale(None))
+        .map(Box::new)
 }
 
 pub(crate) fn draw(frame: &mut Frame, app: &App, area: Rect) {
