@@ -6,15 +6,13 @@
 //! message a command produces before it asserts.
 
 use std::path::Path;
-use std::sync::Arc;
 
-use image::DynamicImage;
 use ratatui_image::picker::Picker;
 
 use super::agents::{run_blocking, Pipeline};
 use super::app::App;
 use super::message::{Cmd, Msg, ReadError};
-use super::panes::scene::encode_scene;
+use super::scene_image;
 use super::scoring::{score_now, ModelSlot};
 
 /// Reads a step file off the loop: the text, or why not.
@@ -22,21 +20,12 @@ pub fn read_step_file(path: &Path) -> Result<String, ReadError> {
     Ok(crate::dataset::read_text(path)?)
 }
 
-/// Reads and decodes the scene image off the loop.
-pub fn load_image(path: &Path) -> Result<Arc<DynamicImage>, ReadError> {
-    image::open(path)
-        .map(Arc::new)
-        .map_err(|error| ReadError::Image {
-            path: path.to_path_buf(),
-            error,
-        })
-}
-
 /// Encodes the scene image for the area the app wants it in, if any, here
 /// and now (the loop hands this to a task).
 pub fn prepare_image(app: &mut App, picker: &Picker) {
     if let Some((area, image)) = app.request_image() {
-        app.update(Msg::ImageReady(area, encode_scene(picker, &image, area)));
+        let encoded = scene_image::encode(picker, &image, area).map(|(_, protocol)| protocol);
+        app.update(Msg::ImageReady(area, encoded));
     }
 }
 
@@ -76,7 +65,7 @@ impl<'a> Headless<'a> {
                     let text = read_step_file(&path);
                     vec![Msg::StepFile(path, text)]
                 }
-                Cmd::LoadImage(path) => vec![Msg::SceneImage(load_image(&path))],
+                Cmd::LoadImage(path) => vec![Msg::SceneImage(scene_image::read(&path))],
             };
             for mut msg in msgs {
                 seen(&mut msg);

@@ -12,23 +12,16 @@ use ratatui_image::protocol::Protocol;
 use crate::agents::pipeline::AgentEvent;
 use crate::dataset::DatasetError;
 use crate::workbench::agents::RunRequest;
+use crate::workbench::scene_image::SceneImageError;
 use crate::workbench::scoring::{ModelSlot, ScoreOutcome, ScoreRequest};
 use crate::workbench::session::SessionError;
 
-/// Why a file the workbench asked the runtime for could not be read.
+/// Why a step file the workbench asked the runtime for could not be read.
 #[derive(Debug, thiserror::Error)]
 pub enum ReadError {
-    /// A text file (a step file) could not be read.
+    /// The file could not be read as text.
     #[error(transparent)]
     Text(#[from] DatasetError),
-    /// The scene image could not be read or decoded.
-    #[error("{}: cannot read the image: {error}", path.display())]
-    Image {
-        /// The image file.
-        path: PathBuf,
-        /// What went wrong.
-        error: image::ImageError,
-    },
     /// The reading task ended abnormally.
     #[error("{0}")]
     Stopped(#[from] tokio::task::JoinError),
@@ -55,9 +48,9 @@ pub enum Msg {
     /// A step file was read.
     StepFile(PathBuf, Result<String, ReadError>),
     /// The scene image was read.
-    SceneImage(Result<Arc<DynamicImage>, ReadError>),
+    SceneImage(Result<Arc<DynamicImage>, SceneImageError>),
     /// The scene image was encoded for this area of the terminal.
-    ImageReady(Rect, Result<Box<Protocol>, ratatui_image::errors::Errors>),
+    ImageReady(Rect, Result<Box<Protocol>, SceneImageError>),
     /// The session was saved, or why not.
     Saved(Result<(), SessionError>),
     /// The process was asked to stop (a signal).

@@ -30,7 +30,7 @@ use crate::agents::pipeline::AgentEvent;
 use crate::dataset::Dataset;
 
 use super::message::{Cmd, Msg, ReadError};
-use super::panes::scene::encode_scene;
+use super::scene_image;
 use super::{headless, scoring, session};
 use super::{render, terminal_query, theme, Options, TuiError, SAVE_EVERY, SCORE_DEBOUNCE};
 
@@ -83,7 +83,10 @@ fn request_image(app: &mut App, picker: &Picker, msgs: &mpsc::UnboundedSender<Ms
     };
     let (picker, msgs) = (picker.clone(), msgs.clone());
     tokio::task::spawn_blocking(move || {
-        let _ = msgs.send(Msg::ImageReady(area, encode_scene(&picker, &image, area)));
+        let _ = msgs.send(Msg::ImageReady(
+            area,
+            scene_image::encode(&picker, &image, area).map(|(_, protocol)| protocol),
+        ));
     });
 }
 
@@ -131,7 +134,7 @@ impl Runtime {
             Cmd::LoadImage(path) => {
                 let msgs = self.msgs.clone();
                 tokio::task::spawn_blocking(move || {
-                    let _ = msgs.send(Msg::SceneImage(headless::load_image(&path)));
+                    let _ = msgs.send(Msg::SceneImage(scene_image::read(&path)));
                 });
             }
         }

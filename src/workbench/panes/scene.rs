@@ -4,18 +4,16 @@ use std::sync::Arc;
 
 use image::DynamicImage;
 use ratatui::layout::Rect;
-use ratatui::text::{Line, Span};
-use ratatui::widgets::{Block, Paragraph, Wrap};
+use ratatui::text::Line;
+use ratatui::widgets::{Block, Paragraph};
 use ratatui::Frame;
-use ratatui_image::picker::Picker;
-use ratatui_image::protocol::Protocol;
-use ratatui_image::{Image, Resize};
 
 use crate::demo;
 use crate::workbench::app::App;
 use crate::workbench::layout::{pane_rects, Screen};
 use crate::workbench::message::Cmd;
 use crate::workbench::panes::{highlighted, pane_block, Pane};
+use crate::workbench::scene_image::{self, Encoded};
 
 /// The Scene pane's state: the image and its encoding for the terminal.
 pub struct ScenePane {
@@ -24,7 +22,7 @@ pub struct ScenePane {
     /// The image, once read.
     pub image: Option<Arc<DynamicImage>>,
     /// The image encoded for an area of the terminal.
-    pub protocol: Option<(Rect, Box<Protocol>)>,
+    pub protocol: Option<Encoded>,
     /// The area an encoding is under way for, off the loop.
     pub requested: Option<Rect>,
 }
@@ -91,18 +89,6 @@ impl App {
     }
 }
 
-/// Resizes and encodes `image` for `area` of the terminal with `picker`:
-/// the slow part of showing the scene, done off the loop.
-pub fn encode_scene(
-    picker: &Picker,
-    image: &DynamicImage,
-    area: Rect,
-) -> Result<Box<Protocol>, ratatui_image::errors::Errors> {
-    picker
-        .new_protocol(image.clone(), area.as_size(), Resize::Scale(None))
-        .map(Box::new)
-}
-
 pub(crate) fn draw(frame: &mut Frame, app: &App, area: Rect) {
     let t = &app.theme;
     let block = pane_block(app, Pane::Scene, None);
@@ -116,23 +102,14 @@ pub(crate) fn draw(frame: &mut Frame, app: &App, area: Rect) {
     ));
     frame.render_widget(Paragraph::new(caption), Rect { height: 1, ..inner });
     let image_area = scene_image_area(area);
-    let note = if !app.scene.enabled {
-        "image off (i shows it)"
+    let (encoded, note) = if !app.scene.enabled {
+        (None, "image off (i shows it)")
     } else if app.scene.image.is_none() {
-        "no image for this task"
+        (None, "no image for this task")
     } else {
-        match &app.scene.protocol {
-            Some((rect, protocol)) if *rect == image_area => {
-                frame.render_widget(Image::new(protocol), image_area);
-                return;
-            }
-            _ => "drawing the image…",
-        }
+        (app.scene.protocol.as_ref(), "drawing the image…")
     };
-    frame.render_widget(
-        Paragraph::new(Span::styled(note, t.muted)).wrap(Wrap { trim: true }),
-        image_area,
-    );
+    scene_image::draw(frame, image_area, encoded, note, t.muted);
 }
 
 /// The part of the Scene pane the image is drawn in: inside the border,
