@@ -575,3 +575,61 @@ async fn a_retry_after_past_the_timeout_ends_at_once_and_short_waits_are_announc
         "{err}"
     );
 }
+
+/// A local server that answers every request with an event stream whose
+/// one line never ends: up to `total` bytes written lazily, 64 KiB at a
+/// time, until the client hangs up. Returns its base URL and the count of
+/// bytes it managed to send. (wiremock holds a whole body in memory and
+/// cannot tell how much of it the client read.)
+fn endless_line_server(total: usize) -> (String, Arc<Mutex<usize>>) {
+    use std::io::{BufRead, BufReader, Write};
+    let listener = std::net::TcpListener::bind("127.0.0.1:0").unwrap();
+    let base = format!("http://{}/v1", listener.local_addr().unwrap());
+    let sent = Arc::new(Mutex::new(0));
+    let count = Arc::clone(&sent);
+    std::thread::spawn(move || {
+        for stream in listener.incoming() {
+            let Ok(mut stream) = stream else { return };
+            let mut reader = BufReader::new(stream.try_clone().unwrap());
+            let mut line = String::new();
+            // The request's head, up to its blank line; its body is not read.
+            while reader.read_line(&mut line).is_ok_and(|n| n > 0) && line != "\r\n" {
+                line.clear();
+            }
+            let head = "HTTP/1.1 200 OK\r\ncontent-type: text/event-stream\r\nconnection: close\r\n\r\ndata: ";
+            let mut written = stream.write_all(head.as_bytes()).map(|()| 0);
+            let piece = vec![b'a'; 64 << 10];
+            while let Ok(done) = written {
+                if done >= total || stream.write_all(&piece).is_err() {
+                    break;
+                }
+                *count.lock().unwrap() += piece.len();
+                written = Ok(done + piece.len());
+            }
+        }
+    });
+    (base, sent)
+}
+
+#[tokio::test(flavor = "multi_thread")]
+async fn a_stream_line_that_never_ends_is_refused_at_the_limit() {
+    let home = tempfile::tempdir().unwrap();
+    let total = 100 << 20;
+    let (base, sent) = endless_line_server(total);
+    let out = mapvlm(plan_args(home.path(), &base, &["--no-cache"]), home.path()).await;
+    let err = err_of(&out);
+    assert!(!out.status.success());
+    let last = err.trim_end().lines().last().unwrap_or_default();
+    assert!(
+        last.contains("a stream line or event longer than the limit of 1 MiB (1048576 bytes)"),
+        "{err}"
+    );
+    // The client hung up near the limit, so it never held the 100 MB: what
+    // it read is bounded by what the server could send (the limit plus the
+    // sockets' buffers).
+    let sent = *sent.lock().unwrap();
+    assert!(
+        sent < 16 << 20,
+        "{sent} bytes sent before the client hung up"
+    );
+}

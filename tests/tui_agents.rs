@@ -13,7 +13,7 @@ use crossterm::event::{KeyCode, KeyEvent, KeyModifiers};
 use mapvlm::agents::cache::ResponseCache;
 use mapvlm::agents::config::{ConfigFile, Settings};
 use mapvlm::agents::images::DEFAULT_MAX_EDGE;
-use mapvlm::agents::pipeline::{PlanInput, Runner, Source};
+use mapvlm::agents::pipeline::{AgentEvent, PlanInput, Runner, Source};
 use mapvlm::agents::prompts::PromptSet;
 use mapvlm::agents::provider::{Chunk, HttpSettings};
 use mapvlm::agents::replay::{Pace, Recording};
@@ -21,8 +21,8 @@ use mapvlm::agents::{AgentRole, Approach, ProviderKind};
 use mapvlm::demo;
 use mapvlm::plan::parse_steps;
 use mapvlm::workbench::agents::{
-    demo_scene_file, replay_settings, run_blocking, AgentEvent, AgentsPipeline, Pipeline,
-    ProviderConfig, DEMO_MODEL,
+    demo_scene_file, replay_settings, run_blocking, AgentsPipeline, Pipeline, ProviderConfig,
+    DEMO_MODEL,
 };
 use mapvlm::workbench::app::{App, AppInit};
 use mapvlm::workbench::message::{Cmd, Msg};
@@ -180,14 +180,20 @@ fn run_cmds(app: &mut App, pipeline: &dyn Pipeline, cmds: Vec<Cmd>) -> Vec<Agent
     seen
 }
 
+/// Each finished agent's whole output: its streamed pieces joined.
 fn finished(events: &[AgentEvent]) -> BTreeMap<AgentRole, String> {
-    events
-        .iter()
-        .filter_map(|e| match e {
-            AgentEvent::Finished { agent, output, .. } => Some((*agent, output.clone())),
-            _ => None,
-        })
-        .collect()
+    let mut streamed: BTreeMap<AgentRole, String> = BTreeMap::new();
+    let mut done = BTreeMap::new();
+    for event in events {
+        match event {
+            AgentEvent::Token { role, text } => streamed.entry(*role).or_default().push_str(text),
+            AgentEvent::Finished { role, .. } => {
+                done.insert(*role, streamed.remove(role).unwrap_or_default());
+            }
+            _ => {}
+        }
+    }
+    done
 }
 
 #[test]
@@ -318,7 +324,7 @@ fn a_live_run_streams_into_the_panes_and_an_edited_planner_prompt_asks_once() {
         let planner_token = matches!(
             &event,
             AgentEvent::Token {
-                agent: AgentRole::Planner,
+                role: AgentRole::Planner,
                 ..
             }
         );

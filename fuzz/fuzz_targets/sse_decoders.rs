@@ -12,11 +12,18 @@ use mapvlm::agents::{anthropic, openai, Secret};
 
 const KEY: &str = "sk-fuzz-0123456789";
 
-fn events(pieces: &[&[u8]]) -> Vec<SseEvent> {
+/// The events of a body cut into `pieces`, and whether it was refused as
+/// too long (the events before the refusal are kept).
+fn events(pieces: &[&[u8]]) -> (Vec<SseEvent>, bool) {
     let mut parser = SseParser::default();
-    let mut events: Vec<SseEvent> = pieces.iter().flat_map(|p| parser.feed(p)).collect();
+    let mut events = Vec::new();
+    for piece in pieces {
+        if parser.feed(piece, &mut events).is_err() {
+            return (events, true);
+        }
+    }
     events.extend(parser.finish());
-    events
+    (events, false)
 }
 
 fn decode(events: &[SseEvent], decoder: EventDecoder) {
@@ -51,6 +58,7 @@ fuzz_target!(|input: &[u8]| {
     let size = usize::from(cut % 16) + 1;
     let pieces: Vec<&[u8]> = body.chunks(size).collect();
     assert_eq!(events(&pieces), whole, "cut into pieces of {size}");
+    let (whole, _) = whole;
     decode(&whole, openai::apply_event);
     decode(&whole, anthropic::apply_event);
 });

@@ -356,20 +356,28 @@ impl HttpEndpoint {
         mut on_event: impl FnMut(SseEvent) -> Result<bool, AgentError>,
     ) -> Result<bool, AgentError> {
         let mut parser = SseParser::default();
+        let mut events = Vec::new();
         loop {
             let chunk = cancellable(cancel, response.chunk())
                 .await?
                 .map_err(|err| self.transport_error(&err))?;
-            let (events, ended) = match chunk {
-                Some(bytes) => (parser.feed(&bytes), false),
-                None => (parser.finish(), true),
+            let fed = match &chunk {
+                Some(bytes) => parser.feed(bytes, &mut events),
+                None => {
+                    events.extend(parser.finish());
+                    Ok(())
+                }
             };
-            for event in events {
+            for event in events.drain(..) {
                 if on_event(event)? {
                     return Ok(true);
                 }
             }
-            if ended {
+            fed.map_err(|err| AgentError::InvalidResponse {
+                provider: self.provider,
+                message: err.to_string(),
+            })?;
+            if chunk.is_none() {
                 return Ok(false);
             }
         }
@@ -540,40 +548,96 @@ pub struct SseEvent {
     pub data: String,
 }
 
-/// An incremental parser of `text/event-stream` bodies.
+/// The most bytes one server-sent event may take, counting a line while it
+/// waits for its end and the event's gathered `data:` lines. A model's
+/// stream event carries one piece of text and a few fields (a few hundred
+/// bytes, a few kilobytes at most); 1 MiB leaves room for any of them while
+/// keeping a server that sends a line with no end from filling memory.
+pub const MAX_EVENT_BYTES: usize = 1 << 20;
+
+/// A stream line or event grew past [`MAX_EVENT_BYTES`]: whatever sends it
+/// is not streaming a model's answer, and reading on would only fill memory.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, thiserror::Error)]
+#[error(
+    "a stream line or event longer than the limit of 1 MiB ({} bytes): not a model's answer; check the base URL",
+    MAX_EVENT_BYTES
+)]
+pub struct EventTooLong;
+
+/// An incremental parser of `text/event-stream` bodies. Each byte is looked
+/// at once however the body is cut into pieces, and an event is bounded by
+/// [`MAX_EVENT_BYTES`].
 #[derive(Debug, Default)]
 pub struct SseParser {
+    /// Bytes after the last line end seen.
     pending: Vec<u8>,
     event: Option<String>,
     data: Option<String>,
+    /// Bytes looked at while searching for line ends, for the test that
+    /// feeding is linear.
+    #[cfg(test)]
+    scanned: usize,
 }
 
 impl SseParser {
-    /// Feeds bytes; returns the events they complete.
-    pub fn feed(&mut self, bytes: &[u8]) -> Vec<SseEvent> {
+    /// Feeds bytes, adding the events they complete to `events`; gives
+    /// [`EventTooLong`] once a line or an event outgrows the limit (the
+    /// parser is then done). The events and the error do not depend on how
+    /// the body is cut into pieces.
+    pub fn feed(&mut self, bytes: &[u8], events: &mut Vec<SseEvent>) -> Result<(), EventTooLong> {
+        // `pending` holds no line end, so only the new bytes are searched.
+        let searched = self.pending.len();
         self.pending.extend_from_slice(bytes);
-        let mut events = Vec::new();
-        while let Some(end) = self.pending.iter().position(|&b| b == b'\n') {
-            let line: Vec<u8> = self.pending.drain(..=end).collect();
-            let line = String::from_utf8_lossy(&line[..end]);
-            let line = line.strip_suffix('\r').unwrap_or(&line).to_string();
-            self.line(&line, &mut events);
+        let pending = std::mem::take(&mut self.pending);
+        let mut start = 0;
+        let mut from = searched;
+        while let Some(offset) = pending[from..].iter().position(|&b| b == b'\n') {
+            #[cfg(test)]
+            {
+                self.scanned += offset + 1;
+            }
+            let end = from + offset;
+            let line = &pending[start..end];
+            self.check(line.len())?;
+            self.line(line, events);
+            self.check(0)?;
+            start = end + 1;
+            from = start;
         }
-        events
+        #[cfg(test)]
+        {
+            self.scanned += pending.len() - from;
+        }
+        self.pending = pending;
+        self.pending.drain(..start);
+        self.check(self.pending.len())
     }
 
     /// Ends the stream; returns the last event if it lacked a blank line.
     pub fn finish(&mut self) -> Vec<SseEvent> {
         let mut events = Vec::new();
-        if !self.pending.is_empty() {
-            let line = String::from_utf8_lossy(&std::mem::take(&mut self.pending)).to_string();
-            self.line(line.trim_end_matches('\r'), &mut events);
+        let pending = std::mem::take(&mut self.pending);
+        if !pending.is_empty() {
+            self.line(&pending, &mut events);
         }
-        self.line("", &mut events);
+        self.line(b"", &mut events);
         events
     }
 
-    fn line(&mut self, line: &str, events: &mut Vec<SseEvent>) {
+    /// Refuses a `line` of that many bytes, or an event whose gathered
+    /// fields pass the limit.
+    fn check(&self, line: usize) -> Result<(), EventTooLong> {
+        let held = |field: &Option<String>| field.as_ref().map_or(0, String::len);
+        if line > MAX_EVENT_BYTES || held(&self.event) + held(&self.data) > MAX_EVENT_BYTES {
+            return Err(EventTooLong);
+        }
+        Ok(())
+    }
+
+    /// Takes one line, without its line end.
+    fn line(&mut self, line: &[u8], events: &mut Vec<SseEvent>) {
+        let line = String::from_utf8_lossy(line);
+        let line = line.trim_end_matches('\r');
         if line.is_empty() {
             if let Some(data) = self.data.take() {
                 events.push(SseEvent {
@@ -610,9 +674,14 @@ mod tests {
     #[test]
     fn sse_events_split_across_chunks_and_crlf() {
         let mut parser = SseParser::default();
-        let mut events = parser.feed(b"event: a\r\ndata: {\"x\":");
+        let mut events = Vec::new();
+        assert_eq!(
+            parser.feed(b"event: a\r\ndata: {\"x\":", &mut events),
+            Ok(())
+        );
         assert!(events.is_empty());
-        events.extend(parser.feed(b"1}\r\n\r\n: comment\ndata: two\ndata: lines\n\ndata: [DONE]"));
+        let rest = b"1}\r\n\r\n: comment\ndata: two\ndata: lines\n\ndata: [DONE]";
+        assert_eq!(parser.feed(rest, &mut events), Ok(()));
         events.extend(parser.finish());
         assert_eq!(
             events,
@@ -664,6 +733,74 @@ mod tests {
         assert_eq!(passed.lock().map(|p| p.clone()).unwrap_or_default(), want);
     }
 
+    /// Feeds `body` in pieces of `size` bytes: the events, whether it was
+    /// refused, and the bytes the parser looked at.
+    fn feed_in_pieces(body: &[u8], size: usize) -> (Vec<SseEvent>, Option<EventTooLong>, usize) {
+        let mut parser = SseParser::default();
+        let mut events = Vec::new();
+        for piece in body.chunks(size) {
+            if let Err(err) = parser.feed(piece, &mut events) {
+                return (events, Some(err), parser.scanned);
+            }
+        }
+        events.extend(parser.finish());
+        (events, None, parser.scanned)
+    }
+
+    #[test]
+    fn feeding_one_byte_at_a_time_looks_at_each_byte_once() {
+        let mut body = String::new();
+        for i in 0..2_000 {
+            body.push_str(&format!(
+                "data: {{\"choices\":[{{\"delta\":{{\"content\":\"word {i} \"}}}}]}}\r\n\r\n"
+            ));
+        }
+        // One long event line too: a rescan from its start on every byte
+        // would look at it a hundred thousand times over.
+        body.push_str(&format!(
+            "data: {}\n\ndata: [DONE]\n\n",
+            "x".repeat(100_000)
+        ));
+        let (whole, refused, _) = feed_in_pieces(body.as_bytes(), body.len());
+        assert_eq!(refused, None);
+        assert_eq!(whole.len(), 2_002);
+        assert_eq!(
+            whole[7].data,
+            r#"{"choices":[{"delta":{"content":"word 7 "}}]}"#
+        );
+        let (bytewise, refused, scanned) = feed_in_pieces(body.as_bytes(), 1);
+        assert_eq!(refused, None);
+        assert_eq!(bytewise, whole);
+        assert_eq!(scanned, body.len(), "each byte looked at once");
+    }
+
+    #[test]
+    fn a_line_or_event_past_the_limit_is_refused_in_any_pieces() {
+        let at_limit = format!("data: {}\n\n", "y".repeat(MAX_EVENT_BYTES - 6));
+        let over = format!("data: {}\n\n", "y".repeat(MAX_EVENT_BYTES - 5));
+        let no_end = "z".repeat(3 * MAX_EVENT_BYTES);
+        let many_lines = "data: 0123456789abcdef\n".repeat(MAX_EVENT_BYTES / 16);
+        let before = "data: first\n\n";
+        for size in [1, 7, 4096, usize::MAX] {
+            let (events, refused, _) = feed_in_pieces(at_limit.as_bytes(), size);
+            assert_eq!((events.len(), refused), (1, None), "pieces of {size}");
+            for bad in [&over, &no_end, &many_lines] {
+                let body = format!("{before}{bad}data: never\n\n");
+                let (events, refused, scanned) = feed_in_pieces(body.as_bytes(), size);
+                assert_eq!(refused, Some(EventTooLong), "pieces of {size}");
+                assert_eq!(events.len(), 1, "the event before is kept");
+                if size < body.len() {
+                    // Reading stops near the limit (the data of an event
+                    // counts without its `data: ` prefixes).
+                    assert!(scanned <= 2 * MAX_EVENT_BYTES + size, "{scanned}");
+                }
+            }
+        }
+        assert!(EventTooLong
+            .to_string()
+            .contains("limit of 1 MiB (1048576 bytes)"));
+    }
+
     #[test]
     fn shorten_cuts_on_characters() {
         assert_eq!(shorten("héllo", 2), "hé…");
@@ -679,11 +816,18 @@ mod tests {
         /// so that its occurrences in a text never overlap.
         const KEY: &str = "sk-abc123";
 
-        fn events(pieces: &[&[u8]]) -> Vec<SseEvent> {
+        /// The events of a body cut into `pieces`, and whether it was
+        /// refused as too long.
+        fn events(pieces: &[&[u8]]) -> (Vec<SseEvent>, bool) {
             let mut parser = SseParser::default();
-            let mut events: Vec<SseEvent> = pieces.iter().flat_map(|p| parser.feed(p)).collect();
+            let mut events = Vec::new();
+            for piece in pieces {
+                if parser.feed(piece, &mut events).is_err() {
+                    return (events, true);
+                }
+            }
             events.extend(parser.finish());
-            events
+            (events, false)
         }
 
         fn key() -> Option<Secret> {
@@ -718,7 +862,7 @@ mod tests {
                     want.push(SseEvent { event: event.clone(), data: data.join("\n") });
                 }
                 let pieces: Vec<&[u8]> = body.as_bytes().chunks(cut).collect();
-                prop_assert_eq!(events(&pieces), want);
+                prop_assert_eq!(events(&pieces), (want, false));
             }
 
             /// Any bytes: no panic, and the same events in any pieces.

@@ -1,5 +1,5 @@
-//! The seam between the workbench and the agents: what a run asks for, the
-//! events a run reports while it streams, and [`AgentsPipeline`], which runs
+//! The seam between the workbench and the agents: what a run asks for (its
+//! events are the agents' own [`AgentEvent`]s), and [`AgentsPipeline`], which runs
 //! a request with [`crate::agents::pipeline::Runner`]: live providers from
 //! the config file and the environment, the response cache, and the demo's
 //! recording for the agents set to the `replay` provider.
@@ -14,44 +14,12 @@ use tokio_util::sync::CancellationToken;
 
 use crate::agents::cache::{write_atomic, ResponseCache};
 use crate::agents::config::{self, AgentLayer, ConfigFile, FlagLayers, Settings};
-use crate::agents::pipeline::{self, PlanInput, Runner, Source};
+use crate::agents::pipeline::{AgentEvent, PlanInput, Runner, Source};
 use crate::agents::prompts::{template_name, PromptSet, Template};
 use crate::agents::replay::{Pace, Recording};
-use crate::agents::{anthropic, openai, AgentRole, Approach, ProviderKind, Usage};
+use crate::agents::{anthropic, openai, AgentRole, Approach, ProviderKind};
 use crate::demo;
 use crate::workbench::session::AgentSettings;
-
-/// What happened to one agent of a run.
-#[derive(Debug, Clone, PartialEq)]
-pub enum AgentEvent {
-    /// The agent was called.
-    Started(AgentRole),
-    /// The agent wrote more text.
-    Token {
-        /// The agent writing.
-        agent: AgentRole,
-        /// The new text, to append.
-        text: String,
-    },
-    /// The agent finished.
-    Finished {
-        /// The agent.
-        agent: AgentRole,
-        /// Its whole output.
-        output: String,
-        /// Its token use.
-        usage: Usage,
-        /// Its wall time in milliseconds.
-        duration_ms: u64,
-    },
-    /// The agent failed; the run stops.
-    Failed {
-        /// The agent.
-        agent: AgentRole,
-        /// Why, in one line.
-        error: String,
-    },
-}
 
 /// Everything a pipeline needs to run the agents of one approach.
 #[derive(Debug, Clone, PartialEq)]
@@ -388,13 +356,7 @@ impl Pipeline for AgentsPipeline {
             let run = request.run;
             let first = roles(request.approach)[0];
             let fail = |error: String| {
-                let _ = events.send((
-                    run,
-                    AgentEvent::Failed {
-                        agent: first,
-                        error,
-                    },
-                ));
+                let _ = events.send((run, AgentEvent::Failed { role: first, error }));
             };
             let (settings, prompts) = match prepared {
                 Ok(parts) => parts,
@@ -426,9 +388,8 @@ impl Pipeline for AgentsPipeline {
                 result
             };
             let forward = async {
-                let mut outputs: BTreeMap<AgentRole, String> = BTreeMap::new();
                 while let Some(event) = rx.recv().await {
-                    let event = translate(event, &mut outputs, &request);
+                    let event = explain_replay_failure(event, &request);
                     if events.send((run, event)).is_err() {
                         return;
                     }
@@ -464,41 +425,17 @@ pub fn run_blocking(
     Ok(events)
 }
 
-/// Turns an event of the agents' pipeline into the workbench's, gathering
-/// each agent's tokens so that `Finished` carries the whole output.
-fn translate(
-    event: pipeline::AgentEvent,
-    outputs: &mut BTreeMap<AgentRole, String>,
-    request: &RunRequest,
-) -> AgentEvent {
+/// Puts what a user must do in the place of a `replay` agent's failure:
+/// the demo's recording has no answer for the request.
+fn explain_replay_failure(event: AgentEvent, request: &RunRequest) -> AgentEvent {
     match event {
-        pipeline::AgentEvent::Started { role } => {
-            outputs.insert(role, String::new());
-            AgentEvent::Started(role)
+        AgentEvent::Failed { role, .. } if AgentsPipeline::is_replay(request, role) => {
+            AgentEvent::Failed {
+                role,
+                error: provider_needed(role, "the demo's recording has no answer for this request"),
+            }
         }
-        pipeline::AgentEvent::Token { role, text } => {
-            outputs.entry(role).or_default().push_str(&text);
-            AgentEvent::Token { agent: role, text }
-        }
-        pipeline::AgentEvent::Finished {
-            role,
-            usage,
-            elapsed_ms,
-            ..
-        } => AgentEvent::Finished {
-            agent: role,
-            output: outputs.remove(&role).unwrap_or_default(),
-            usage,
-            duration_ms: elapsed_ms,
-        },
-        pipeline::AgentEvent::Failed { role, error } => AgentEvent::Failed {
-            agent: role,
-            error: if AgentsPipeline::is_replay(request, role) {
-                provider_needed(role, "the demo's recording has no answer for this request")
-            } else {
-                error
-            },
-        },
+        other => other,
     }
 }
 

@@ -22,7 +22,7 @@ use crate::workbench::panes::scene::ScenePane;
 use crate::workbench::panes::steps::{demo_ground_truth, Steps};
 use crate::workbench::panes::Pane;
 use crate::workbench::runs::{AgentStatus, Runs};
-use crate::workbench::scoring::{ScoreOutcome, ScoreRequest};
+use crate::workbench::scoring::{ModelSlot, ScoreOutcome, ScoreRequest};
 use crate::workbench::session::{GroundTruthSource, PlanSource, Session};
 use crate::workbench::theme::Theme;
 
@@ -60,17 +60,6 @@ pub enum Severity {
     Error,
 }
 
-/// Where the PG2S models stand.
-#[derive(Debug, Clone, PartialEq, Eq)]
-pub enum ModelStatus {
-    /// Loading, with the latest progress line.
-    Loading(String),
-    /// Loaded.
-    Ready,
-    /// Missing, with the reason.
-    Unavailable(String),
-}
-
 /// What the workbench starts from.
 pub struct AppInit {
     /// The dataset, when one was given.
@@ -88,7 +77,7 @@ pub struct AppInit {
     /// The terminal's size.
     pub size: (u16, u16),
     /// Whether the PG2S models are known to be loading.
-    pub models: ModelStatus,
+    pub models: ModelSlot,
     /// The prompt templates' texts by name: the built-in ones, or the
     /// user's where the user folder has one ([`agents::prompt_texts`]).
     pub prompts: BTreeMap<String, String>,
@@ -106,7 +95,7 @@ impl AppInit {
             session: None,
             notice: None,
             size,
-            models: ModelStatus::Unavailable(reason.to_string()),
+            models: ModelSlot::Unavailable(reason.to_string()),
             prompts: crate::agents::prompts::PromptSet::load(None)
                 .map(|set| agents::prompt_texts(&set))
                 .unwrap_or_default(),
@@ -155,7 +144,7 @@ pub struct App {
     /// The generation of the latest score request.
     pub score_generation: u64,
     /// The PG2S models.
-    pub models: ModelStatus,
+    pub models: ModelSlot,
     /// The Knowledge Graph pane.
     pub graph: GraphPane,
     /// The search, highlighted in every pane.

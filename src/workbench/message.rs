@@ -9,8 +9,9 @@ use image::DynamicImage;
 use ratatui::layout::Rect;
 use ratatui_image::protocol::Protocol;
 
-use crate::workbench::agents::{AgentEvent, RunRequest};
-use crate::workbench::scoring::{ScoreOutcome, ScoreRequest};
+use crate::agents::pipeline::AgentEvent;
+use crate::workbench::agents::RunRequest;
+use crate::workbench::scoring::{ModelSlot, ScoreOutcome, ScoreRequest};
 
 /// A message: something that happened.
 pub enum Msg {
@@ -28,8 +29,8 @@ pub enum Msg {
     Scored(ScoreOutcome),
     /// The models made progress loading.
     ModelsProgress(String),
-    /// The models loaded, or why not.
-    ModelsLoaded(Result<(), String>),
+    /// The models loaded ([`ModelSlot::Ready`]), or why not.
+    ModelsLoaded(ModelSlot),
     /// A step file was read.
     StepFile(PathBuf, Result<String, String>),
     /// The scene image was read.

@@ -5,12 +5,13 @@ use ratatui::text::{Line, Span};
 use ratatui::widgets::{Block, Paragraph, Wrap};
 use ratatui::Frame;
 
-use crate::workbench::app::{App, ModelStatus, Severity};
+use crate::workbench::app::{App, Severity};
 use crate::workbench::editing::Editing;
 use crate::workbench::keymap::{self};
 use crate::workbench::layout::{pane_rects, Screen, MIN_HEIGHT, MIN_WIDTH};
 use crate::workbench::overlays::{self};
 use crate::workbench::panes::{self, Pane};
+use crate::workbench::scoring::ModelSlot;
 
 /// Draws the whole workbench.
 pub fn render(frame: &mut Frame, app: &App) {
@@ -54,9 +55,9 @@ fn render_header(frame: &mut Frame, app: &App, area: Rect) {
         None => "demo".to_string(),
     };
     let models = match &app.models {
-        ModelStatus::Ready => Span::styled("models ready", t.good),
-        ModelStatus::Loading(p) => Span::styled(format!("models loading: {p}"), t.warn),
-        ModelStatus::Unavailable(_) => Span::styled("PG2S models missing", t.warn),
+        ModelSlot::Ready(_) => Span::styled("models ready", t.good),
+        ModelSlot::Loading(p) => Span::styled(format!("models loading: {p}"), t.warn),
+        ModelSlot::Unavailable(_) => Span::styled("PG2S models missing", t.warn),
     };
     let line = Line::from(vec![
         Span::styled(" mapvlm ", t.title),

@@ -3,9 +3,10 @@
 
 use std::collections::BTreeMap;
 
+use crate::agents::pipeline::AgentEvent;
 use crate::agents::{AgentRole, Approach, Usage};
 use crate::plan::parse_steps;
-use crate::workbench::agents::{self, planning_role, role_label, roles, AgentEvent, RunRequest};
+use crate::workbench::agents::{self, planning_role, role_label, roles, RunRequest};
 use crate::workbench::app::{unix_now, App, Severity};
 use crate::workbench::editing::Editing;
 use crate::workbench::message::Cmd;
@@ -255,7 +256,7 @@ impl App {
             return Vec::new();
         }
         match event {
-            AgentEvent::Started(agent) => {
+            AgentEvent::Started { role: agent } => {
                 if let Some(v) = self.runs.agents.get_mut(&agent) {
                     v.status = AgentStatus::Running;
                     v.output.clear();
@@ -275,7 +276,7 @@ impl App {
                 }
                 Vec::new()
             }
-            AgentEvent::Token { agent, text } => {
+            AgentEvent::Token { role: agent, text } => {
                 if let Some(v) = self.runs.agents.get_mut(&agent) {
                     v.output.push_str(&text);
                 }
@@ -292,14 +293,13 @@ impl App {
                 }
             }
             AgentEvent::Finished {
-                agent,
-                output,
+                role: agent,
                 usage,
-                duration_ms,
+                elapsed_ms: duration_ms,
+                ..
             } => {
                 let prompt = self.prompt_of(agent);
                 if let Some(v) = self.runs.agents.get_mut(&agent) {
-                    v.output = output;
                     v.status = AgentStatus::Done;
                     v.usage = usage;
                     v.duration_ms = duration_ms;
@@ -330,7 +330,7 @@ impl App {
                 }
                 cmds
             }
-            AgentEvent::Failed { agent, error } => {
+            AgentEvent::Failed { role: agent, error } => {
                 if let Some(v) = self.runs.agents.get_mut(&agent) {
                     v.status = AgentStatus::Failed(error.clone());
                 }

@@ -15,25 +15,24 @@ use crossterm::execute;
 use crossterm::terminal::{
     disable_raw_mode, enable_raw_mode, EnterAlternateScreen, LeaveAlternateScreen,
 };
-use image::DynamicImage;
 use ratatui::backend::CrosstermBackend;
 use ratatui::layout::Rect;
 use ratatui::Terminal;
 use ratatui_image::picker::Picker;
-use ratatui_image::Resize;
 use tokio::sync::{mpsc, watch};
 use tokio::task::JoinHandle;
 
 use super::agents::Pipeline;
-use super::app::{App, AppInit, ModelStatus, Severity};
+use super::app::{App, AppInit, Severity};
 use super::scoring::{ModelSlot, ScorerLoader, SharedModels};
 use super::session::{Restored, Session};
 use super::snapshot::{Snapshot, SnapshotPacer, SNAPSHOT_EVERY};
+use crate::agents::pipeline::AgentEvent;
 use crate::dataset::Dataset;
 
 use super::message::{Cmd, Msg};
-use super::{agents, scoring, session};
 use super::{render, terminal_query, theme, Options, TuiError, SAVE_EVERY, SCORE_DEBOUNCE};
+use super::{scene_image, scoring, session};
 
 /// Puts the terminal back as it was: raw mode off, main screen, no mouse capture.
 fn restore_terminal() {
@@ -83,10 +82,9 @@ pub fn prepare_image(app: &mut App, picker: &Picker) {
     let Some(scene) = app.scene.image.clone() else {
         return;
     };
-    let image: DynamicImage = (*scene).clone();
-    match picker.new_protocol(image, area.as_size(), Resize::Scale(None)) {
-        Ok(protocol) => {
-            app.update(Msg::ImageReady(area, Box::new(protocol)));
+    match scene_image::encode(picker, &scene, area) {
+        Ok((area, protocol)) => {
+            app.update(Msg::ImageReady(area, protocol));
         }
         Err(e) => {
             app.scene.enabled = false;
@@ -101,7 +99,7 @@ pub fn prepare_image(app: &mut App, picker: &Picker) {
 /// Everything the loop hands work to.
 struct Runtime {
     msgs: mpsc::UnboundedSender<Msg>,
-    agent_events: mpsc::UnboundedSender<(u64, agents::AgentEvent)>,
+    agent_events: mpsc::UnboundedSender<(u64, AgentEvent)>,
     scores: watch::Sender<Option<scoring::ScoreRequest>>,
     pipeline: Arc<dyn Pipeline>,
     runs: HashMap<u64, JoinHandle<()>>,
@@ -142,10 +140,7 @@ impl Runtime {
             Cmd::LoadImage(path) => {
                 let msgs = self.msgs.clone();
                 tokio::task::spawn_blocking(move || {
-                    let result = image::open(&path)
-                        .map(Arc::new)
-                        .map_err(|e| format!("{}: cannot read the image: {e}", path.display()));
-                    let _ = msgs.send(Msg::SceneImage(result));
+                    let _ = msgs.send(Msg::SceneImage(scene_image::read(&path)));
                 });
             }
         }
@@ -290,7 +285,7 @@ async fn run_async(options: Options) -> Result<(), TuiError> {
         session: restored,
         notice,
         size: (size.width, size.height),
-        models: ModelStatus::Loading("starting".to_string()),
+        models: ModelSlot::Loading("starting".to_string()),
         prompts: options.prompts.clone(),
     });
     terminal.draw(|f| render::render(f, &app))?;
@@ -352,8 +347,8 @@ async fn run_async(options: Options) -> Result<(), TuiError> {
         scoring::spawn_loader(wrapped, models.clone(), done_tx);
         let msgs = msg_tx.clone();
         tokio::spawn(async move {
-            if let Some(result) = done_rx.recv().await {
-                let _ = msgs.send(Msg::ModelsLoaded(result));
+            if let Some(slot) = done_rx.recv().await {
+                let _ = msgs.send(Msg::ModelsLoaded(slot));
             }
         });
     }

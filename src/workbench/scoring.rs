@@ -46,7 +46,9 @@ pub struct ScoreOutcome {
     pub millis: f64,
 }
 
-/// Where the PG2S models are.
+/// Where the PG2S models stand: shared by the loader and the scoring worker
+/// (which scores with the loaded scorer) and held by the app (which shows
+/// the state in the status bar).
 #[derive(Clone)]
 pub enum ModelSlot {
     /// Loading, with the latest progress line.
@@ -111,12 +113,8 @@ pub async fn worker(
 }
 
 /// Loads the models on a blocking thread, keeping the slot's progress line
-/// current, and calls `done` with the final status line.
-pub fn spawn_loader(
-    loader: ScorerLoader,
-    models: SharedModels,
-    done: UnboundedSender<Result<(), String>>,
-) {
+/// current, and sends `done` the final slot.
+pub fn spawn_loader(loader: ScorerLoader, models: SharedModels, done: UnboundedSender<ModelSlot>) {
     tokio::task::spawn_blocking(move || {
         let progress_slot = models.clone();
         let progress = move |line: String| {
@@ -124,14 +122,13 @@ pub fn spawn_loader(
                 *slot = ModelSlot::Loading(line);
             }
         };
-        let result = loader(&progress);
-        let status = result.as_ref().map(|_| ()).map_err(Clone::clone);
-        if let Ok(mut slot) = models.write() {
-            *slot = match result {
-                Ok(scorer) => ModelSlot::Ready(Arc::new(scorer)),
-                Err(reason) => ModelSlot::Unavailable(reason),
-            };
+        let slot = match loader(&progress) {
+            Ok(scorer) => ModelSlot::Ready(Arc::new(scorer)),
+            Err(reason) => ModelSlot::Unavailable(reason),
+        };
+        if let Ok(mut shared) = models.write() {
+            *shared = slot.clone();
         }
-        let _ = done.send(status);
+        let _ = done.send(slot);
     });
 }

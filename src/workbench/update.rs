@@ -7,7 +7,7 @@ use ratatui::layout::{Position, Rect};
 use crate::agents::AgentRole;
 use crate::plan::parse_steps;
 use crate::workbench::agents::{planning_role, roles};
-use crate::workbench::app::{single_line_editor, App, ModelStatus, Severity};
+use crate::workbench::app::{single_line_editor, App, Severity};
 use crate::workbench::editing::Editing;
 use crate::workbench::keymap::{self, Action, Context};
 use crate::workbench::layout::{pane_rects, Screen};
@@ -16,6 +16,7 @@ use crate::workbench::overlays::pickers::GroundTruthChoice;
 use crate::workbench::overlays::Overlay;
 use crate::workbench::panes::steps::StepList;
 use crate::workbench::panes::{list_window, Pane};
+use crate::workbench::scoring::ModelSlot;
 use crate::workbench::session::GroundTruthSource;
 
 impl App {
@@ -36,14 +37,11 @@ impl App {
                 Vec::new()
             }
             Msg::ModelsProgress(line) => {
-                self.models = ModelStatus::Loading(line);
+                self.models = ModelSlot::Loading(line);
                 Vec::new()
             }
-            Msg::ModelsLoaded(result) => {
-                self.models = match result {
-                    Ok(()) => ModelStatus::Ready,
-                    Err(reason) => ModelStatus::Unavailable(reason),
-                };
+            Msg::ModelsLoaded(slot) => {
+                self.models = slot;
                 vec![self.rescore()]
             }
             Msg::StepFile(path, result) => match result {
@@ -245,6 +243,17 @@ impl App {
             | Action::PreviousField
             | Action::MarkRun
             | Action::CompareRuns => {}
+            // The annotation screen's actions: never bound in a pane.
+            Action::Rate(_)
+            | Action::Prefer(_)
+            | Action::Label(_)
+            | Action::ClearLabel
+            | Action::WriteNote
+            | Action::NextItem
+            | Action::PreviousItem
+            | Action::NextUnjudged
+            | Action::SkipItem
+            | Action::Undo => {}
         }
         Vec::new()
     }

@@ -1,215 +1,28 @@
-//! The one key table: every binding of the workbench declared once, with the
-//! context it applies in, the action it triggers and its help text. The key
-//! handlers look actions up here, and the help overlay and the status-bar
-//! hints are drawn from it, so a key cannot be handled without being shown,
-//! or shown without being handled (the `key_table` tests hold both ways).
+//! The rows of the key table: every binding of the workbench, in the order
+//! the help lists them, with the small constructors that keep each row on a
+//! line or two.
 
-use crossterm::event::{KeyCode, KeyEvent, KeyModifiers};
+use crossterm::event::KeyCode;
 
-use super::graph_view::Direction;
+use super::{Action, Binding, Context, Key};
+use crate::workbench::graph_view::Direction;
 
-/// Where a binding applies: the mode or pane that has the keyboard.
-#[derive(Debug, Clone, Copy, PartialEq, Eq)]
-pub enum Context {
-    /// Everywhere, editors and overlays included.
-    Always,
-    /// Any pane, when no editor or overlay has the keyboard.
-    Panes,
-    /// The Plan and Ground Truth panes (step lists).
-    Steps,
-    /// The Knowledge Graph pane showing one node's neighbourhood.
-    Graph,
-    /// The Knowledge Graph pane showing the whole graph.
-    WholeGraph,
-    /// The Prompt pane.
-    Prompt,
-    /// Editing a step.
-    StepEditor,
-    /// Editing a prompt.
-    PromptEditor,
-    /// Typing a search.
-    Search,
-    /// A list to choose from: the ground-truth picker.
-    Picker,
-    /// The run history.
-    History,
-    /// A one-line path prompt (the step file).
-    PathPrompt,
-    /// The model form.
-    ModelForm,
-    /// A view to read and close: the framed actions, two runs compared.
-    Viewer,
-}
-
-impl Context {
-    /// Whether this is an overlay's context, whose keys the status bar
-    /// shows in full (every binding of it has a hint) instead of the help.
-    pub fn is_overlay(self) -> bool {
-        matches!(
-            self,
-            Context::Picker
-                | Context::History
-                | Context::PathPrompt
-                | Context::ModelForm
-                | Context::Viewer
-        )
-    }
-
-    /// The word the status bar starts with in this context, if it is a mode.
-    pub fn mode(self) -> Option<&'static str> {
-        match self {
-            Context::StepEditor => Some("EDIT step"),
-            Context::PromptEditor => Some("EDIT prompt"),
-            Context::Search => Some("SEARCH"),
-            Context::Picker => Some("CHOOSE"),
-            Context::History => Some("RUNS"),
-            Context::PathPrompt => Some("PATH"),
-            Context::ModelForm => Some("MODEL"),
-            Context::Viewer => Some("VIEW"),
-            _ => None,
-        }
-    }
-}
-
-/// What a key does. Handlers match on this, never on key codes.
-#[derive(Debug, Clone, Copy, PartialEq, Eq)]
-pub enum Action {
-    /// Quit (the session is saved).
-    Quit,
-    /// Focus the next pane.
-    NextPane,
-    /// Focus the previous pane.
-    PreviousPane,
-    /// Show the key help.
-    Help,
-    /// Zoom the focused pane, or leave the zoom.
-    Zoom,
-    /// Leave zoom, clear the search, or clear the status line.
-    Escape,
-    /// Start typing a search.
-    Search,
-    /// Jump to the next search hit.
-    NextHit,
-    /// Move the selection or scroll by this many lines.
-    Move(isize),
-    /// Edit the selected step.
-    EditStep,
-    /// Insert a step after the selected one.
-    InsertAfter,
-    /// Insert a step before the selected one.
-    InsertBefore,
-    /// Delete the selected step.
-    DeleteStep,
-    /// Move the selected step down.
-    StepDown,
-    /// Move the selected step up.
-    StepUp,
-    /// Open the ground-truth picker.
-    ChooseGroundTruth,
-    /// Load the task's published plan.
-    PublishedPlan,
-    /// Switch to the next approach.
-    NextApproach,
-    /// Run the agents whose inputs changed.
-    Run,
-    /// Run every agent again.
-    RunAll,
-    /// Cancel the run in flight.
-    CancelRun,
-    /// Open the model form of an agent.
-    ModelForm,
-    /// Show the framed actions and their matches.
-    Actions,
-    /// Open the run history.
-    History,
-    /// Turn the scene image on or off.
-    ToggleImage,
-    /// Switch to the next theme.
-    NextTheme,
-    /// Go to the selected neighbour in the graph.
-    GraphEnter,
-    /// Go back to the previous node in the graph.
-    GraphBack,
-    /// Select the next (+1) or previous (-1) node of the graph.
-    GraphNode(isize),
-    /// Select the next (+1) or previous (-1) node of the whole graph.
-    GraphSelect(isize),
-    /// Select the nearest node in a direction in the whole graph.
-    GraphStep(Direction),
-    /// Zoom the whole graph in (+1) or out (-1).
-    GraphZoom(isize),
-    /// Switch between the whole graph and one node's neighbourhood.
-    GraphMode,
-    /// Edit the shown prompt.
-    EditPrompt,
-    /// Show the prompt of the next (+1) or previous (-1) agent.
-    PromptStep(isize),
-    /// Show the prompt of the agent at this position.
-    PromptOf(usize),
-    /// Keep the edit (step editor) or jump to the hit (search).
-    Accept,
-    /// Cancel the edit, finish the prompt, or clear the search.
-    Leave,
-    /// Run the agents from the prompt editor.
-    RunFromEditor,
-    /// Focus the next field of a form.
-    NextField,
-    /// Focus the previous field of a form.
-    PreviousField,
-    /// Mark the highlighted run for comparison, or unmark it.
-    MarkRun,
-    /// Compare the marked run with the highlighted one.
-    CompareRuns,
-}
-
-/// A key as the table names it: a code, and whether Ctrl is held.
-#[derive(Debug, Clone, Copy, PartialEq, Eq)]
-pub struct Key {
-    /// The key.
-    pub code: KeyCode,
-    /// Ctrl must be held (Shift is part of the character).
-    pub ctrl: bool,
-}
-
-impl Key {
-    /// Whether `event` is this key. A key without Ctrl matches whatever
-    /// the modifiers are, as the handlers always did.
-    pub fn matches(self, event: &KeyEvent) -> bool {
-        event.code == self.code && (!self.ctrl || event.modifiers.contains(KeyModifiers::CONTROL))
-    }
-}
-
-const fn key(code: KeyCode) -> Key {
+pub(super) const fn key(code: KeyCode) -> Key {
     Key { code, ctrl: false }
 }
 
-const fn ch(c: char) -> Key {
+pub(super) const fn ch(c: char) -> Key {
     key(KeyCode::Char(c))
 }
 
-const fn ctrl(c: char) -> Key {
+pub(super) const fn ctrl(c: char) -> Key {
     Key {
         code: KeyCode::Char(c),
         ctrl: true,
     }
 }
 
-/// One line of the key help: keys, each with its action, in one context.
-#[derive(Debug)]
-pub struct Binding {
-    /// Where the keys apply.
-    pub context: Context,
-    /// Each key and what it does.
-    pub keys: &'static [(Key, Action)],
-    /// The keys as the help shows them.
-    pub label: &'static str,
-    /// What they do, as the help says it.
-    pub help: &'static str,
-    /// The status-bar hint: the key and a word or two.
-    pub hint: Option<(&'static str, &'static str)>,
-}
-
-const fn bind(
+pub(super) const fn bind(
     context: Context,
     keys: &'static [(Key, Action)],
     label: &'static str,
@@ -224,7 +37,7 @@ const fn bind(
     }
 }
 
-const fn hinted(binding: Binding, key: &'static str, hint: &'static str) -> Binding {
+pub(super) const fn hinted(binding: Binding, key: &'static str, hint: &'static str) -> Binding {
     Binding {
         hint: Some((key, hint)),
         ..binding
@@ -234,8 +47,9 @@ const fn hinted(binding: Binding, key: &'static str, hint: &'static str) -> Bind
 use Action as A;
 use Context as C;
 
-/// Every binding of the workbench, in the order the help lists them.
-pub const BINDINGS: &[Binding] = &[
+/// Every binding of the workbench's panes and overlays, in the order the
+/// help lists them.
+pub(super) const WORKBENCH: &[Binding] = &[
     hinted(
         bind(C::Panes, &[(ch('?'), A::Help)], "?", "this help"),
         "?",
@@ -704,81 +518,3 @@ pub const BINDINGS: &[Binding] = &[
         "click focuses and selects; the wheel scrolls",
     ),
 ];
-
-/// The action `event` triggers in the first of `contexts` that binds it.
-pub fn action(contexts: &[Context], event: &KeyEvent) -> Option<Action> {
-    contexts.iter().find_map(|&context| {
-        BINDINGS
-            .iter()
-            .filter(|b| b.context == context)
-            .flat_map(|b| b.keys)
-            .find(|(key, _)| key.matches(event))
-            .map(|&(_, action)| action)
-    })
-}
-
-/// The status-bar hints of `context`: "key hint" pairs joined by dots.
-pub fn hints(context: Context) -> String {
-    BINDINGS
-        .iter()
-        .filter(|b| b.context == context)
-        .filter_map(|b| b.hint.map(|(key, hint)| format!("{key} {hint}")))
-        .collect::<Vec<_>>()
-        .join(" · ")
-}
-
-/// The help's lines: the keys as shown and what they do, in table order.
-/// An overlay's keys are not among them: its status bar shows them all.
-pub fn help_lines() -> impl Iterator<Item = (&'static str, &'static str)> {
-    BINDINGS
-        .iter()
-        .filter(|b| !b.context.is_overlay())
-        .map(|b| (b.label, b.help))
-}
-
-#[cfg(test)]
-mod tests {
-    use super::*;
-
-    #[test]
-    fn no_key_is_bound_twice_in_one_context() {
-        for (i, a) in BINDINGS.iter().enumerate() {
-            for b in &BINDINGS[i..] {
-                for (n, (ka, _)) in a.keys.iter().enumerate() {
-                    let skip = if std::ptr::eq(a, b) { n + 1 } else { 0 };
-                    for (kb, _) in b.keys.iter().skip(skip) {
-                        assert!(
-                            !(a.context == b.context && ka == kb),
-                            "{ka:?} is bound twice in {:?}",
-                            a.context
-                        );
-                    }
-                }
-            }
-        }
-    }
-
-    #[test]
-    fn every_overlay_binding_has_a_status_bar_hint() {
-        for b in BINDINGS.iter().filter(|b| b.context.is_overlay()) {
-            assert!(b.hint.is_some(), "{} has no hint", b.label);
-        }
-    }
-
-    #[test]
-    fn the_first_context_that_binds_a_key_wins() {
-        let right = KeyEvent::new(KeyCode::Right, KeyModifiers::NONE);
-        assert_eq!(
-            action(&[Context::Graph, Context::Panes], &right),
-            Some(Action::GraphEnter)
-        );
-        assert_eq!(action(&[Context::Panes], &right), Some(Action::NextPane));
-        let f5 = KeyEvent::new(KeyCode::F(5), KeyModifiers::NONE);
-        assert_eq!(
-            action(&[Context::PromptEditor], &f5),
-            Some(Action::RunFromEditor)
-        );
-        let plain_r = KeyEvent::new(KeyCode::Char('r'), KeyModifiers::NONE);
-        assert_eq!(action(&[Context::PromptEditor], &plain_r), None);
-    }
-}
