@@ -15,13 +15,14 @@ use mapvlm::corrupt::{apply_edits, Kind, Vocabulary};
 use mapvlm::models::{EN_CORE_WEB_SM, GLOVE_6B_50D};
 use mapvlm::nlp::en::EnPipeline;
 use mapvlm::nlp::wordvec::WordVectorTable;
-use mapvlm::workbench::agents::{run_blocking, AgentsPipeline};
+use mapvlm::workbench::agents::AgentsPipeline;
 use mapvlm::workbench::app::{App, AppInit};
-use mapvlm::workbench::corrupting::{corrupt_plan, CorruptionModels};
+use mapvlm::workbench::corrupting::CorruptionModels;
+use mapvlm::workbench::headless::Headless;
 use mapvlm::workbench::message::{Cmd, Msg};
 use mapvlm::workbench::panes::Pane;
 use mapvlm::workbench::render;
-use mapvlm::workbench::scoring::{score_now, ModelSlot};
+use mapvlm::workbench::scoring::ModelSlot;
 use mapvlm::workbench::session::PlanSource;
 
 fn models() -> &'static CorruptionModels {
@@ -43,33 +44,14 @@ fn press(app: &mut App, code: KeyCode) -> Vec<Cmd> {
 /// Carries out the commands as the runtime would: corruptions with the
 /// pack's models, scores with KAS alone (no sentence encoder here).
 fn run(app: &mut App, cmds: Vec<Cmd>) {
-    let mut queue = cmds;
+    let pipeline = AgentsPipeline::offline(Pace::Instant).unwrap();
     let slot = ModelSlot::Unavailable("no sentence encoder in this test".into());
-    while !queue.is_empty() {
-        let mut next = Vec::new();
-        for cmd in queue {
-            match cmd {
-                Cmd::Corrupt(request) => {
-                    let result = corrupt_plan(models(), &request);
-                    next.extend(app.update(Msg::Corrupted(result)));
-                }
-                Cmd::Score(request) => {
-                    let mut outcome = score_now(&slot, &request);
-                    outcome.millis = 0.0;
-                    next.extend(app.update(Msg::Scored(outcome)));
-                }
-                Cmd::StartRun(request) => {
-                    let run = request.run;
-                    let pipeline = AgentsPipeline::offline(Pace::Instant).unwrap();
-                    for event in run_blocking(&pipeline, request).unwrap() {
-                        next.extend(app.update(Msg::Agent(run, event)));
-                    }
-                }
-                _ => {}
-            }
+    let runner = Headless::new(&pipeline, slot).with_corruption(models().clone());
+    runner.run(app, cmds, &mut |msg| {
+        if let Msg::Scored(outcome) = msg {
+            outcome.millis = 0.0;
         }
-        queue = next;
-    }
+    });
 }
 
 /// The demo after its agents ran once (replayed from the demo's recording):
