@@ -4,7 +4,6 @@ use crossterm::event::KeyEvent;
 use ratatui_textarea::TextArea;
 
 use crate::agents::AgentRole;
-use crate::workbench::agents::role_label;
 use crate::workbench::app::{single_line_editor, App, Severity};
 use crate::workbench::keymap::Action;
 use crate::workbench::message::Cmd;
@@ -66,12 +65,12 @@ impl App {
                 }
                 self.session_dirty = true;
                 self.set_status(
-                    format!("{}: {} / {} (r runs what changed)", role_label(agent), text(0), text(1)),
+                    format!("{}: {} / {} (r runs what changed)", agent.label(), text(0), text(1)),
                     Severity::Info,
                 );
             }
             _ => self.set_status(
-                format!("{}: not changed: provider and model must be set, the temperature a number, the token limit a whole number", role_label(agent)),
+                format!("{}: not changed: provider and model must be set, the temperature a number, the token limit a whole number", agent.label()),
                 Severity::Warn,
             ),
         }
