@@ -24,6 +24,7 @@ pub mod persist;
 pub mod render;
 pub mod runs;
 pub mod runtime;
+pub mod scene_image;
 pub mod scoring;
 pub mod session;
 pub mod snapshot;

@@ -15,12 +15,10 @@ use crossterm::execute;
 use crossterm::terminal::{
     disable_raw_mode, enable_raw_mode, EnterAlternateScreen, LeaveAlternateScreen,
 };
-use image::DynamicImage;
 use ratatui::backend::CrosstermBackend;
 use ratatui::layout::Rect;
 use ratatui::Terminal;
 use ratatui_image::picker::Picker;
-use ratatui_image::Resize;
 use tokio::sync::{mpsc, watch};
 use tokio::task::JoinHandle;
 
@@ -34,7 +32,7 @@ use crate::dataset::Dataset;
 
 use super::message::{Cmd, Msg};
 use super::{render, terminal_query, theme, Options, TuiError, SAVE_EVERY, SCORE_DEBOUNCE};
-use super::{scoring, session};
+use super::{scene_image, scoring, session};
 
 /// Puts the terminal back as it was: raw mode off, main screen, no mouse capture.
 fn restore_terminal() {
@@ -84,10 +82,9 @@ pub fn prepare_image(app: &mut App, picker: &Picker) {
     let Some(scene) = app.scene.image.clone() else {
         return;
     };
-    let image: DynamicImage = (*scene).clone();
-    match picker.new_protocol(image, area.as_size(), Resize::Scale(None)) {
-        Ok(protocol) => {
-            app.update(Msg::ImageReady(area, Box::new(protocol)));
+    match scene_image::encode(picker, &scene, area) {
+        Ok((area, protocol)) => {
+            app.update(Msg::ImageReady(area, protocol));
         }
         Err(e) => {
             app.scene.enabled = false;
@@ -143,10 +140,7 @@ impl Runtime {
             Cmd::LoadImage(path) => {
                 let msgs = self.msgs.clone();
                 tokio::task::spawn_blocking(move || {
-                    let result = image::open(&path)
-                        .map(Arc::new)
-                        .map_err(|e| format!("{}: cannot read the image: {e}", path.display()));
-                    let _ = msgs.send(Msg::SceneImage(result));
+                    let _ = msgs.send(Msg::SceneImage(scene_image::read(&path)));
                 });
             }
         }

@@ -243,6 +243,17 @@ impl App {
             | Action::PreviousField
             | Action::MarkRun
             | Action::CompareRuns => {}
+            // The annotation screen's actions: never bound in a pane.
+            Action::Rate(_)
+            | Action::Prefer(_)
+            | Action::Label(_)
+            | Action::ClearLabel
+            | Action::WriteNote
+            | Action::NextItem
+            | Action::PreviousItem
+            | Action::NextUnjudged
+            | Action::SkipItem
+            | Action::Undo => {}
         }
         Vec::new()
     }

@@ -1,27 +1,31 @@
 //! The annotation screen (`annotate.md` §3): blind judgement of plans, one
-//! component of the TUI with its own state ([`state`]), drawing ([`view`])
-//! and key table ([`keys`]), sharing the workbench's theme, terminal set-up
-//! and image handling.
+//! [`Component`](crate::workbench::component::Component) of the TUI with its
+//! own state ([`state`]), update ([`update`]) and drawing ([`view`]). It
+//! shares the workbench's key table (its contexts `Annotate…`), help
+//! overlay, theme, terminal set-up and scene image widget.
 //!
 //! Reading the scene image and appending judgements happen off the loop:
 //! images on blocking tasks, judgements on one writer thread that keeps
 //! them in order and flushes each to disk before reporting back.
 
-pub mod keys;
+#[cfg(test)]
+mod fixtures;
+#[cfg(test)]
+mod key_table;
 pub mod state;
+pub mod update;
 pub mod view;
 
-use std::path::Path;
-use std::sync::Arc;
 use std::time::{Duration, Instant};
 
 use crossterm::event::Event;
 use ratatui::layout::Rect;
 use ratatui_image::picker::Picker;
-use ratatui_image::Resize;
 use tokio::sync::mpsc;
 
 use crate::annotate::{AnnotationWriter, Judgement, Verdict};
+use crate::workbench::component::Component;
+use crate::workbench::scene_image;
 use crate::workbench::terminal_query::{query_picker, QUERY_TIMEOUT};
 use crate::workbench::theme::Theme;
 use crate::workbench::TuiError;
@@ -130,9 +134,9 @@ fn prepare_image(screen: &mut Judging, picker: &Picker, area: Rect) {
     let Scene::Loaded(_, image) = &screen.scene else {
         return;
     };
-    let msg = match picker.new_protocol((**image).clone(), wanted.as_size(), Resize::Scale(None)) {
-        Ok(protocol) => Msg::ImageReady(wanted, Box::new(protocol)),
-        Err(e) => Msg::ImageUndrawable(e.to_string()),
+    let msg = match scene_image::encode(picker, image, wanted) {
+        Ok(encoded) => Msg::ImageReady(encoded),
+        Err(e) => Msg::ImageUndrawable(e),
     };
     screen.update(msg);
 }
@@ -188,7 +192,7 @@ async fn run_async(options: Options) -> Result<Outcome, TuiError> {
         Cmd::LoadImage(path) => {
             let msgs = msg_tx.clone();
             tokio::task::spawn_blocking(move || {
-                let _ = msgs.send(Msg::Image(path.clone(), read_image(&path)));
+                let _ = msgs.send(Msg::Image(path.clone(), scene_image::read(&path)));
             });
         }
     };
@@ -199,7 +203,10 @@ async fn run_async(options: Options) -> Result<Outcome, TuiError> {
     loop {
         let area = terminal.get_frame().area();
         prepare_image(&mut screen, &picker, area);
-        terminal.draw(|f| view::render(f, &screen, &theme))?;
+        terminal.draw(|f| {
+            let area = f.area();
+            screen.draw(f, area, &theme);
+        })?;
         let msg = tokio::select! {
             msg = msg_rx.recv() => msg,
             size = size_rx.recv() => match size {
@@ -234,11 +241,4 @@ async fn run_async(options: Options) -> Result<Outcome, TuiError> {
         total: screen.units.len(),
         failures,
     })
-}
-
-/// Reads a scene image; the error is one line naming the file.
-fn read_image(path: &Path) -> Result<Arc<image::DynamicImage>, String> {
-    image::open(path)
-        .map(Arc::new)
-        .map_err(|e| format!("{}: the scene image cannot be read ({e})", path.display()))
 }

@@ -1,5 +1,5 @@
-//! The annotation screen's state and its update function (the Elm
-//! architecture): keys and finished tasks come in as [`Msg`], the work to do
+//! The annotation screen's state (the Elm architecture): keys and finished
+//! tasks come in as [`Msg`] (handled in [`super::update`]), the work to do
 //! goes out as [`Cmd`]; nothing here reads or writes a file.
 
 use std::collections::{BTreeMap, HashMap, HashSet};
@@ -7,19 +7,16 @@ use std::path::PathBuf;
 use std::sync::Arc;
 use std::time::Duration;
 
-use crossterm::event::{KeyCode, KeyEvent, KeyEventKind};
+use crossterm::event::KeyEvent;
 use image::DynamicImage;
-use ratatui::layout::Rect;
-use ratatui_image::protocol::Protocol;
 use ratatui_textarea::TextArea;
 
-use super::keys::{action_of, Action};
 use crate::annotate::guidelines::Guidelines;
 use crate::annotate::order::{pairwise_units, single_units, Unit};
-use crate::annotate::{
-    Annotations, Judgement, Preference, StepLabel, StepLabelKind, Subject, Verdict,
-};
+use crate::annotate::{Annotations, Judgement, StepLabelKind, Subject, Verdict};
 use crate::dataset::Pair;
+use crate::workbench::keymap::Context;
+use crate::workbench::scene_image::Encoded;
 
 /// The clock as the screen knows it: time since start (for the seconds
 /// spent on an item) and the wall clock (for `at`).
@@ -60,7 +57,7 @@ pub enum Msg {
     /// A scene image was read, or could not be.
     Image(PathBuf, Result<Arc<DynamicImage>, String>),
     /// The scene image is encoded for this area.
-    ImageReady(Rect, Box<Protocol>),
+    ImageReady(Encoded),
     /// The scene image cannot be drawn on this terminal.
     ImageUndrawable(String),
 }
@@ -153,7 +150,7 @@ pub struct Judging {
     /// Positions skipped in this sitting.
     pub skipped: HashSet<usize>,
     /// The judgements that `u` withdraws, last on top.
-    undo: Vec<Subject>,
+    pub(super) undo: Vec<Subject>,
     /// The labels and note being made.
     pub draft: Draft,
     /// The selected step.
@@ -163,15 +160,15 @@ pub struct Judging {
     /// The clock.
     pub clock: Clock,
     /// When the unit on screen was shown.
-    shown_at: Duration,
+    pub(super) shown_at: Duration,
     /// Time spent earlier on each position in this sitting.
-    spent: HashMap<usize, Duration>,
+    pub(super) spent: HashMap<usize, Duration>,
     /// The status line.
     pub status: Option<(String, Severity)>,
     /// The scene image of the unit on screen.
     pub scene: Scene,
     /// The image encoded for an area of the screen.
-    pub image: Option<(Rect, Box<Protocol>)>,
+    pub image: Option<Encoded>,
     /// Set when the user quits.
     pub quit: bool,
 }
@@ -305,7 +302,7 @@ impl Judging {
 
     /// The first unjudged, unskipped position at or after `from`, wrapping
     /// around; skipped ones when nothing else is left.
-    fn next_unjudged_from(&self, from: usize) -> Option<usize> {
+    pub(super) fn next_unjudged_from(&self, from: usize) -> Option<usize> {
         let n = self.units.len();
         let ring = (0..n).map(|k| (from + k) % n);
         ring.clone()
@@ -315,7 +312,7 @@ impl Judging {
 
     /// Shows the unit at `pos`: keeps the time spent on the one left, loads
     /// the draft from its current judgement, and reads its image if new.
-    fn go_to(&mut self, pos: usize) -> Vec<Cmd> {
+    pub(super) fn go_to(&mut self, pos: usize) -> Vec<Cmd> {
         let here = self.clock.elapsed.saturating_sub(self.shown_at);
         *self.spent.entry(self.pos).or_default() += here;
         self.shown_at = self.clock.elapsed;
@@ -350,447 +347,19 @@ impl Judging {
         }
     }
 
-    /// Handles one message.
-    pub fn update(&mut self, msg: Msg) -> Vec<Cmd> {
-        match msg {
-            Msg::Key(key) => self.key(key),
-            Msg::Tick(clock) => {
-                self.clock = clock;
-                vec![]
+    /// The key-table contexts of the screen as it is now, the first that
+    /// binds a key winning: Ctrl-C always; in the help nothing else (any
+    /// key closes it); while writing a note, its keys (the rest are typed).
+    pub fn contexts(&self) -> Vec<Context> {
+        let mut contexts = vec![Context::Always];
+        match self.mode {
+            Mode::Help => {}
+            Mode::Note(_) => contexts.push(Context::AnnotateNote),
+            Mode::Judging if self.pairwise => {
+                contexts.extend([Context::AnnotatePairwise, Context::Annotate]);
             }
-            Msg::NotSaved {
-                subject,
-                previous,
-                error,
-            } => {
-                match previous {
-                    Some(v) => self.current.insert(subject, v),
-                    None => self.current.remove(&subject),
-                };
-                self.status = Some((format!("NOT SAVED: {error}"), Severity::Error));
-                vec![]
-            }
-            Msg::Image(path, result) => {
-                if matches!(&self.scene, Scene::Loading(p) if *p == path) {
-                    self.scene = match result {
-                        Ok(image) => Scene::Loaded(path, image),
-                        Err(e) => Scene::Failed(e),
-                    };
-                }
-                vec![]
-            }
-            Msg::ImageReady(area, protocol) => {
-                self.image = Some((area, protocol));
-                vec![]
-            }
-            Msg::ImageUndrawable(e) => {
-                self.scene = Scene::Failed(format!("the scene image cannot be drawn here: {e}"));
-                vec![]
-            }
+            Mode::Judging => contexts.extend([Context::AnnotateRating, Context::Annotate]),
         }
-    }
-
-    fn key(&mut self, key: KeyEvent) -> Vec<Cmd> {
-        if key.kind == KeyEventKind::Release {
-            return vec![];
-        }
-        match &mut self.mode {
-            Mode::Help => {
-                self.mode = Mode::Judging;
-                return vec![];
-            }
-            Mode::Note(editor) => {
-                match key.code {
-                    KeyCode::Enter => {
-                        self.draft.note = editor.lines().join(" ").trim().to_string();
-                        self.mode = Mode::Judging;
-                        self.status = Some((
-                            "note kept; it is saved with the judgement".into(),
-                            Severity::Info,
-                        ));
-                    }
-                    KeyCode::Esc => self.mode = Mode::Judging,
-                    _ => {
-                        editor.input(key);
-                    }
-                }
-                return vec![];
-            }
-            Mode::Judging => {}
-        }
-        let Some(action) = action_of(key, self.pairwise) else {
-            return vec![];
-        };
-        self.act(action, key)
-    }
-
-    fn act(&mut self, action: Action, key: KeyEvent) -> Vec<Cmd> {
-        let steps = self.plan().len();
-        match action {
-            Action::Rate => {
-                let KeyCode::Char(c) = key.code else {
-                    return vec![];
-                };
-                let rating = c.to_digit(10).and_then(|d| u8::try_from(d).ok());
-                return self.judge(rating, None);
-            }
-            Action::Prefer(p) => return self.judge(None, Some(p)),
-            Action::Label(label) => {
-                if steps > 0 {
-                    let same = self.draft.labels.get(&self.step) == Some(&label);
-                    if same {
-                        self.draft.labels.remove(&self.step);
-                    } else {
-                        self.draft.labels.insert(self.step, label);
-                        self.step = (self.step + 1).min(steps - 1);
-                    }
-                }
-            }
-            Action::ClearLabel => {
-                self.draft.labels.remove(&self.step);
-            }
-            Action::StepDown => self.step = (self.step + 1).min(steps.saturating_sub(1)),
-            Action::StepUp => self.step = self.step.saturating_sub(1),
-            Action::Note => {
-                let mut editor = TextArea::new(vec![self.draft.note.clone()]);
-                editor.move_cursor(ratatui_textarea::CursorMove::End);
-                self.mode = Mode::Note(Box::new(editor));
-            }
-            Action::Next => {
-                if self.pos + 1 < self.units.len() {
-                    return self.go_to(self.pos + 1);
-                }
-            }
-            Action::Previous => {
-                if self.pos > 0 {
-                    return self.go_to(self.pos - 1);
-                }
-            }
-            Action::NextUnjudged => return self.advance(),
-            Action::Skip => {
-                self.skipped.insert(self.pos);
-                return self.advance();
-            }
-            Action::Undo => return self.undo(),
-            Action::Help => self.mode = Mode::Help,
-            Action::Quit => self.quit = true,
-        }
-        vec![]
-    }
-
-    /// Goes to the next unjudged unit after this one, or says all are done.
-    fn advance(&mut self) -> Vec<Cmd> {
-        let from = (self.pos + 1) % self.units.len().max(1);
-        match self.next_unjudged_from(from) {
-            Some(p) => self.go_to(p),
-            None => {
-                self.status = Some((
-                    format!(
-                        "all {} judged; ← → to look back, u to undo, q to quit",
-                        self.units.len()
-                    ),
-                    Severity::Info,
-                ));
-                vec![]
-            }
-        }
-    }
-
-    /// Saves a judgement of the unit on screen and moves on.
-    fn judge(&mut self, rating: Option<u8>, preference: Option<Preference>) -> Vec<Cmd> {
-        let Some(subject) = self.subject(self.pos) else {
-            return vec![];
-        };
-        let verdict = Verdict {
-            rating,
-            preference,
-            step_labels: self
-                .draft
-                .labels
-                .iter()
-                .map(|(&step, &label)| StepLabel { step, label })
-                .collect(),
-            note: self.draft.note.clone(),
-            seconds: self.seconds_here(),
-            guidelines: self.guidelines.hash.clone(),
-        };
-        let previous = self.current.insert(subject.clone(), verdict.clone());
-        self.undo.retain(|s| *s != subject);
-        self.undo.push(subject.clone());
-        self.skipped.remove(&self.pos);
-        self.spent.remove(&self.pos);
-        self.shown_at = self.clock.elapsed;
-        self.status = None;
-        let mut cmds = vec![Cmd::Append {
-            judgement: Box::new(Judgement {
-                subject,
-                annotator: self.annotator.clone(),
-                at: self.clock.unix,
-                verdict: Some(verdict),
-            }),
-            previous,
-        }];
-        cmds.extend(self.advance());
-        cmds
-    }
-
-    /// Withdraws the last judgement still current and shows its unit.
-    fn undo(&mut self) -> Vec<Cmd> {
-        let Some(subject) = self.undo.pop() else {
-            self.status = Some(("nothing to undo".into(), Severity::Info));
-            return vec![];
-        };
-        let previous = self.current.remove(&subject);
-        let pos = (0..self.units.len()).find(|&p| self.subject(p).as_ref() == Some(&subject));
-        let mut cmds = vec![Cmd::Append {
-            judgement: Box::new(Judgement {
-                subject,
-                annotator: self.annotator.clone(),
-                at: self.clock.unix,
-                verdict: None,
-            }),
-            previous,
-        }];
-        self.status = Some((
-            "the last judgement is withdrawn; judge it again".into(),
-            Severity::Info,
-        ));
-        if let Some(p) = pos {
-            cmds.extend(self.go_to(p));
-        }
-        cmds
-    }
-}
-
-#[cfg(test)]
-pub(crate) mod tests {
-    use super::*;
-    use crossterm::event::KeyModifiers;
-
-    /// Six items of three tasks: an original and a changed copy each.
-    pub(crate) fn items() -> Vec<Pair> {
-        let mut out = Vec::new();
-        for (t, task) in [
-            "Put a mug in the sink.",
-            "Heat an apple.",
-            "Put a pen in a box.",
-        ]
-        .into_iter()
-        .enumerate()
-        {
-            let gt = vec![
-                "Walk to the counter.".to_string(),
-                "Pick up the thing.".into(),
-            ];
-            let mut original = Pair::new(
-                format!("task{t}/multi_agent_image"),
-                gt.clone(),
-                vec![
-                    "Walk to the counter.".into(),
-                    "Pick up the thing.".into(),
-                    "Put it where it goes.".into(),
-                ],
-            );
-            original.task = Some(task.into());
-            let mut copy = original.clone();
-            copy.id = format!("{}~object-swap", original.id);
-            copy.source = Some(original.id.clone());
-            copy.pred[1] = "Pick up the bread.".into();
-            out.push(original);
-            out.push(copy);
-        }
-        out
-    }
-
-    pub(crate) fn setup(pairwise: bool, existing: Annotations) -> Setup {
-        Setup {
-            items: items(),
-            items_dir: PathBuf::from("/nowhere"),
-            annotator: "ana".into(),
-            pairwise,
-            show_gt: false,
-            guidelines: Guidelines::built_in(),
-            existing,
-            notices: vec![],
-        }
-    }
-
-    /// The screen opened at a fixed time.
-    pub(crate) fn open(setup: Setup) -> (Judging, Vec<Cmd>) {
-        let clock = Clock {
-            elapsed: Duration::ZERO,
-            unix: 1_700_000_000,
-        };
-        Judging::new(setup, clock)
-    }
-
-    pub(crate) fn press(screen: &mut Judging, c: char) -> Vec<Cmd> {
-        screen.update(Msg::Key(KeyEvent::new(
-            KeyCode::Char(c),
-            KeyModifiers::NONE,
-        )))
-    }
-
-    fn appended(cmds: &[Cmd]) -> Vec<Judgement> {
-        cmds.iter()
-            .filter_map(|c| match c {
-                Cmd::Append { judgement, .. } => Some((**judgement).clone()),
-                Cmd::LoadImage(_) => None,
-            })
-            .collect()
-    }
-
-    #[test]
-    fn the_first_key_rates_the_first_item_and_moves_on() {
-        let (mut s, _) = open(setup(false, Annotations::default()));
-        assert_eq!(s.pos, 0);
-        let first = s.subject(0);
-        s.update(Msg::Tick(Clock {
-            elapsed: Duration::from_secs(7),
-            unix: 1_700_000_007,
-        }));
-        let lines = appended(&press(&mut s, '4'));
-        assert_eq!(lines.len(), 1);
-        assert_eq!(Some(&lines[0].subject), first.as_ref());
-        let v = lines[0]
-            .verdict
-            .clone()
-            .unwrap_or_else(|| panic!("withdrawn"));
-        assert_eq!(
-            (v.rating, v.seconds, lines[0].at),
-            (Some(4), 7, 1_700_000_007)
-        );
-        assert_eq!(v.guidelines, Guidelines::built_in().hash);
-        assert_eq!(s.pos, 1);
-        assert_eq!(s.judged(), 1);
-    }
-
-    #[test]
-    fn labels_and_note_go_with_the_rating() {
-        let (mut s, _) = open(setup(false, Annotations::default()));
-        press(&mut s, 'j');
-        press(&mut s, 'w');
-        assert_eq!(s.step, 2, "a label moves to the next step");
-        press(&mut s, '!');
-        assert_eq!(s.step, 2, "the last step stays selected");
-        for c in ['k', 'k', 'o', 'w'] {
-            press(&mut s, c);
-        }
-        press(&mut s, 'e');
-        for c in "too short".chars() {
-            press(&mut s, c);
-        }
-        s.update(Msg::Key(KeyEvent::new(KeyCode::Enter, KeyModifiers::NONE)));
-        let lines = appended(&press(&mut s, '2'));
-        let v = lines[0]
-            .verdict
-            .clone()
-            .unwrap_or_else(|| panic!("withdrawn"));
-        assert_eq!(
-            v.step_labels,
-            [
-                StepLabel {
-                    step: 0,
-                    label: StepLabelKind::Ok
-                },
-                StepLabel {
-                    step: 2,
-                    label: StepLabelKind::Unsafe
-                }
-            ]
-        );
-        assert_eq!(v.note, "too short");
-        assert_eq!(s.draft, Draft::default(), "the next item starts clean");
-    }
-
-    #[test]
-    fn undo_withdraws_the_last_and_reopening_resumes_there() {
-        let (mut s, _) = open(setup(false, Annotations::default()));
-        let mut lines = Vec::new();
-        for c in ['3', '4', '5'] {
-            lines.extend(appended(&press(&mut s, c)));
-        }
-        let third = s.subject(2);
-        lines.extend(appended(&press(&mut s, 'u')));
-        assert_eq!(lines.len(), 4);
-        assert_eq!(lines[3].verdict, None);
-        assert_eq!(Some(&lines[3].subject), third.as_ref());
-        assert_eq!(s.pos, 2);
-        let existing = Annotations {
-            lines: lines.into_iter().enumerate().collect(),
-            errors: vec![],
-        };
-        let (again, _) = open(setup(false, existing));
-        assert_eq!(again.pos, 2);
-        assert_eq!(again.judged(), 2);
-    }
-
-    #[test]
-    fn skip_next_previous_and_next_unjudged_move_as_said() {
-        let (mut s, _) = open(setup(false, Annotations::default()));
-        press(&mut s, 's');
-        assert_eq!(s.pos, 1);
-        press(&mut s, '1');
-        assert_eq!(s.pos, 2, "rating goes to the next unjudged");
-        press(&mut s, 'p');
-        press(&mut s, 'p');
-        assert_eq!(s.pos, 0);
-        press(&mut s, 'n');
-        assert_eq!(s.pos, 1);
-        s.update(Msg::Key(KeyEvent::new(KeyCode::Tab, KeyModifiers::NONE)));
-        assert_eq!(s.pos, 2);
-        for c in ['1', '1', '1', '1'] {
-            press(&mut s, c);
-        }
-        assert_eq!(s.pos, 0, "the skipped one comes back last");
-        press(&mut s, '2');
-        assert_eq!(s.judged(), 6);
-        assert!(s
-            .status
-            .as_ref()
-            .is_some_and(|(t, _)| t.starts_with("all 6 judged")));
-    }
-
-    #[test]
-    fn pairwise_prefers_sides_of_one_task() {
-        let (mut s, _) = open(setup(true, Annotations::default()));
-        assert_eq!(s.units.len(), 3);
-        assert_eq!(
-            press(&mut s, '3'),
-            vec![],
-            "no rating on the pairwise screen"
-        );
-        let lines = appended(&press(&mut s, '0'));
-        let Subject::Pair(l, r) = &lines[0].subject else {
-            panic!("not a pair")
-        };
-        assert_eq!(l.split('~').next(), r.split('~').next());
-        assert_eq!(
-            lines[0].verdict.as_ref().and_then(|v| v.preference),
-            Some(Preference::Neither)
-        );
-    }
-
-    #[test]
-    fn a_failed_write_leaves_the_item_unjudged_and_says_so() {
-        let (mut s, _) = open(setup(false, Annotations::default()));
-        let cmds = press(&mut s, '4');
-        let Some(Cmd::Append {
-            judgement,
-            previous,
-        }) = cmds.first().cloned()
-        else {
-            panic!("no append")
-        };
-        s.update(Msg::NotSaved {
-            subject: judgement.subject,
-            previous,
-            error: "disk full".into(),
-        });
-        assert_eq!(s.judged(), 0);
-        assert!(s
-            .status
-            .as_ref()
-            .is_some_and(|(t, sev)| t.contains("disk full") && *sev == Severity::Error));
+        contexts
     }
 }

@@ -5,14 +5,15 @@
 use ratatui::layout::{Constraint, Layout, Rect};
 use ratatui::style::Style;
 use ratatui::text::{Line, Span};
-use ratatui::widgets::{Block, Borders, Clear, Gauge, Paragraph, Wrap};
+use ratatui::widgets::{Block, Borders, Gauge, Paragraph, Wrap};
 use ratatui::Frame;
-use ratatui_image::Image;
 
-use super::keys::bindings;
 use super::state::{Judging, Mode, Scene, Severity};
 use crate::annotate::order::Unit;
 use crate::annotate::Preference;
+use crate::workbench::keymap::{self, Context};
+use crate::workbench::overlays::help::draw_keys;
+use crate::workbench::scene_image;
 use crate::workbench::theme::Theme;
 
 /// Narrower than this, the image is left out and panes stack.
@@ -85,9 +86,8 @@ fn framed<'a>(theme: &Theme, title: String) -> Block<'a> {
         .title(Span::styled(format!(" {title} "), theme.title))
 }
 
-/// Draws the screen.
-pub fn render(frame: &mut Frame, screen: &Judging, theme: &Theme) {
-    let area = frame.area();
+/// Draws the screen in `area`.
+pub fn draw(frame: &mut Frame, area: Rect, screen: &Judging, theme: &Theme) {
     frame.render_widget(Block::default().style(theme.base), area);
     if area.width < 30 || area.height < 16 {
         frame.render_widget(
@@ -179,20 +179,12 @@ fn draw_image(frame: &mut Frame, screen: &Judging, theme: &Theme, rect: Rect) {
     let block = framed(theme, "Scene".into());
     let inner = block.inner(rect);
     frame.render_widget(block, rect);
-    let note = match (&screen.scene, &screen.image) {
-        (Scene::Loaded(..), Some((at, protocol))) if *at == inner => {
-            frame.render_widget(Image::new(protocol.as_ref()), inner);
-            return;
-        }
-        (Scene::Failed(why), _) => why.clone(),
-        _ => "drawing the image…".into(),
+    let (encoded, note) = match &screen.scene {
+        Scene::Loaded(..) => (screen.image.as_ref(), "drawing the image…"),
+        Scene::Failed(why) => (None, why.as_str()),
+        Scene::None | Scene::Loading(_) => (None, "drawing the image…"),
     };
-    frame.render_widget(
-        Paragraph::new(note)
-            .style(theme.warn)
-            .wrap(Wrap { trim: true }),
-        inner,
-    );
+    scene_image::draw(frame, inner, encoded, note, theme.warn);
 }
 
 fn draw_plan(frame: &mut Frame, screen: &Judging, theme: &Theme, rect: Rect) {
@@ -344,56 +336,69 @@ fn draw_hints(frame: &mut Frame, screen: &Judging, theme: &Theme, rect: Rect) {
             Line::from(Span::styled(text.as_str(), style))
         }
         None => {
-            let narrow = rect.width < WIDE;
-            let hint = match (&screen.mode, screen.pairwise) {
-                (Mode::Note(_), _) => "Enter keeps the note · Esc drops the change",
-                (_, true) if narrow => "1 left · 2 right · 0 neither · ? keys · q quit",
-                (_, false) if narrow => "1–5 rate · ↑↓ step · ? keys · q quit",
-                (_, true) => "1 left · 2 right · 0 neither · → ← move · s skip · u undo · ? keys · q quit",
-                (_, false) => "1–5 rate · ↑↓ step · w a r m x ! o label · e note · → ← s move · u undo · ? keys · q quit",
-            };
-            Line::from(Span::styled(hint, theme.muted))
+            let contexts: Vec<Context> = screen
+                .contexts()
+                .into_iter()
+                .filter(|c| *c != Context::Always)
+                .collect();
+            let hints = fitted(keymap::hints_of(&contexts), usize::from(rect.width));
+            Line::from(Span::styled(hints, theme.muted))
         }
     };
     frame.render_widget(Paragraph::new(line), rect);
 }
 
-fn draw_help(frame: &mut Frame, screen: &Judging, theme: &Theme, area: Rect) {
-    let mut lines: Vec<Line> = screen
-        .guidelines
-        .introduction
-        .iter()
-        .map(|l| Line::from(Span::styled(l.as_str(), theme.base)))
-        .collect();
-    if !lines.is_empty() {
-        lines.push(Line::default());
+/// The hints joined by dots, as many as fit in `width` columns: the first
+/// (what judges) and the last two (the help and quitting) always, the
+/// others in table order while they fit.
+fn fitted(hints: Vec<String>, width: usize) -> String {
+    const DOT: &str = " · ";
+    let n = hints.len();
+    let mut keep: Vec<bool> = (0..n).map(|i| i == 0 || i + 2 >= n).collect();
+    let joined = |keep: &[bool]| {
+        hints
+            .iter()
+            .zip(keep)
+            .filter(|(_, k)| **k)
+            .map(|(h, _)| h.as_str())
+            .collect::<Vec<_>>()
+            .join(DOT)
+    };
+    for i in 1..n.saturating_sub(2) {
+        keep[i] = true;
+        if joined(&keep).chars().count() > width {
+            keep[i] = false;
+        }
     }
-    lines.extend(bindings(screen.pairwise).map(|b| {
-        Line::from(vec![
-            Span::styled(format!("{:<12}", b.shown), theme.accent),
-            Span::styled(b.what, theme.base),
-        ])
-    }));
-    let width = 84.min(area.width.saturating_sub(2));
-    let height = (lines.len() as u16 + 4).min(area.height.saturating_sub(2));
-    let rect = Rect::new(
-        area.x + (area.width - width) / 2,
-        area.y + (area.height - height) / 2,
-        width,
-        height,
-    );
-    frame.render_widget(Clear, rect);
-    frame.render_widget(
-        Paragraph::new(lines)
-            .wrap(Wrap { trim: true })
-            .block(framed(theme, "Keys (any key closes)".into()).border_style(theme.focus)),
-        rect,
+    joined(&keep)
+}
+
+/// The screen's help: the guidelines' introduction, then every key that
+/// works on this screen, drawn by the workbench's help.
+fn draw_help(frame: &mut Frame, screen: &Judging, theme: &Theme, area: Rect) {
+    let judging = if screen.pairwise {
+        Context::AnnotatePairwise
+    } else {
+        Context::AnnotateRating
+    };
+    let contexts = [
+        Context::Always,
+        judging,
+        Context::Annotate,
+        Context::AnnotateNote,
+    ];
+    draw_keys(
+        frame,
+        area,
+        theme,
+        &screen.guidelines.introduction,
+        keymap::help_lines_of(&contexts),
     );
 }
 
 #[cfg(test)]
 mod tests {
-    use super::super::state::tests::{items, open, press, setup};
+    use super::super::fixtures::{items, open, press, setup};
     use super::super::state::{Judging, Msg};
     use super::*;
     use crate::annotate::Annotations;
@@ -401,12 +406,15 @@ mod tests {
     use ratatui::backend::TestBackend;
     use ratatui::Terminal;
 
-    fn draw(screen: &Judging, width: u16, height: u16) -> String {
+    fn drawn(screen: &Judging, width: u16, height: u16) -> String {
         let mut terminal =
             Terminal::new(TestBackend::new(width, height)).unwrap_or_else(|e| panic!("{e}"));
         let theme = Theme::no_color();
         terminal
-            .draw(|f| render(f, screen, &theme))
+            .draw(|f| {
+                let area = f.area();
+                super::draw(f, area, screen, &theme);
+            })
             .unwrap_or_else(|e| panic!("{e}"));
         let buffer = terminal.backend().buffer();
         let mut text = String::new();
@@ -446,7 +454,7 @@ mod tests {
     fn rating_view() {
         let (mut s, _) = open(setup(false, Annotations::default()));
         press(&mut s, '4');
-        let text = draw(&s, 100, 30);
+        let text = drawn(&s, 100, 30);
         assert_blind(&text);
         insta::assert_snapshot!(text);
     }
@@ -460,7 +468,7 @@ mod tests {
         for c in "hm".chars() {
             press(&mut s, c);
         }
-        let text = draw(&s, 100, 30);
+        let text = drawn(&s, 100, 30);
         assert_blind(&text);
         insta::assert_snapshot!(text);
     }
@@ -472,7 +480,7 @@ mod tests {
         let (mut s, _) = open(init);
         press(&mut s, '2');
         press(&mut s, 'p');
-        let text = draw(&s, 100, 30);
+        let text = drawn(&s, 100, 30);
         assert_blind(&text);
         assert!(text.contains("Reference plan"));
         insta::assert_snapshot!(text);
@@ -481,13 +489,14 @@ mod tests {
     #[test]
     fn narrow_terminal_with_help() {
         let (mut s, _) = open(setup(false, Annotations::default()));
-        let text = draw(&s, 44, 24);
+        let text = drawn(&s, 44, 24);
         assert_blind(&text);
         insta::assert_snapshot!(text);
         press(&mut s, '?');
-        let help = draw(&s, 100, 40);
+        let help = drawn(&s, 100, 40);
         assert_blind(&help);
         assert!(help.contains("wrong object"));
+        insta::assert_snapshot!("help_from_the_key_table", help);
         s.update(Msg::Key(KeyEvent::new(
             KeyCode::Char('3'),
             KeyModifiers::NONE,
@@ -497,7 +506,7 @@ mod tests {
             0,
             "the key that closes the help does nothing else"
         );
-        assert_blind(&draw(&s, 20, 8));
+        assert_blind(&drawn(&s, 20, 8));
     }
 
     #[test]
@@ -517,7 +526,7 @@ mod tests {
             "/nowhere/images/gone.png".into(),
             Err("/nowhere/images/gone.png: the scene image cannot be read: no such file".into()),
         ));
-        let text = draw(&s, 120, 30);
+        let text = drawn(&s, 120, 30);
         assert!(text.contains("cannot be read"), "{text}");
         assert!(image_area(ratatui::layout::Rect::new(0, 0, 120, 30), &s).is_some());
         press(&mut s, '5');

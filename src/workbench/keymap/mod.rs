@@ -7,6 +7,7 @@
 use crossterm::event::{KeyCode, KeyEvent, KeyModifiers};
 
 use super::graph_view::Direction;
+use crate::annotate::{Preference, StepLabelKind};
 
 /// Where a binding applies: the mode or pane that has the keyboard.
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
@@ -39,6 +40,14 @@ pub enum Context {
     ModelForm,
     /// A view to read and close: the framed actions, two runs compared.
     Viewer,
+    /// The annotation screen, rating single plans or choosing between two.
+    Annotate,
+    /// The annotation screen rating single plans.
+    AnnotateRating,
+    /// The annotation screen choosing between two plans.
+    AnnotatePairwise,
+    /// Writing a note on the annotation screen.
+    AnnotateNote,
 }
 
 impl Context {
@@ -52,6 +61,18 @@ impl Context {
                 | Context::PathPrompt
                 | Context::ModelForm
                 | Context::Viewer
+        )
+    }
+
+    /// Whether this context belongs to the annotation screen, whose keys
+    /// its own help lists (the workbench's help leaves them out).
+    pub fn is_annotate(self) -> bool {
+        matches!(
+            self,
+            Context::Annotate
+                | Context::AnnotateRating
+                | Context::AnnotatePairwise
+                | Context::AnnotateNote
         )
     }
 
@@ -160,6 +181,26 @@ pub enum Action {
     MarkRun,
     /// Compare the marked run with the highlighted one.
     CompareRuns,
+    /// Rate the plan on screen 1–5, save, and move on (annotation).
+    Rate(u8),
+    /// Prefer one plan of the pair, save, and move on (annotation).
+    Prefer(Preference),
+    /// Put a label on the selected step; the same label again takes it off.
+    Label(StepLabelKind),
+    /// Take the label off the selected step.
+    ClearLabel,
+    /// Write or change the note of the judgement.
+    WriteNote,
+    /// Show the next item.
+    NextItem,
+    /// Show the previous item.
+    PreviousItem,
+    /// Show the next item not judged yet.
+    NextUnjudged,
+    /// Leave this item for later and show the next one not judged.
+    SkipItem,
+    /// Withdraw the last judgement and show its item again.
+    Undo,
 }
 
 /// A key as the table names it: a code, and whether Ctrl is held.
@@ -180,7 +221,7 @@ impl Key {
 }
 
 /// One line of the key help: keys, each with its action, in one context.
-#[derive(Debug)]
+#[derive(Debug, Clone, Copy)]
 pub struct Binding {
     /// Where the keys apply.
     pub context: Context,
@@ -194,9 +235,31 @@ pub struct Binding {
     pub hint: Option<(&'static str, &'static str)>,
 }
 
+mod annotate;
 mod table;
 
-pub use table::BINDINGS;
+/// Every binding, the workbench's and the annotation screen's, in the order
+/// their helps list them: the one table every key is looked up in.
+pub const BINDINGS: &[Binding] = &joined::<{ table::WORKBENCH.len() + annotate::ANNOTATE.len() }>(
+    table::WORKBENCH,
+    annotate::ANNOTATE,
+);
+
+/// The rows of `first` then those of `second`, as one array of `N` rows
+/// (their lengths summed).
+const fn joined<const N: usize>(first: &[Binding], second: &[Binding]) -> [Binding; N] {
+    let mut out = [first[0]; N];
+    let mut i = 0;
+    while i < N {
+        out[i] = if i < first.len() {
+            first[i]
+        } else {
+            second[i - first.len()]
+        };
+        i += 1;
+    }
+    out
+}
 
 /// The action `event` triggers in the first of `contexts` that binds it.
 pub fn action(contexts: &[Context], event: &KeyEvent) -> Option<Action> {
@@ -212,20 +275,37 @@ pub fn action(contexts: &[Context], event: &KeyEvent) -> Option<Action> {
 
 /// The status-bar hints of `context`: "key hint" pairs joined by dots.
 pub fn hints(context: Context) -> String {
-    BINDINGS
-        .iter()
-        .filter(|b| b.context == context)
-        .filter_map(|b| b.hint.map(|(key, hint)| format!("{key} {hint}")))
-        .collect::<Vec<_>>()
-        .join(" · ")
+    hints_of(&[context]).join(" · ")
 }
 
-/// The help's lines: the keys as shown and what they do, in table order.
-/// An overlay's keys are not among them: its status bar shows them all.
+/// The status-bar hints of every context of `contexts`, each "key hint",
+/// in table order.
+pub fn hints_of(contexts: &[Context]) -> Vec<String> {
+    BINDINGS
+        .iter()
+        .filter(|b| contexts.contains(&b.context))
+        .filter_map(|b| b.hint.map(|(key, hint)| format!("{key} {hint}")))
+        .collect()
+}
+
+/// The workbench help's lines: the keys as shown and what they do, in table
+/// order. An overlay's keys are not among them (its status bar shows them
+/// all), nor the annotation screen's (its own help lists them).
 pub fn help_lines() -> impl Iterator<Item = (&'static str, &'static str)> {
     BINDINGS
         .iter()
-        .filter(|b| !b.context.is_overlay())
+        .filter(|b| !b.context.is_overlay() && !b.context.is_annotate())
+        .map(|b| (b.label, b.help))
+}
+
+/// The help lines of the bindings of `contexts`, in table order: what a
+/// screen with exactly these contexts lists in its help.
+pub fn help_lines_of(
+    contexts: &[Context],
+) -> impl Iterator<Item = (&'static str, &'static str)> + '_ {
+    BINDINGS
+        .iter()
+        .filter(|b| contexts.contains(&b.context))
         .map(|b| (b.label, b.help))
 }
 

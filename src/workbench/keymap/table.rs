@@ -7,22 +7,22 @@ use crossterm::event::KeyCode;
 use super::{Action, Binding, Context, Key};
 use crate::workbench::graph_view::Direction;
 
-const fn key(code: KeyCode) -> Key {
+pub(super) const fn key(code: KeyCode) -> Key {
     Key { code, ctrl: false }
 }
 
-const fn ch(c: char) -> Key {
+pub(super) const fn ch(c: char) -> Key {
     key(KeyCode::Char(c))
 }
 
-const fn ctrl(c: char) -> Key {
+pub(super) const fn ctrl(c: char) -> Key {
     Key {
         code: KeyCode::Char(c),
         ctrl: true,
     }
 }
 
-const fn bind(
+pub(super) const fn bind(
     context: Context,
     keys: &'static [(Key, Action)],
     label: &'static str,
@@ -37,7 +37,7 @@ const fn bind(
     }
 }
 
-const fn hinted(binding: Binding, key: &'static str, hint: &'static str) -> Binding {
+pub(super) const fn hinted(binding: Binding, key: &'static str, hint: &'static str) -> Binding {
     Binding {
         hint: Some((key, hint)),
         ..binding
@@ -47,8 +47,9 @@ const fn hinted(binding: Binding, key: &'static str, hint: &'static str) -> Bind
 use Action as A;
 use Context as C;
 
-/// Every binding of the workbench, in the order the help lists them.
-pub const BINDINGS: &[Binding] = &[
+/// Every binding of the workbench's panes and overlays, in the order the
+/// help lists them.
+pub(super) const WORKBENCH: &[Binding] = &[
     hinted(
         bind(C::Panes, &[(ch('?'), A::Help)], "?", "this help"),
         "?",

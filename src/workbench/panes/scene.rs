@@ -4,17 +4,16 @@ use std::sync::Arc;
 
 use image::DynamicImage;
 use ratatui::layout::Rect;
-use ratatui::text::{Line, Span};
-use ratatui::widgets::{Block, Paragraph, Wrap};
+use ratatui::text::Line;
+use ratatui::widgets::{Block, Paragraph};
 use ratatui::Frame;
-use ratatui_image::protocol::Protocol;
-use ratatui_image::Image;
 
 use crate::demo;
 use crate::workbench::app::App;
 use crate::workbench::layout::{pane_rects, Screen};
 use crate::workbench::message::Cmd;
 use crate::workbench::panes::{highlighted, pane_block, Pane};
+use crate::workbench::scene_image::{self, Encoded};
 
 /// The Scene pane's state: the image and its encoding for the terminal.
 pub struct ScenePane {
@@ -23,7 +22,7 @@ pub struct ScenePane {
     /// The image, once read.
     pub image: Option<Arc<DynamicImage>>,
     /// The image encoded for an area of the terminal.
-    pub protocol: Option<(Rect, Box<Protocol>)>,
+    pub protocol: Option<Encoded>,
 }
 
 impl ScenePane {
@@ -91,23 +90,14 @@ pub(crate) fn draw(frame: &mut Frame, app: &App, area: Rect) {
     ));
     frame.render_widget(Paragraph::new(caption), Rect { height: 1, ..inner });
     let image_area = scene_image_area(area);
-    let note = if !app.scene.enabled {
-        "image off (i shows it)"
+    let (encoded, note) = if !app.scene.enabled {
+        (None, "image off (i shows it)")
     } else if app.scene.image.is_none() {
-        "no image for this task"
+        (None, "no image for this task")
     } else {
-        match &app.scene.protocol {
-            Some((rect, protocol)) if *rect == image_area => {
-                frame.render_widget(Image::new(protocol), image_area);
-                return;
-            }
-            _ => "drawing the image…",
-        }
+        (app.scene.protocol.as_ref(), "drawing the image…")
     };
-    frame.render_widget(
-        Paragraph::new(Span::styled(note, t.muted)).wrap(Wrap { trim: true }),
-        image_area,
-    );
+    scene_image::draw(frame, image_area, encoded, note, t.muted);
 }
 
 /// The part of the Scene pane the image is drawn in: inside the border,

@@ -1,0 +1,160 @@
+//! The annotation screen against the one key table, both ways: every key the
+//! table binds in an `Annotate…` context does something on the screen, and
+//! every key it leaves unbound does nothing.
+
+use crossterm::event::{KeyCode, KeyEvent, KeyModifiers};
+use ratatui::backend::TestBackend;
+use ratatui::buffer::Buffer;
+use ratatui::Terminal;
+
+use super::fixtures::{open, press, setup};
+use super::state::{Judging, Mode, Msg};
+use crate::annotate::Annotations;
+use crate::workbench::component::Component;
+use crate::workbench::keymap::{self, Action, Context, BINDINGS};
+use crate::workbench::theme::Theme;
+
+/// The screen drawn (text and styles: a selection shows in its style).
+fn drawn(screen: &Judging) -> Buffer {
+    let mut terminal = Terminal::new(TestBackend::new(100, 30)).unwrap_or_else(|e| panic!("{e}"));
+    terminal
+        .draw(|f| {
+            let area = f.area();
+            screen.draw(f, area, &Theme::no_color());
+        })
+        .unwrap_or_else(|e| panic!("{e}"));
+    terminal.backend().buffer().clone()
+}
+
+/// Presses `key` and tells whether anything happened: the screen changed,
+/// commands were asked for, or the screen quits.
+fn changes(screen: &mut Judging, key: KeyEvent) -> bool {
+    let before = drawn(screen);
+    let cmds = screen.update(Msg::Key(key));
+    !cmds.is_empty() || screen.quit || drawn(screen) != before
+}
+
+/// A screen where `context`'s keys apply; `warm` also moves to the second
+/// item and labels its second step, so "previous", "up" and "take the label
+/// off" have something to do.
+fn state_for(context: Context, warm: bool) -> Judging {
+    let (mut s, _) = open(setup(
+        context == Context::AnnotatePairwise,
+        Annotations::default(),
+    ));
+    if warm {
+        let keys: &[char] = if s.pairwise {
+            &['n']
+        } else {
+            &['n', 'j', 'w', 'k']
+        };
+        for &c in keys {
+            press(&mut s, c);
+        }
+    }
+    if context == Context::AnnotateNote {
+        press(&mut s, 'e');
+        assert!(matches!(s.mode, Mode::Note(_)));
+    }
+    s
+}
+
+fn event(code: KeyCode, ctrl: bool) -> KeyEvent {
+    let modifiers = if ctrl {
+        KeyModifiers::CONTROL
+    } else {
+        KeyModifiers::NONE
+    };
+    KeyEvent::new(code, modifiers)
+}
+
+#[test]
+fn every_annotation_key_in_the_key_table_is_handled() {
+    let mut checked = 0;
+    for binding in BINDINGS.iter().filter(|b| b.context.is_annotate()) {
+        for &(key, action) in binding.keys {
+            let pressed = event(key.code, key.ctrl);
+            let contexts = match binding.context {
+                Context::Annotate => vec![Context::AnnotateRating, Context::AnnotatePairwise],
+                c => vec![c],
+            };
+            for context in contexts {
+                let handled = [false, true].into_iter().any(|warm| {
+                    let mut s = state_for(context, warm);
+                    keymap::action(&s.contexts(), &pressed) == Some(action)
+                        && changes(&mut s, pressed)
+                });
+                assert!(
+                    handled,
+                    "{} ({:?} in {context:?}) is in the key table but does nothing",
+                    binding.label, key.code
+                );
+                checked += 1;
+            }
+        }
+    }
+    assert!(checked > 30, "only {checked} keys checked");
+}
+
+/// Every key a person can press without Ctrl, and Ctrl with each letter.
+fn every_key() -> Vec<KeyEvent> {
+    let codes = (' '..='~').map(KeyCode::Char).chain([
+        KeyCode::Enter,
+        KeyCode::Esc,
+        KeyCode::Tab,
+        KeyCode::BackTab,
+        KeyCode::Backspace,
+        KeyCode::Delete,
+        KeyCode::Insert,
+        KeyCode::Up,
+        KeyCode::Down,
+        KeyCode::Left,
+        KeyCode::Right,
+        KeyCode::Home,
+        KeyCode::End,
+        KeyCode::PageUp,
+        KeyCode::PageDown,
+    ]);
+    codes
+        .chain((1..=12).map(KeyCode::F))
+        .map(|code| event(code, false))
+        .chain(('a'..='z').map(|c| event(KeyCode::Char(c), true)))
+        .collect()
+}
+
+#[test]
+fn a_key_missing_from_the_key_table_does_nothing_on_the_annotation_screen() {
+    // While writing a note every other key is typed; in the help any key
+    // closes it: neither is a binding.
+    for context in [Context::AnnotateRating, Context::AnnotatePairwise] {
+        for warm in [false, true] {
+            let mut s = state_for(context, warm);
+            for key in every_key() {
+                if keymap::action(&s.contexts(), &key).is_some() {
+                    continue;
+                }
+                assert!(
+                    !changes(&mut s, key),
+                    "{key:?} does something in {context:?} but is not in the key table"
+                );
+            }
+        }
+    }
+}
+
+#[test]
+fn the_workbench_help_leaves_the_annotation_keys_out() {
+    let workbench: Vec<&str> = keymap::help_lines().map(|(_, what)| what).collect();
+    assert!(!workbench.iter().any(|w| w.contains("wrong object")));
+    let rating: Vec<&str> = keymap::help_lines_of(&[Context::AnnotateRating])
+        .map(|(_, what)| what)
+        .collect();
+    assert!(rating.iter().any(|w| w.contains("wrong object")));
+    assert_eq!(
+        keymap::action(
+            &[Context::AnnotatePairwise, Context::Annotate],
+            &event(KeyCode::Char('1'), false)
+        ),
+        Some(Action::Prefer(crate::annotate::Preference::Left))
+    );
+}
