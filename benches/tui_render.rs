@@ -6,10 +6,11 @@
 use criterion::{criterion_group, criterion_main, Criterion};
 use crossterm::event::{KeyCode, KeyEvent, KeyModifiers};
 use mapvlm::agents::replay::Pace;
-use mapvlm::workbench::agents::{run_blocking, AgentsPipeline};
+use mapvlm::workbench::agents::AgentsPipeline;
 use mapvlm::workbench::app::{App, AppInit};
-use mapvlm::workbench::message::{Cmd, Msg};
-use mapvlm::workbench::scoring::{score_now, ModelSlot};
+use mapvlm::workbench::headless::Headless;
+use mapvlm::workbench::message::Msg;
+use mapvlm::workbench::scoring::ModelSlot;
 use mapvlm::workbench::{prepare_image, render};
 use ratatui::backend::TestBackend;
 use ratatui::Terminal;
@@ -19,20 +20,7 @@ fn demo_app() -> App {
     let (mut app, cmds) = App::new(AppInit::demo((200, 60), "bench"));
     let models = ModelSlot::Unavailable("bench".into());
     let pipeline = AgentsPipeline::offline(Pace::Instant).unwrap_or_else(|e| panic!("{e}"));
-    let mut queue = cmds;
-    while let Some(cmd) = queue.pop() {
-        match cmd {
-            Cmd::StartRun(req) => {
-                let run = req.run;
-                let events = run_blocking(&pipeline, req).unwrap_or_else(|e| panic!("{e}"));
-                for event in events {
-                    queue.extend(app.update(Msg::Agent(run, event)));
-                }
-            }
-            Cmd::Score(req) => queue.extend(app.update(Msg::Scored(score_now(&models, &req)))),
-            _ => {}
-        }
-    }
+    Headless::new(&pipeline, models).run(&mut app, cmds, &mut |_| {});
     prepare_image(&mut app, &Picker::halfblocks());
     app
 }

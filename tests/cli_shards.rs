@@ -6,7 +6,7 @@ mod common;
 
 use std::collections::BTreeSet;
 use std::path::Path;
-use std::process::{Command, Output};
+use std::process::Output;
 
 use common::{assert_one_line_failure, stderr};
 
@@ -21,7 +21,7 @@ const SCHEDULER_VARS: [&str; 5] = [
 ];
 
 fn run(args: &[&str], env: &[(&str, &str)]) -> Output {
-    let mut command = Command::new(env!("CARGO_BIN_EXE_mapvlm"));
+    let mut command = common::mapvlm_command();
     command.args(args);
     for var in SCHEDULER_VARS {
         command.env_remove(var);
@@ -35,8 +35,15 @@ fn run(args: &[&str], env: &[(&str, &str)]) -> Output {
 /// The KAS lines of the golden pairs, with extra arguments and environment.
 fn score(extra: &[&str], env: &[(&str, &str)]) -> Vec<String> {
     let pairs = common::shared().join("golden/pairs.dev.jsonl");
+    let mut args = vec!["--metrics", "kas"];
+    args.extend_from_slice(extra);
+    score_lines(&pairs, &args, env)
+}
+
+/// The JSON lines of `score --pairs PAIRS --json` with extra arguments.
+fn score_lines(pairs: &Path, extra: &[&str], env: &[(&str, &str)]) -> Vec<String> {
     let pairs = pairs.to_string_lossy();
-    let mut args = vec!["score", "--pairs", &pairs, "--json", "--metrics", "kas"];
+    let mut args = vec!["score", "--pairs", &pairs, "--json"];
     args.extend_from_slice(extra);
     let out = run(&args, env);
     assert!(out.status.success(), "{:?}: {}", extra, stderr(&out));
@@ -60,18 +67,8 @@ fn three_score_shards_hold_exactly_the_lines_of_the_single_run() {
             i + 1,
             shard.len()
         );
-        let mut rest = whole.iter();
-        assert!(
-            shard.iter().all(|line| rest.any(|l| l == line)),
-            "shard {} keeps the file's order",
-            i + 1
-        );
     }
-    let mut joined: Vec<String> = shards.concat();
-    let mut expected = whole.clone();
-    joined.sort();
-    expected.sort();
-    assert_eq!(joined, expected, "every pair in exactly one shard");
+    assert_partition(&whole, &shards);
 
     let slurm = score(
         &["--shard", "auto"],
@@ -95,6 +92,47 @@ fn three_score_shards_hold_exactly_the_lines_of_the_single_run() {
         ),
         shards[0]
     );
+}
+
+/// Asserts that `shards` hold exactly the lines of `whole`, each in one
+/// shard, in the order of the file.
+fn assert_partition(whole: &[String], shards: &[Vec<String>]) {
+    for (i, shard) in shards.iter().enumerate() {
+        let mut rest = whole.iter();
+        assert!(
+            shard.iter().all(|line| rest.any(|l| l == line)),
+            "shard {}: every line is one of the single run's, in its order",
+            i + 1
+        );
+    }
+    let mut joined: Vec<String> = shards.concat();
+    let mut expected = whole.to_vec();
+    joined.sort();
+    expected.sort();
+    assert_eq!(joined, expected, "every pair in exactly one shard");
+}
+
+#[test]
+fn cold_pg2s_shards_hold_the_single_runs_lines_bit_for_bit() {
+    // Each run embeds its own sentences from scratch: a sentence's cosines
+    // are the same bits whichever sentences share its shard. (With padded
+    // batches, 8 of these 12 lines differed in a last digit.)
+    let dir = tempfile::tempdir().unwrap_or_else(|e| panic!("{e}"));
+    let golden = std::fs::read_to_string(common::shared().join("golden/pairs.dev.jsonl"))
+        .unwrap_or_else(|e| panic!("golden pairs: {e}"));
+    let subset = dir.path().join("pairs.jsonl");
+    let first: Vec<&str> = golden.lines().take(12).collect();
+    std::fs::write(&subset, first.join("\n") + "\n").unwrap_or_else(|e| panic!("{e}"));
+    let whole = score_lines(&subset, &["--no-cache"], &[]);
+    assert_eq!(whole.len(), 12);
+    assert!(whole
+        .iter()
+        .all(|line| line.contains("\"sentence_matches\":[[")));
+    let shards: Vec<Vec<String>> = (1..=3)
+        .map(|i| score_lines(&subset, &["--no-cache", "--shard", &format!("{i}/3")], &[]))
+        .collect();
+    assert!(shards.iter().all(|shard| !shard.is_empty()));
+    assert_partition(&whole, &shards);
 }
 
 #[test]

@@ -80,24 +80,48 @@ fn embeddings_match_the_reference() {
     );
 }
 
+/// The bits of each vector, to compare embeddings exactly.
+fn bits(vectors: &[Arc<[f32]>]) -> Vec<Vec<u32>> {
+    vectors
+        .iter()
+        .map(|v| v.iter().map(|x| x.to_bits()).collect())
+        .collect()
+}
+
 #[test]
-fn batched_and_single_embeddings_agree() {
-    let dir = encoder_dir();
-    let options = MpnetOptions {
-        cache: false,
-        ..MpnetOptions::default()
-    };
-    let encoder = MpnetEncoder::load_with(&dir, options).expect("load");
+fn a_sentence_embeds_to_the_same_bits_alone_and_in_any_batch() {
     let golden = golden();
-    let sentences: Vec<&str> = golden.iter().map(|g| g.text.as_str()).take(12).collect();
-    let batched = encoder.embed(&sentences).expect("batch");
-    for (sentence, together) in sentences.iter().zip(&batched) {
-        let alone = encoder.embed(&[sentence]).expect("single");
-        let diff = max_abs_diff(&alone[0], together);
-        assert!(
-            diff < 1e-5,
-            "{sentence:?}: batched and single differ by {diff}"
-        );
+    let sentences: Vec<&str> = golden.iter().map(|g| g.text.as_str()).collect();
+    let encoder = |batch_size| {
+        let options = MpnetOptions {
+            batch_size,
+            cache: false,
+        };
+        MpnetEncoder::load_with(&encoder_dir(), options).expect("load")
+    };
+    let default = encoder(MpnetOptions::default().batch_size);
+    let alone: Vec<Vec<u32>> = sentences
+        .iter()
+        .map(|s| bits(&default.embed(&[s]).expect("alone")).remove(0))
+        .collect();
+    let reversed: Vec<&str> = sentences.iter().rev().copied().collect();
+    let odd: Vec<&str> = sentences.iter().skip(1).step_by(2).copied().collect();
+    let arrangements: [(&MpnetEncoder, Vec<&str>); 4] = [
+        (&default, sentences.clone()),
+        (&default, reversed),
+        (&default, odd),
+        (&encoder(3), sentences.clone()),
+    ];
+    for (encoder, batch) in &arrangements {
+        let together = bits(&encoder.embed(batch).expect("batch"));
+        for (sentence, vector) in batch.iter().zip(&together) {
+            let index = sentences.iter().position(|s| s == sentence).expect("known");
+            assert!(
+                *vector == alone[index],
+                "{sentence:?} embeds differently in a batch of {} than alone",
+                batch.len()
+            );
+        }
     }
 }
 

@@ -2,6 +2,7 @@
 //! out synchronously, and rendered on ratatui's TestBackend.
 
 use std::sync::Arc;
+use std::time::{Duration, Instant};
 
 mod common;
 
@@ -11,12 +12,14 @@ use mapvlm::agents::replay::Pace;
 use mapvlm::agents::AgentRole;
 use mapvlm::metrics::pg2s::{Pg2sScorer, Pg2sSettings};
 use mapvlm::metrics::{ModelError, SentenceEncoder};
-use mapvlm::workbench::agents::{run_blocking, AgentsPipeline};
+use mapvlm::workbench::agents::AgentsPipeline;
 use mapvlm::workbench::app::{App, AppInit};
+use mapvlm::workbench::headless::Headless;
 use mapvlm::workbench::keymap::{self, Action, Binding, Context, BINDINGS};
 use mapvlm::workbench::message::{Cmd, Msg};
 use mapvlm::workbench::panes::Pane;
-use mapvlm::workbench::scoring::{score_now, ModelSlot, Pg2sOutcome};
+use mapvlm::workbench::scoring::{ModelSlot, Pg2sOutcome};
+use mapvlm::workbench::snapshot::SNAPSHOT_EVERY;
 use mapvlm::workbench::theme::{load_themes, Theme};
 use mapvlm::workbench::{prepare_image, render};
 use ratatui::backend::TestBackend;
@@ -72,36 +75,14 @@ impl Harness {
         h
     }
 
+    /// Carries out `cmds` with timings fixed, so that frames compare.
     fn run(&mut self, cmds: Vec<Cmd>) {
-        let mut queue = cmds;
-        while !queue.is_empty() {
-            let mut next = Vec::new();
-            for cmd in queue {
-                match cmd {
-                    Cmd::StartRun(req) => {
-                        let run = req.run;
-                        match run_blocking(&self.pipeline, req) {
-                            Ok(events) => {
-                                for mut e in events {
-                                    if let AgentEvent::Finished { elapsed_ms, .. } = &mut e {
-                                        *elapsed_ms = 100;
-                                    }
-                                    next.extend(self.app.update(Msg::Agent(run, e)));
-                                }
-                            }
-                            Err(reason) => self.app.run_refused(run, reason),
-                        }
-                    }
-                    Cmd::Score(req) => {
-                        let mut outcome = score_now(&self.models, &req);
-                        outcome.millis = 0.0;
-                        next.extend(self.app.update(Msg::Scored(outcome)));
-                    }
-                    Cmd::CancelRun(_) | Cmd::ReadStepFile(_) | Cmd::LoadImage(_) => {}
-                }
-            }
-            queue = next;
-        }
+        let runner = Headless::new(&self.pipeline, self.models.clone());
+        runner.run(&mut self.app, cmds, &mut |msg| match msg {
+            Msg::Agent(_, AgentEvent::Finished { elapsed_ms, .. }) => *elapsed_ms = 100,
+            Msg::Scored(outcome) => outcome.millis = 0.0,
+            _ => {}
+        });
     }
 
     fn key(&mut self, code: KeyCode) {
@@ -268,6 +249,48 @@ fn another_ground_truth_and_an_edited_step_change_the_scores() {
     assert_ne!(kas_of(&h), with_b);
     let session = h.app.to_session();
     assert_eq!(session.plan[0], h.app.plan.items[0]);
+}
+
+/// The session is copied for the saver at most every `SNAPSHOT_EVERY` while
+/// a step is typed, not once a keystroke (the copy is the costly part of a
+/// save), and at once when the edit is committed.
+#[test]
+fn typing_copies_the_session_at_most_every_period_and_a_commit_at_once() {
+    let mut h = Harness::new((120, 40), None, false, unavailable());
+    let start = Instant::now();
+    let (after_run, _) = h.app.poll_snapshot(start);
+    assert!(after_run.is_some(), "the demo's run changed the session");
+    let before = h.app.persist.taken();
+    h.key(KeyCode::Enter);
+    let mut clock = start;
+    let mut last_copy = None;
+    for i in 0..200 {
+        h.key(KeyCode::Char(if i % 2 == 0 { 'a' } else { 'b' }));
+        clock += Duration::from_millis(10);
+        if let (Some(copy), _) = h.app.poll_snapshot(clock) {
+            last_copy = Some(copy);
+        }
+    }
+    let while_typing = h.app.persist.taken() - before;
+    let periods = (clock - start).as_millis() / SNAPSHOT_EVERY.as_millis();
+    assert!(
+        (1..=periods as u64 + 1).contains(&while_typing),
+        "200 keystrokes over {} ms took {while_typing} copies",
+        (clock - start).as_millis()
+    );
+    let draft = last_copy.and_then(|s| s.draft).map(|d| d.text);
+    assert!(
+        draft.as_deref().is_some_and(|d| d.ends_with("abab")),
+        "{draft:?}"
+    );
+    h.key(KeyCode::Enter);
+    let (committed, _) = h.app.poll_snapshot(clock + Duration::from_millis(1));
+    assert_eq!(h.app.persist.taken(), before + while_typing + 1);
+    let plan = committed.map(|s| s.plan).unwrap_or_default();
+    assert!(
+        plan.first().is_some_and(|s| s.ends_with("abab")),
+        "{plan:?}"
+    );
 }
 
 #[test]

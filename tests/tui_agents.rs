@@ -25,9 +25,11 @@ use mapvlm::workbench::agents::{
     DEMO_MODEL,
 };
 use mapvlm::workbench::app::{App, AppInit};
+use mapvlm::workbench::headless::Headless;
 use mapvlm::workbench::message::{Cmd, Msg};
 use mapvlm::workbench::panes::Pane;
 use mapvlm::workbench::runs::AgentStatus;
+use mapvlm::workbench::scoring::ModelSlot;
 use mapvlm::workbench::session::AgentSettings;
 use serde_json::Value;
 use tokio_util::sync::CancellationToken;
@@ -162,21 +164,12 @@ fn edit_planner_prompt(app: &mut App) {
 /// the app; returns the events of the runs.
 fn run_cmds(app: &mut App, pipeline: &dyn Pipeline, cmds: Vec<Cmd>) -> Vec<AgentEvent> {
     let mut seen = Vec::new();
-    let mut queue = cmds;
-    while let Some(cmd) = queue.pop() {
-        if let Cmd::StartRun(request) = cmd {
-            let run = request.run;
-            match run_blocking(pipeline, request) {
-                Ok(events) => {
-                    for event in events {
-                        seen.push(event.clone());
-                        queue.extend(app.update(Msg::Agent(run, event)));
-                    }
-                }
-                Err(reason) => app.run_refused(run, reason),
-            }
+    let models = ModelSlot::Unavailable("no models in this test".into());
+    Headless::new(pipeline, models).run(app, cmds, &mut |msg| {
+        if let Msg::Agent(_, event) = msg {
+            seen.push(event.clone());
         }
-    }
+    });
     seen
 }
 
@@ -236,7 +229,7 @@ fn editing_a_demo_prompt_says_which_provider_to_set() {
     let Some(Cmd::StartRun(request)) = cmds.first() else {
         unreachable!()
     };
-    let reason = pipeline.check(request).unwrap_err();
+    let reason = pipeline.check(request).unwrap_err().to_string();
     assert!(
         reason.contains("Planner's prompt was edited")
             && reason.contains("Planner needs a provider")
@@ -258,7 +251,7 @@ fn editing_a_demo_prompt_says_which_provider_to_set() {
             max_tokens: 512,
         },
     );
-    let reason = pipeline.check(&live).unwrap_err();
+    let reason = pipeline.check(&live).unwrap_err().to_string();
     assert!(
         reason.contains("Planner uses openai but no API key is set")
             && reason.contains("export OPENAI_API_KEY")

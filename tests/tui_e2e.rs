@@ -183,17 +183,37 @@ fn a_kill_while_typing_loses_at_most_the_last_second() {
     tmux.wait_for(E2E, "the typed text", |s| {
         s.contains("typed before the kill")
     });
-    std::thread::sleep(Duration::from_millis(1000));
+    // The draft reaches the file while the editor is still open (the pacing
+    // itself, at most a second, is checked by `snapshot`'s unit test): wait
+    // for it, bounded, rather than sleep a guess.
+    let draft_of = |session: &Path| -> Option<String> {
+        let text = std::fs::read_to_string(session).ok()?;
+        let json: serde_json::Value = serde_json::from_str(&text).ok()?;
+        json["draft"]["text"].as_str().map(str::to_string)
+    };
+    let typed = |draft: &Option<String>| {
+        draft
+            .as_deref()
+            .is_some_and(|d| d.ends_with("typed before the kill"))
+    };
+    let deadline = Instant::now() + Duration::from_secs(20);
+    let mut draft = draft_of(&session);
+    while !typed(&draft) && Instant::now() < deadline {
+        std::thread::sleep(Duration::from_millis(50));
+        draft = draft_of(&session);
+    }
+    assert!(
+        typed(&draft),
+        "the draft was not saved while typing: {draft:?}"
+    );
     let pid = tmux.cmd(&["display-message", "-p", "-t", E2E, "#{pane_pid}"]);
     let status = Command::new("kill")
         .args(["-KILL", pid.trim()])
         .status()
         .unwrap();
     assert!(status.success());
-    let json: serde_json::Value =
-        serde_json::from_str(&std::fs::read_to_string(&session).unwrap()).unwrap();
-    let draft = json["draft"]["text"].as_str().unwrap_or_default();
-    assert!(draft.ends_with("typed before the kill"), "{json}");
+    let after = draft_of(&session);
+    assert!(typed(&after), "the file after the kill: {after:?}");
 }
 
 /// mapvlm on a pseudo-terminal of `script`'s, whose other side this test

@@ -131,6 +131,16 @@ impl AgentRole {
             Self::Single => "single",
         }
     }
+
+    /// The name a view shows for the agent.
+    pub fn label(self) -> &'static str {
+        match self {
+            Self::Skm => "SKM",
+            Self::Gkm => "GKM",
+            Self::Planner => "Planner",
+            Self::Single => "Single",
+        }
+    }
 }
 
 impl fmt::Display for AgentRole {
@@ -195,6 +205,24 @@ impl Approach {
     /// Whether the approach runs the two miners and the Planner.
     pub fn is_multi_agent(self) -> bool {
         matches!(self, Self::MultiImage | Self::MultiTable)
+    }
+
+    /// The agents the approach runs, in pipeline order.
+    pub fn roles(self) -> &'static [AgentRole] {
+        if self.is_multi_agent() {
+            &[AgentRole::Skm, AgentRole::Gkm, AgentRole::Planner]
+        } else {
+            &[AgentRole::Single]
+        }
+    }
+
+    /// The agent that writes the plan.
+    pub fn planning_role(self) -> AgentRole {
+        if self.is_multi_agent() {
+            AgentRole::Planner
+        } else {
+            AgentRole::Single
+        }
     }
 
     /// Whether the approach reads the scene image (else the table).

@@ -319,12 +319,7 @@ impl Runner {
                 .ok_or_else(|| missing(approach, "a table (--table FILE)"))?;
             values.insert("table", render_table(path)?);
         }
-        let roles: &[AgentRole] = if approach.is_multi_agent() {
-            &[AgentRole::Skm, AgentRole::Gkm, AgentRole::Planner]
-        } else {
-            &[AgentRole::Single]
-        };
-        for role in roles {
+        for role in approach.roles() {
             self.prompts.get(approach, *role)?;
         }
         Ok(Prepared {

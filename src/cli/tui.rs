@@ -73,7 +73,6 @@ pub fn run(args: TuiArgs) -> anyhow::Result<ExitCode> {
         ResponseCache::default_dir().map(ResponseCache::new),
         pace,
     )
-    .map_err(anyhow::Error::msg)
     .context("the workbench cannot start")?;
     let models = args.models;
     let options = Options {

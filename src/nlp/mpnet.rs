@@ -1,7 +1,8 @@
 //! The sentence encoder all-mpnet-base-v2 as sentence-transformers runs it:
 //! tokenise (truncating at the model's maximum sequence length), run MPNet on
-//! length-sorted batches padded to their longest row, mean-pool over the real
-//! tokens and L2-normalise. Embeddings are cached per sentence for the life of
+//! length-sorted batches packed end to end (never padded, so that a
+//! sentence's embedding does not depend on its companions), mean-pool over
+//! the tokens and L2-normalise. Embeddings are cached per sentence for the life of
 //! the encoder.
 
 mod gelu;
@@ -22,7 +23,7 @@ use model::{Mpnet, MpnetConfig, TokenBatch};
 /// The revision of the encoder's arithmetic, part of every stored
 /// embedding's key: bump it with any change that can move an embedding's
 /// bits (batching, kernels, pooling), so no older vector is served.
-pub const REVISION: u32 = 1;
+pub const REVISION: u32 = 2;
 
 /// The number of sentences run through the network together by default.
 pub const DEFAULT_BATCH_SIZE: usize = 32;
@@ -97,7 +98,6 @@ struct SentenceBertConfig {
 pub struct MpnetEncoder {
     tokenizer: Tokenizer,
     model: Mpnet,
-    pad_id: u32,
     options: MpnetOptions,
     cache: Mutex<HashMap<String, Arc<[f32]>>>,
 }
@@ -142,7 +142,6 @@ impl MpnetEncoder {
         Ok(Self {
             tokenizer,
             model,
-            pad_id: config.pad_token_id,
             options: MpnetOptions {
                 batch_size: options.batch_size.max(1),
                 ..options
@@ -198,46 +197,26 @@ impl MpnetEncoder {
         Ok(vectors.into_iter().map(|(_, vector)| vector).collect())
     }
 
-    /// Tokenises `sentences` and groups them, shortest first, into padded
-    /// batches of at most `batch_size` rows, each with the input indices of
-    /// its rows. A batch also ends where the next row would make padding more
-    /// than a quarter of its tokens, so one long sentence does not pad a
-    /// whole batch of short ones.
+    /// Tokenises `sentences` and groups them, shortest first, into batches
+    /// of at most `batch_size` rows, each with the input indices of its
+    /// rows. Nothing is padded (see [`TokenBatch`]): padding would change
+    /// the length of the sums in attention and with it the rounding, and a
+    /// sentence would embed to other bits beside other companions.
     fn batches(&self, sentences: &[&str]) -> Result<Vec<(Vec<usize>, TokenBatch)>, MpnetError> {
         let encodings = self
             .tokenizer
             .encode_batch(sentences.to_vec(), true)
             .map_err(|err| MpnetError::Tokenize(err.to_string()))?;
-        let length = |index: usize| encodings[index].get_ids().len();
         let mut order: Vec<usize> = (0..encodings.len()).collect();
-        order.sort_by_key(|&index| length(index));
-        let mut groups: Vec<Vec<usize>> = Vec::new();
-        let mut real_tokens = 0;
-        for index in order {
-            let next = length(index);
-            match groups.last_mut() {
-                Some(group)
-                    if group.len() < self.options.batch_size
-                        && 4 * (group.len() + 1) * next <= 5 * (real_tokens + next) =>
-                {
-                    group.push(index);
-                    real_tokens += next;
-                }
-                _ => {
-                    groups.push(vec![index]);
-                    real_tokens = next;
-                }
-            }
-        }
-        Ok(groups
-            .into_iter()
+        order.sort_by_key(|&index| encodings[index].get_ids().len());
+        Ok(order
+            .chunks(self.options.batch_size)
             .map(|group| {
                 let rows: Vec<&[u32]> = group
                     .iter()
                     .map(|&index| encodings[index].get_ids())
                     .collect();
-                let batch = TokenBatch::pad(&rows, self.pad_id);
-                (group, batch)
+                (group.to_vec(), TokenBatch::pack(&rows))
             })
             .collect())
     }
@@ -279,8 +258,8 @@ fn normalized(mut vector: Vec<f32>) -> Vec<f32> {
     vector
 }
 
-/// Loads `tokenizer.json` without its own padding (batches are padded to
-/// their longest row here) and truncating at `max_tokens` tokens, special
+/// Loads `tokenizer.json` without its own padding (batches are packed, not
+/// padded) and truncating at `max_tokens` tokens, special
 /// tokens included.
 fn load_tokenizer(path: &Path, max_tokens: usize) -> Result<Tokenizer, MpnetError> {
     check_readable(path)?;

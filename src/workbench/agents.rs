@@ -13,13 +13,80 @@ use tokio::task::JoinHandle;
 use tokio_util::sync::CancellationToken;
 
 use crate::agents::cache::{write_atomic, ResponseCache};
-use crate::agents::config::{self, AgentLayer, ConfigFile, FlagLayers, Settings};
+use crate::agents::config::{self, AgentLayer, ConfigError, ConfigFile, FlagLayers, Settings};
 use crate::agents::pipeline::{AgentEvent, PlanInput, Runner, Source};
 use crate::agents::prompts::{template_name, PromptSet, Template};
 use crate::agents::replay::{Pace, Recording};
-use crate::agents::{anthropic, openai, AgentRole, Approach, ProviderKind};
+use crate::agents::{anthropic, openai, AgentError, AgentRole, Approach, ProviderKind};
 use crate::demo;
 use crate::workbench::session::AgentSettings;
+
+/// Why a run cannot start, or stopped before its agents could report: the
+/// words the status bar shows, each saying what to do.
+#[derive(Debug, thiserror::Error)]
+pub enum RunError {
+    /// An agent set to the demo's recording has no recorded answer.
+    #[error(
+        "{why}: {agent} needs a provider. Press m to set {agent}'s provider and model \
+         (e.g. openai, gpt-4o) and export the provider's API key (e.g. {example_key}) before starting mapvlm"
+    )]
+    ProviderNeeded {
+        /// The agent, as the workbench names it.
+        agent: &'static str,
+        /// Why the recording cannot answer.
+        why: String,
+        /// The key variable named as an example.
+        example_key: &'static str,
+    },
+    /// A live provider has no API key and would be sent to its public endpoint.
+    #[error(
+        "{agent} uses {provider} but no API key is set: export {key_var} before starting mapvlm, \
+         or set api_key under [agents.{section}] or [defaults] in {file} (a local server: set {url_var})"
+    )]
+    KeyNeeded {
+        /// The agent, as the workbench names it.
+        agent: &'static str,
+        /// The provider's name.
+        provider: &'static str,
+        /// The variable holding the provider's key.
+        key_var: &'static str,
+        /// The variable holding the provider's base URL.
+        url_var: &'static str,
+        /// The agent's section in the config file.
+        section: &'static str,
+        /// The config file, as named to the user.
+        file: String,
+    },
+    /// The model form names a provider that does not exist.
+    #[error("{agent}: {reason}, or `{REPLAY_PROVIDER}` for the demo's recording")]
+    UnknownProvider {
+        /// The agent, as the workbench names it.
+        agent: &'static str,
+        /// Why the name is not a provider.
+        reason: String,
+    },
+    /// The config file and the environment do not make settings.
+    #[error(transparent)]
+    Config(#[from] ConfigError),
+    /// A template did not parse, or a file could not be written.
+    #[error(transparent)]
+    Agent(#[from] AgentError),
+    /// The templates built into the binary did not load.
+    #[error("the built-in prompt templates cannot be read; this is a bug")]
+    BuiltInPrompts,
+    /// The recording built into the binary did not parse.
+    #[error("the demo's recording cannot be read ({0}); this is a bug")]
+    Recording(#[source] serde_json::Error),
+    /// The demo's scene could not be made into a PNG.
+    #[error("the demo's scene cannot be encoded ({0})")]
+    DemoScene(#[source] image::ImageError),
+    /// No runtime could be made for a headless run.
+    #[error("no runtime for the run ({0})")]
+    Runtime(#[source] std::io::Error),
+    /// The run's task ended abnormally.
+    #[error("the run stopped ({0})")]
+    Stopped(#[source] tokio::task::JoinError),
+}
 
 /// Everything a pipeline needs to run the agents of one approach.
 #[derive(Debug, Clone, PartialEq)]
@@ -48,7 +115,7 @@ pub struct RunRequest {
 /// Runs agents in the background and reports [`AgentEvent`]s.
 pub trait Pipeline: Send + Sync {
     /// Why the request cannot run, in words a user can act on; `Ok` when it can.
-    fn check(&self, request: &RunRequest) -> Result<(), String>;
+    fn check(&self, request: &RunRequest) -> Result<(), RunError>;
     /// Starts the run on the current tokio runtime; aborting the handle
     /// cancels it.
     fn spawn(
@@ -93,34 +160,6 @@ pub fn replay_settings(model: &str, temperature: f32, max_tokens: u32) -> config
     }
 }
 
-/// The name the workbench shows for an agent.
-pub fn role_label(role: AgentRole) -> &'static str {
-    match role {
-        AgentRole::Skm => "SKM",
-        AgentRole::Gkm => "GKM",
-        AgentRole::Planner => "Planner",
-        AgentRole::Single => "Single",
-    }
-}
-
-/// The agents an approach runs, in pipeline order.
-pub fn roles(approach: Approach) -> &'static [AgentRole] {
-    if approach.is_multi_agent() {
-        &[AgentRole::Skm, AgentRole::Gkm, AgentRole::Planner]
-    } else {
-        &[AgentRole::Single]
-    }
-}
-
-/// The agent that writes the plan in an approach.
-pub fn planning_role(approach: Approach) -> AgentRole {
-    if approach.is_multi_agent() {
-        AgentRole::Planner
-    } else {
-        AgentRole::Single
-    }
-}
-
 /// The text of every template of `set`, by template name, as the prompt
 /// editor shows it.
 pub fn prompt_texts(set: &PromptSet) -> BTreeMap<String, String> {
@@ -144,33 +183,31 @@ pub fn is_recorded_prompt(approach: Approach, role: AgentRole, text: &str) -> bo
 }
 
 /// The demo's recording.
-pub fn demo_recording() -> Result<Recording, String> {
-    serde_json::from_str(demo::RECORDING)
-        .map_err(|e| format!("the demo's recording cannot be read ({e}); this is a bug"))
+pub fn demo_recording() -> Result<Recording, RunError> {
+    serde_json::from_str(demo::RECORDING).map_err(RunError::Recording)
 }
 
 /// What a user must do to run an agent for real.
-pub fn provider_needed(agent: AgentRole, why: &str) -> String {
-    let agent = role_label(agent);
-    format!(
-        "{why}: {agent} needs a provider. Press m to set {agent}'s provider and model \
-         (e.g. openai, gpt-4o) and export the provider's API key (e.g. OPENAI_API_KEY) before starting mapvlm"
-    )
+pub fn provider_needed(agent: AgentRole, why: &str) -> RunError {
+    RunError::ProviderNeeded {
+        agent: agent.label(),
+        why: why.to_string(),
+        example_key: ProviderKind::Openai.key_variable(),
+    }
 }
 
-fn key_needed(role: AgentRole, provider: ProviderKind, config_path: Option<&PathBuf>) -> String {
-    let (key_var, url_var) = (provider.key_variable(), provider.base_url_variable());
-    let file = config_path.map_or_else(
-        || "the config file".to_string(),
-        |p| p.display().to_string(),
-    );
-    format!(
-        "{} uses {} but no API key is set: export {key_var} before starting mapvlm, \
-         or set api_key under [agents.{}] or [defaults] in {file} (a local server: set {url_var})",
-        role_label(role),
-        provider.name(),
-        role.name()
-    )
+fn key_needed(role: AgentRole, provider: ProviderKind, config_path: Option<&PathBuf>) -> RunError {
+    RunError::KeyNeeded {
+        agent: role.label(),
+        provider: provider.name(),
+        key_var: provider.key_variable(),
+        url_var: provider.base_url_variable(),
+        section: role.name(),
+        file: config_path.map_or_else(
+            || "the config file".to_string(),
+            |p| p.display().to_string(),
+        ),
+    }
 }
 
 /// Reads an environment variable.
@@ -206,7 +243,7 @@ impl AgentsPipeline {
         config: ProviderConfig,
         cache: Option<ResponseCache>,
         pace: Pace,
-    ) -> Result<Self, String> {
+    ) -> Result<Self, RunError> {
         Ok(Self {
             config,
             cache,
@@ -217,7 +254,7 @@ impl AgentsPipeline {
 
     /// The demo alone: no config file, no environment, no cache; agents set
     /// to a live provider are refused for want of a key.
-    pub fn offline(pace: Pace) -> Result<Self, String> {
+    pub fn offline(pace: Pace) -> Result<Self, RunError> {
         Self::new(
             ProviderConfig {
                 file: ConfigFile::default(),
@@ -236,17 +273,17 @@ impl AgentsPipeline {
             .is_none_or(|s| s.provider == REPLAY_PROVIDER)
     }
 
-    fn settings(&self, request: &RunRequest) -> Result<Settings, String> {
+    fn settings(&self, request: &RunRequest) -> Result<Settings, RunError> {
         let mut flags = FlagLayers::default();
         for (&role, chosen) in &request.settings {
             if chosen.provider == REPLAY_PROVIDER {
                 continue;
             }
-            let provider = chosen.provider.parse::<ProviderKind>().map_err(|e| {
-                format!(
-                    "{}: {e}, or `{REPLAY_PROVIDER}` for the demo's recording",
-                    role_label(role)
-                )
+            let provider = chosen.provider.parse::<ProviderKind>().map_err(|reason| {
+                RunError::UnknownProvider {
+                    agent: role.label(),
+                    reason,
+                }
             })?;
             flags.per_agent.insert(
                 role,
@@ -259,8 +296,7 @@ impl AgentsPipeline {
                 },
             );
         }
-        let mut settings = Settings::resolve(&self.config.file, &*self.config.env, &flags)
-            .map_err(|e| e.to_string())?;
+        let mut settings = Settings::resolve(&self.config.file, &*self.config.env, &flags)?;
         for (&role, chosen) in &request.settings {
             if chosen.provider == REPLAY_PROVIDER {
                 settings.agents.insert(
@@ -272,20 +308,19 @@ impl AgentsPipeline {
         Ok(settings)
     }
 
-    fn prompts(request: &RunRequest) -> Result<PromptSet, String> {
+    fn prompts(request: &RunRequest) -> Result<PromptSet, RunError> {
         let mut set = built_in_prompts()
             .cloned()
-            .ok_or("the built-in prompt templates cannot be read; this is a bug")?;
+            .ok_or(RunError::BuiltInPrompts)?;
         for (&role, text) in &request.prompts {
             let name = template_name(request.approach, role);
-            let template =
-                Template::parse(&name, "the workbench", text).map_err(|e| e.to_string())?;
+            let template = Template::parse(&name, "the workbench", text)?;
             set = set.with(template);
         }
         Ok(set)
     }
 
-    fn check_replay(request: &RunRequest, role: AgentRole) -> Result<(), String> {
+    fn check_replay(request: &RunRequest, role: AgentRole) -> Result<(), RunError> {
         let why = if !request.demo {
             "the replay provider only has the demo's recording, not this task".to_string()
         } else if request.approach != Approach::MultiImage {
@@ -296,7 +331,7 @@ impl AgentsPipeline {
         } else if request.settings.get(&role) != Some(&demo_settings()) {
             format!(
                 "the demo was recorded with {DEMO_MODEL}, temperature 0 and 1024 tokens, not {}'s settings",
-                role_label(role)
+                role.label()
             )
         } else if !request
             .prompts
@@ -305,7 +340,7 @@ impl AgentsPipeline {
         {
             format!(
                 "{}'s prompt was edited and the demo's recording has no answer for it",
-                role_label(role)
+                role.label()
             )
         } else if role == AgentRole::Planner
             && [AgentRole::Skm, AgentRole::Gkm]
@@ -322,10 +357,10 @@ impl AgentsPipeline {
 }
 
 impl Pipeline for AgentsPipeline {
-    fn check(&self, request: &RunRequest) -> Result<(), String> {
+    fn check(&self, request: &RunRequest) -> Result<(), RunError> {
         Self::prompts(request)?;
         let settings = self.settings(request)?;
-        for &role in roles(request.approach) {
+        for &role in request.approach.roles() {
             if Self::is_replay(request, role) {
                 Self::check_replay(request, role)?;
                 continue;
@@ -354,9 +389,15 @@ impl Pipeline for AgentsPipeline {
         let answers = (self.demo.clone(), self.pace);
         tokio::spawn(async move {
             let run = request.run;
-            let first = roles(request.approach)[0];
-            let fail = |error: String| {
-                let _ = events.send((run, AgentEvent::Failed { role: first, error }));
+            let first = request.approach.roles()[0];
+            let fail = |error: RunError| {
+                let _ = events.send((
+                    run,
+                    AgentEvent::Failed {
+                        role: first,
+                        error: error.to_string(),
+                    },
+                ));
             };
             let (settings, prompts) = match prepared {
                 Ok(parts) => parts,
@@ -397,7 +438,7 @@ impl Pipeline for AgentsPipeline {
             };
             let (result, ()) = tokio::join!(plan, forward);
             if let Err(error) = result {
-                fail(error.to_string());
+                fail(error.into());
             }
         })
     }
@@ -408,16 +449,16 @@ impl Pipeline for AgentsPipeline {
 pub fn run_blocking(
     pipeline: &dyn Pipeline,
     request: RunRequest,
-) -> Result<Vec<AgentEvent>, String> {
+) -> Result<Vec<AgentEvent>, RunError> {
     pipeline.check(&request)?;
     let runtime = tokio::runtime::Builder::new_current_thread()
         .enable_all()
         .build()
-        .map_err(|e| format!("no runtime for the run ({e})"))?;
+        .map_err(RunError::Runtime)?;
     let (tx, mut rx) = mpsc::unbounded_channel();
     runtime
         .block_on(async { pipeline.spawn(request, tx).await })
-        .map_err(|e| format!("the run stopped ({e})"))?;
+        .map_err(RunError::Stopped)?;
     let mut events = Vec::new();
     while let Ok((_, event)) = rx.try_recv() {
         events.push(event);
@@ -432,7 +473,8 @@ fn explain_replay_failure(event: AgentEvent, request: &RunRequest) -> AgentEvent
         AgentEvent::Failed { role, .. } if AgentsPipeline::is_replay(request, role) => {
             AgentEvent::Failed {
                 role,
-                error: provider_needed(role, "the demo's recording has no answer for this request"),
+                error: provider_needed(role, "the demo's recording has no answer for this request")
+                    .to_string(),
             }
         }
         other => other,
@@ -441,10 +483,9 @@ fn explain_replay_failure(event: AgentEvent, request: &RunRequest) -> AgentEvent
 
 /// Writes the demo's scene to a PNG file in the temporary folder, where the
 /// agents read it, and returns its path.
-pub fn demo_scene_file() -> Result<PathBuf, String> {
-    let bytes =
-        demo::scene_png().map_err(|e| format!("the demo's scene cannot be encoded ({e})"))?;
+pub fn demo_scene_file() -> Result<PathBuf, RunError> {
+    let bytes = demo::scene_png().map_err(RunError::DemoScene)?;
     let path = std::env::temp_dir().join("mapvlm-demo-scene.png");
-    write_atomic(&path, &bytes).map_err(|e| e.to_string())?;
+    write_atomic(&path, &bytes)?;
     Ok(path)
 }

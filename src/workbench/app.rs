@@ -11,7 +11,7 @@ use ratatui_textarea::TextArea;
 use crate::agents::Approach;
 use crate::dataset::{Dataset, Task};
 use crate::demo;
-use crate::workbench::agents::{self, planning_role, roles};
+use crate::workbench::agents;
 use crate::workbench::editing::Editing;
 use crate::workbench::keymap::Context;
 use crate::workbench::message::Cmd;
@@ -21,9 +21,10 @@ use crate::workbench::panes::prompt::PromptPane;
 use crate::workbench::panes::scene::ScenePane;
 use crate::workbench::panes::steps::{demo_ground_truth, Steps};
 use crate::workbench::panes::Pane;
+use crate::workbench::persist::Persist;
 use crate::workbench::runs::{AgentStatus, Runs};
 use crate::workbench::scoring::{ModelSlot, ScoreOutcome, ScoreRequest};
-use crate::workbench::session::{GroundTruthSource, PlanSource, Session};
+use crate::workbench::session::{GroundTruthSource, PlanSource, Session, SessionError};
 use crate::workbench::theme::Theme;
 
 /// The order the approaches cycle in.
@@ -162,8 +163,10 @@ pub struct App {
     pub quit: bool,
     /// Set when something the session holds changed since the last save.
     pub session_dirty: bool,
+    /// The loop's copies of the session for the saver.
+    pub persist: Persist,
     /// The session file's state, for the status bar.
-    pub saved: Option<Result<(), String>>,
+    pub saved: Option<Result<(), SessionError>>,
 }
 
 pub(crate) fn demo_task() -> TaskView {
@@ -241,6 +244,7 @@ impl App {
             scroll: BTreeMap::new(),
             quit: false,
             session_dirty: false,
+            persist: Persist::default(),
             saved: None,
         };
         let mut cmds = Vec::new();
@@ -330,8 +334,8 @@ impl App {
             self.editing = Editing::None;
         }
         self.approach = approach;
-        if !roles(approach).contains(&self.prompt.agent) {
-            self.prompt.agent = planning_role(approach);
+        if !approach.roles().contains(&self.prompt.agent) {
+            self.prompt.agent = approach.planning_role();
         }
         self.load_prompt_editor();
     }

@@ -10,8 +10,22 @@ use ratatui::layout::Rect;
 use ratatui_image::protocol::Protocol;
 
 use crate::agents::pipeline::AgentEvent;
+use crate::dataset::DatasetError;
 use crate::workbench::agents::RunRequest;
+use crate::workbench::scene_image::SceneImageError;
 use crate::workbench::scoring::{ModelSlot, ScoreOutcome, ScoreRequest};
+use crate::workbench::session::SessionError;
+
+/// Why a step file the workbench asked the runtime for could not be read.
+#[derive(Debug, thiserror::Error)]
+pub enum ReadError {
+    /// The file could not be read as text.
+    #[error(transparent)]
+    Text(#[from] DatasetError),
+    /// The reading task ended abnormally.
+    #[error("{0}")]
+    Stopped(#[from] tokio::task::JoinError),
+}
 
 /// A message: something that happened.
 pub enum Msg {
@@ -32,13 +46,13 @@ pub enum Msg {
     /// The models loaded ([`ModelSlot::Ready`]), or why not.
     ModelsLoaded(ModelSlot),
     /// A step file was read.
-    StepFile(PathBuf, Result<String, String>),
+    StepFile(PathBuf, Result<String, ReadError>),
     /// The scene image was read.
-    SceneImage(Result<Arc<DynamicImage>, String>),
+    SceneImage(Result<Arc<DynamicImage>, SceneImageError>),
     /// The scene image was encoded for this area of the terminal.
-    ImageReady(Rect, Box<Protocol>),
+    ImageReady(Rect, Result<Box<Protocol>, SceneImageError>),
     /// The session was saved, or why not.
-    Saved(Result<(), String>),
+    Saved(Result<(), SessionError>),
     /// The process was asked to stop (a signal).
     Quit,
 }

@@ -2,7 +2,8 @@
 //! architecture. [`app`] is the model, [`message`] what happens to it,
 //! [`update`] the one place it changes, [`render`] a pure function from it
 //! to a frame, and [`runtime`] the loop that carries out the commands
-//! `update` returns. Each pane ([`panes`]) and overlay ([`overlays`]) keeps
+//! `update` returns ([`headless`] carries them out synchronously, for tests
+//! and benchmarks). Each pane ([`panes`]) and overlay ([`overlays`]) keeps
 //! its state, keys and drawing in its own module; every key is declared
 //! once in [`keymap`]. Agent runs, scoring, model loading, file reads and
 //! session saves happen in background tasks that send messages; the loop
@@ -15,6 +16,7 @@ pub mod component;
 pub mod editing;
 pub mod graph_layout;
 pub mod graph_view;
+pub mod headless;
 pub mod keymap;
 pub mod layout;
 pub mod message;
@@ -42,7 +44,8 @@ use ratatui_image::picker::Picker;
 use agents::Pipeline;
 use scoring::ScorerLoader;
 
-pub use runtime::{prepare_image, run};
+pub use headless::prepare_image;
+pub use runtime::run;
 
 /// How long scoring waits for typing to settle.
 pub const SCORE_DEBOUNCE: Duration = Duration::from_millis(25);

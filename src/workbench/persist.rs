@@ -1,4 +1,7 @@
-//! What of the workbench a session file keeps, and restoring it.
+//! What of the workbench a session file keeps, restoring it, and when the
+//! loop copies it for the saver ([`Persist`]).
+
+use std::time::Instant;
 
 use crate::workbench::app::{single_line_editor, task_view, App, Severity};
 use crate::workbench::editing::Editing;
@@ -7,8 +10,63 @@ use crate::workbench::panes::steps::StepList;
 use crate::workbench::panes::Pane;
 use crate::workbench::runs::AgentStatus;
 use crate::workbench::session::{Draft, Session, SESSION_VERSION};
+use crate::workbench::snapshot::{Snapshot, SnapshotPacer, SNAPSHOT_EVERY};
+
+/// The session copies of the loop: when the next one is due, and how many
+/// were taken (a copy is the costly part of saving, so tests check that
+/// typing does not take one a keystroke).
+#[derive(Debug, Clone)]
+pub struct Persist {
+    pacer: SnapshotPacer,
+    taken: u64,
+    was_editing: bool,
+}
+
+impl Persist {
+    /// No copy taken yet, paced at [`SNAPSHOT_EVERY`].
+    pub fn new() -> Self {
+        Self {
+            pacer: SnapshotPacer::new(SNAPSHOT_EVERY),
+            taken: 0,
+            was_editing: false,
+        }
+    }
+
+    /// How many copies of the session [`App::poll_snapshot`] has taken.
+    pub fn taken(&self) -> u64 {
+        self.taken
+    }
+}
+
+impl Default for Persist {
+    fn default() -> Self {
+        Self::new()
+    }
+}
 
 impl App {
+    /// Called by the loop after each batch of messages: the copy of the
+    /// session for the saver when one is due (at once when an edit was just
+    /// committed, else at most every [`SNAPSHOT_EVERY`]), and otherwise the
+    /// instant to ask again, if a change waits.
+    pub fn poll_snapshot(&mut self, now: Instant) -> (Option<Session>, Option<Instant>) {
+        if self.session_dirty {
+            self.session_dirty = false;
+            self.persist.pacer.changed();
+        }
+        let editing = self.is_editing();
+        let committed = self.persist.was_editing && !editing;
+        self.persist.was_editing = editing;
+        match self.persist.pacer.poll(committed, now) {
+            Snapshot::Take => {
+                self.persist.taken += 1;
+                (Some(self.to_session()), None)
+            }
+            Snapshot::WaitUntil(at) => (None, Some(at)),
+            Snapshot::Idle => (None, None),
+        }
+    }
+
     /// The session as it stands, for saving.
     pub fn to_session(&self) -> Session {
         let mut prompts = self.prompt.texts.clone();

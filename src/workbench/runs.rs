@@ -6,7 +6,7 @@ use std::collections::BTreeMap;
 use crate::agents::pipeline::AgentEvent;
 use crate::agents::{AgentRole, Approach, Usage};
 use crate::plan::parse_steps;
-use crate::workbench::agents::{self, planning_role, role_label, roles, RunRequest};
+use crate::workbench::agents::{self, RunError, RunRequest};
 use crate::workbench::app::{unix_now, App, Severity};
 use crate::workbench::editing::Editing;
 use crate::workbench::message::Cmd;
@@ -122,7 +122,7 @@ impl App {
     /// planner when a miner it reads re-runs.
     pub fn agents_to_run(&self, all: bool) -> Vec<AgentRole> {
         let mut out: Vec<AgentRole> = Vec::new();
-        for &agent in roles(self.approach) {
+        for &agent in self.approach.roles() {
             let upstream = agent == AgentRole::Planner && !out.is_empty();
             if all || upstream || self.agent_changed(agent) {
                 out.push(agent);
@@ -143,8 +143,8 @@ impl App {
             "this prompt was edited and the demo's recording has no answer for it"
         };
         (view.settings.provider == agents::REPLAY_PROVIDER
-            && !agents::is_recorded_prompt(self.approach, agent, &prompt))
-        .then(|| agents::provider_needed(agent, why))
+            && !self.prompt.is_recorded(self.approach, agent, &prompt))
+        .then(|| agents::provider_needed(agent, why).to_string())
     }
 
     pub(crate) fn start_run(&mut self, all: bool) -> Vec<Cmd> {
@@ -164,7 +164,7 @@ impl App {
             return Vec::new();
         }
         let id = self.runs.history.iter().map(|r| r.id).max().unwrap_or(0) + 1;
-        let approach_agents = roles(self.approach);
+        let approach_agents = self.approach.roles();
         let request = RunRequest {
             run: id,
             approach: self.approach,
@@ -193,13 +193,13 @@ impl App {
             started_unix: unix_now(),
             agents: to_run.clone(),
         });
-        let names: Vec<&str> = to_run.iter().map(|a| role_label(*a)).collect();
+        let names: Vec<&str> = to_run.iter().map(|a| a.label()).collect();
         self.set_status(format!("run {id}: {}", names.join(", ")), Severity::Info);
         vec![Cmd::StartRun(request)]
     }
 
     /// Refuses a run the pipeline cannot do; called by the runtime.
-    pub fn run_refused(&mut self, run: u64, reason: String) {
+    pub fn run_refused(&mut self, run: u64, reason: RunError) {
         if self.runs.active.as_ref().is_some_and(|r| r.id == run) {
             if let Some(active) = self.runs.active.take() {
                 for agent in active.agents {
@@ -208,7 +208,7 @@ impl App {
                     }
                 }
             }
-            self.set_status(reason, Severity::Warn);
+            self.set_status(reason.to_string(), Severity::Warn);
         }
     }
 
@@ -261,7 +261,7 @@ impl App {
                     v.status = AgentStatus::Running;
                     v.output.clear();
                 }
-                if agent == planning_role(self.approach) {
+                if agent == self.approach.planning_role() {
                     if matches!(
                         self.editing,
                         Editing::Step {
@@ -335,7 +335,7 @@ impl App {
                     v.status = AgentStatus::Failed(error.clone());
                 }
                 self.set_status(
-                    format!("{} failed: {error}", role_label(agent)),
+                    format!("{} failed: {error}", agent.label()),
                     Severity::Error,
                 );
                 let mut cmds = vec![Cmd::CancelRun(run)];

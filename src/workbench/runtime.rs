@@ -25,14 +25,14 @@ use tokio::task::JoinHandle;
 use super::agents::Pipeline;
 use super::app::{App, AppInit, Severity};
 use super::scoring::{ModelSlot, ScorerLoader, SharedModels};
-use super::session::{Restored, Session};
-use super::snapshot::{Snapshot, SnapshotPacer, SNAPSHOT_EVERY};
+use super::session::{Restored, Session, SessionError};
 use crate::agents::pipeline::AgentEvent;
 use crate::dataset::Dataset;
 
-use super::message::{Cmd, Msg};
+use super::message::{Cmd, Msg, ReadError};
+use super::scene_image;
+use super::{headless, scoring, session};
 use super::{render, terminal_query, theme, Options, TuiError, SAVE_EVERY, SCORE_DEBOUNCE};
-use super::{scene_image, scoring, session};
 
 /// Puts the terminal back as it was: raw mode off, main screen, no mouse capture.
 fn restore_terminal() {
@@ -74,26 +74,20 @@ pub(crate) fn setup_terminal(
     Ok((guard, terminal))
 }
 
-/// Encodes the scene image for the area the app wants it in, if any.
-pub fn prepare_image(app: &mut App, picker: &Picker) {
-    let Some(area) = app.image_area_wanted() else {
+/// Hands the encoding of the scene image to a blocking task when the app
+/// wants it in an area it is not encoded for; the task answers with
+/// [`Msg::ImageReady`], so the loop never resizes or encodes an image.
+fn request_image(app: &mut App, picker: &Picker, msgs: &mpsc::UnboundedSender<Msg>) {
+    let Some((area, image)) = app.request_image() else {
         return;
     };
-    let Some(scene) = app.scene.image.clone() else {
-        return;
-    };
-    match scene_image::encode(picker, &scene, area) {
-        Ok((area, protocol)) => {
-            app.update(Msg::ImageReady(area, protocol));
-        }
-        Err(e) => {
-            app.scene.enabled = false;
-            app.status = Some((
-                format!("the scene image cannot be drawn here ({e}); i tries again"),
-                Severity::Warn,
-            ));
-        }
-    }
+    let (picker, msgs) = (picker.clone(), msgs.clone());
+    tokio::task::spawn_blocking(move || {
+        let _ = msgs.send(Msg::ImageReady(
+            area,
+            scene_image::encode(&picker, &image, area).map(|(_, protocol)| protocol),
+        ));
+    });
 }
 
 /// Everything the loop hands work to.
@@ -130,10 +124,10 @@ impl Runtime {
                 tokio::spawn(async move {
                     let result = tokio::task::spawn_blocking({
                         let path = path.clone();
-                        move || crate::dataset::read_text(&path).map_err(|e| e.to_string())
+                        move || headless::read_step_file(&path)
                     })
                     .await
-                    .unwrap_or_else(|e| Err(e.to_string()));
+                    .unwrap_or_else(|e| Err(ReadError::from(e)));
                     let _ = msgs.send(Msg::StepFile(path, result));
                 });
             }
@@ -192,8 +186,8 @@ fn spawn_saver(
             let path = path.clone();
             let result = tokio::task::spawn_blocking(move || session::save(&path, &snapshot))
                 .await
-                .map_err(|e| e.to_string())
-                .and_then(|r| r.map_err(|e| e.to_string()));
+                .map_err(SessionError::from)
+                .and_then(|saved| saved);
             let _ = msgs.send(Msg::Saved(result));
         }
     })
@@ -375,10 +369,9 @@ async fn run_async(options: Options) -> Result<(), TuiError> {
     for cmd in first_cmds {
         runtime.execute(&mut app, cmd);
     }
-    prepare_image(&mut app, &picker);
+    request_image(&mut app, &picker, &runtime.msgs);
     terminal.draw(|f| render::render(f, &app))?;
 
-    let mut pacer = SnapshotPacer::new(SNAPSHOT_EVERY);
     let mut wake: Option<Instant> = None;
     loop {
         let first = match wake {
@@ -393,7 +386,6 @@ async fn run_async(options: Options) -> Result<(), TuiError> {
         while let Ok(more) = msg_rx.try_recv() {
             pending.push(more);
         }
-        let was_editing = app.is_editing();
         for msg in pending {
             if let Msg::Resize(w, h) = msg {
                 terminal.resize(Rect::new(0, 0, w, h))?;
@@ -402,23 +394,15 @@ async fn run_async(options: Options) -> Result<(), TuiError> {
                 runtime.execute(&mut app, cmd);
             }
         }
-        if app.session_dirty {
-            app.session_dirty = false;
-            pacer.changed();
+        let (copy, next) = app.poll_snapshot(Instant::now());
+        if let Some(session) = copy {
+            save_tx.send_replace(Some(session));
         }
-        let committed = was_editing && !app.is_editing();
-        wake = match pacer.poll(committed, Instant::now()) {
-            Snapshot::Take => {
-                save_tx.send_replace(Some(app.to_session()));
-                None
-            }
-            Snapshot::WaitUntil(at) => Some(at),
-            Snapshot::Idle => None,
-        };
+        wake = next;
         if app.quit {
             break;
         }
-        prepare_image(&mut app, &picker);
+        request_image(&mut app, &picker, &runtime.msgs);
         terminal.draw(|f| render::render(f, &app))?;
     }
     for (_, handle) in runtime.runs.drain() {

@@ -2,7 +2,7 @@
 //! the annotation screen): read on a blocking task, encoded for exactly the
 //! area it is drawn in, and a one-line note in that area until it is.
 
-use std::path::Path;
+use std::path::{Path, PathBuf};
 use std::sync::Arc;
 
 use image::DynamicImage;
@@ -18,20 +18,41 @@ use ratatui_image::{Image, Resize};
 /// An image encoded for the terminal, with the area it was encoded for.
 pub type Encoded = (Rect, Box<Protocol>);
 
-/// Reads a scene image; the error is one line naming the file and the cause.
-pub fn read(path: &Path) -> Result<Arc<DynamicImage>, String> {
-    image::open(path)
-        .map(Arc::new)
-        .map_err(|e| format!("{}: the scene image cannot be read ({e})", path.display()))
+/// Why the scene image cannot be shown, in one line.
+#[derive(Debug, thiserror::Error)]
+pub enum SceneImageError {
+    /// The file could not be read or decoded.
+    #[error("{}: the scene image cannot be read ({error})", path.display())]
+    Read {
+        /// The image file.
+        path: PathBuf,
+        /// What went wrong.
+        error: image::ImageError,
+    },
+    /// This terminal's graphics protocol cannot draw it.
+    #[error(transparent)]
+    Encode(#[from] ratatui_image::errors::Errors),
 }
 
-/// Encodes `image` to fill `area` with the terminal's graphics protocol;
-/// the error says why this terminal cannot draw it.
-pub fn encode(picker: &Picker, image: &DynamicImage, area: Rect) -> Result<Encoded, String> {
-    picker
-        .new_protocol(image.clone(), area.as_size(), Resize::Scale(None))
-        .map(|protocol| (area, Box::new(protocol)))
-        .map_err(|e| e.to_string())
+/// Reads a scene image (on a blocking task: decoding is slow).
+pub fn read(path: &Path) -> Result<Arc<DynamicImage>, SceneImageError> {
+    image::open(path)
+        .map(Arc::new)
+        .map_err(|error| SceneImageError::Read {
+            path: path.to_path_buf(),
+            error,
+        })
+}
+
+/// Resizes and encodes `image` to fill `area` with the terminal's graphics
+/// protocol: the slow part of showing it, done on a blocking task.
+pub fn encode(
+    picker: &Picker,
+    image: &DynamicImage,
+    area: Rect,
+) -> Result<Encoded, SceneImageError> {
+    let protocol = picker.new_protocol(image.clone(), area.as_size(), Resize::Scale(None))?;
+    Ok((area, Box::new(protocol)))
 }
 
 /// Draws the image in `area` when it is encoded for exactly that area, and

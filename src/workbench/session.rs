@@ -203,6 +203,27 @@ pub enum SessionError {
     /// The session could not be turned into JSON.
     #[error("session could not be encoded: {0}")]
     Encode(#[from] serde_json::Error),
+    /// The saving task ended abnormally.
+    #[error("{0}")]
+    Stopped(#[from] tokio::task::JoinError),
+}
+
+/// Why the bytes of a file are not a session this version can read; the
+/// file is then set aside, not fatal.
+#[derive(Debug, Clone, PartialEq, Eq, thiserror::Error)]
+pub enum DecodeError {
+    /// The bytes are not JSON of a session (the parser's words).
+    #[error("not a session file ({0})")]
+    NotSession(String),
+    /// The JSON has no version field.
+    #[error("not a session file (no version)")]
+    NoVersion,
+    /// A newer mapvlm wrote the file.
+    #[error("version {0} was written by a newer mapvlm than this one (version {SESSION_VERSION})")]
+    Newer(u64),
+    /// A version older than any migration knows.
+    #[error("version {0} is too old to read")]
+    TooOld(u64),
 }
 
 /// The outcome of restoring a session.
@@ -223,7 +244,7 @@ pub enum Restored {
         /// Where the bad file now is.
         moved_to: PathBuf,
         /// What was wrong with it.
-        reason: String,
+        reason: DecodeError,
     },
 }
 
@@ -270,20 +291,18 @@ pub fn save(path: &Path, session: &Session) -> Result<(), SessionError> {
 /// Brings a session file's JSON saved by an earlier version up to
 /// [`SESSION_VERSION`], one version at a time, so an upgrade keeps the
 /// user's run history. A file from a newer version is refused.
-fn migrate(mut value: serde_json::Value) -> Result<serde_json::Value, String> {
+fn migrate(mut value: serde_json::Value) -> Result<serde_json::Value, DecodeError> {
     let version = value.get("version").and_then(serde_json::Value::as_u64);
     let Some(mut version) = version else {
-        return Err("not a session file (no version)".to_string());
+        return Err(DecodeError::NoVersion);
     };
     if version > u64::from(SESSION_VERSION) {
-        return Err(format!(
-            "version {version} was written by a newer mapvlm than this one (version {SESSION_VERSION})"
-        ));
+        return Err(DecodeError::Newer(version));
     }
     while version < u64::from(SESSION_VERSION) {
         match version {
             1 => v1_to_v2(&mut value),
-            _ => return Err(format!("version {version} is too old to read")),
+            _ => return Err(DecodeError::TooOld(version)),
         }
         version += 1;
         value["version"] = version.into();
@@ -322,13 +341,12 @@ fn v1_to_v2(value: &mut serde_json::Value) {
 /// included, is kept); or why the bytes are not a session. The part of
 /// [`restore`] that reads, kept apart from the file so that it can be
 /// checked on any bytes.
-pub fn decode(bytes: &[u8]) -> Result<(Session, Vec<String>), String> {
-    let value = serde_json::from_slice::<serde_json::Value>(bytes)
-        .map_err(|e| format!("not a session file ({e})"))?;
+pub fn decode(bytes: &[u8]) -> Result<(Session, Vec<String>), DecodeError> {
+    let not_session = |e: serde_json::Error| DecodeError::NotSession(e.to_string());
+    let value = serde_json::from_slice::<serde_json::Value>(bytes).map_err(not_session)?;
     let mut value = migrate(value)?;
     let repaired = repair::repair_numbers(&mut value);
-    let session = serde_json::from_value::<Session>(value)
-        .map_err(|e| format!("not a session file ({e})"))?;
+    let session = serde_json::from_value::<Session>(value).map_err(not_session)?;
     Ok((session, repaired))
 }
 
@@ -441,7 +459,7 @@ mod tests {
         match restore(&path).unwrap() {
             Restored::SetAside { moved_to, reason } => {
                 assert!(moved_to.exists());
-                assert!(reason.contains("newer mapvlm"), "{reason}");
+                assert!(reason.to_string().contains("newer mapvlm"), "{reason}");
             }
             other => panic!("{other:?}"),
         }
@@ -521,7 +539,10 @@ mod tests {
             Restored::SetAside { moved_to, reason } => {
                 assert!(!path.exists());
                 assert!(moved_to.exists());
-                assert!(reason.contains("not a session file"), "{reason}");
+                assert!(
+                    reason.to_string().contains("not a session file"),
+                    "{reason}"
+                );
             }
             other => panic!("{other:?}"),
         }

@@ -6,7 +6,6 @@ use ratatui::layout::{Position, Rect};
 
 use crate::agents::AgentRole;
 use crate::plan::parse_steps;
-use crate::workbench::agents::{planning_role, roles};
 use crate::workbench::app::{single_line_editor, App, Severity};
 use crate::workbench::editing::Editing;
 use crate::workbench::keymap::{self, Action, Context};
@@ -63,20 +62,35 @@ impl App {
                     vec![self.rescore()]
                 }
                 Err(e) => {
-                    self.set_status(e, Severity::Error);
+                    self.set_status(e.to_string(), Severity::Error);
                     Vec::new()
                 }
             },
             Msg::SceneImage(result) => {
                 match result {
                     Ok(img) => self.scene.image = Some(img),
-                    Err(e) => self.set_status(e, Severity::Warn),
+                    Err(e) => self.set_status(e.to_string(), Severity::Warn),
                 }
                 self.scene.protocol = None;
+                self.scene.requested = None;
                 Vec::new()
             }
-            Msg::ImageReady(rect, protocol) => {
-                self.scene.protocol = Some((rect, protocol));
+            Msg::ImageReady(rect, encoded) => {
+                if self.scene.requested != Some(rect) {
+                    // For an image or an area since replaced.
+                    return Vec::new();
+                }
+                self.scene.requested = None;
+                match encoded {
+                    Ok(protocol) => self.scene.protocol = Some((rect, protocol)),
+                    Err(e) => {
+                        self.scene.enabled = false;
+                        self.set_status(
+                            format!("the scene image cannot be drawn here ({e}); i tries again"),
+                            Severity::Warn,
+                        );
+                    }
+                }
                 Vec::new()
             }
             Msg::Saved(result) => {
@@ -161,7 +175,7 @@ impl App {
                 self.editing = Editing::Prompt;
             }
             Action::PromptOf(position) => {
-                if let Some(&agent) = roles(self.approach).get(position) {
+                if let Some(&agent) = self.approach.roles().get(position) {
                     self.store_prompt_editor();
                     self.prompt.agent = agent;
                     self.load_prompt_editor();
@@ -206,7 +220,7 @@ impl App {
                     match self.focus {
                         Pane::Graph => AgentRole::Skm,
                         Pane::Description => AgentRole::Gkm,
-                        _ => planning_role(self.approach),
+                        _ => self.approach.planning_role(),
                     }
                 };
                 self.open_model_form(agent);
@@ -276,7 +290,7 @@ impl App {
             }
             Pane::Graph => self.graph.move_neighbour(delta),
             Pane::Prompt => {
-                let shown = roles(self.approach);
+                let shown = self.approach.roles();
                 let idx = shown
                     .iter()
                     .position(|a| *a == self.prompt.agent)

@@ -37,37 +37,43 @@ pub(crate) struct MpnetConfig {
     pub relative_attention_num_buckets: usize,
 }
 
-/// A batch of token id rows, padded on the right to a common length.
+/// Token id rows packed end to end, never padded: the dense layers run on
+/// every token of the batch at once, attention runs on each run of rows of
+/// one length. A row's sums then have the same length and order whatever
+/// rows share its batch, so its embedding has the same bits alone and in
+/// any batch.
 #[derive(Debug, Clone)]
 pub(crate) struct TokenBatch {
-    /// `rows × seq_len` token ids, row-major, padded with the pad id.
+    /// The token ids of every row, end to end.
     pub ids: Vec<u32>,
-    /// The number of real (non-padding) tokens of each row.
-    pub lengths: Vec<usize>,
-    /// The padded length of every row.
-    pub seq_len: usize,
+    /// Each run of consecutive rows of one length: (length, rows).
+    pub runs: Vec<(usize, usize)>,
 }
 
 impl TokenBatch {
-    /// Pads `rows` on the right with `pad_id` to the longest row.
-    pub fn pad(rows: &[&[u32]], pad_id: u32) -> Self {
-        let seq_len = rows.iter().map(|row| row.len()).max().unwrap_or(0);
-        let mut ids = Vec::with_capacity(rows.len() * seq_len);
+    /// Packs `rows`, in order, into runs of equal length (sort the rows by
+    /// length first for few runs).
+    pub fn pack(rows: &[&[u32]]) -> Self {
+        let mut runs: Vec<(usize, usize)> = Vec::new();
         for row in rows {
-            ids.extend_from_slice(row);
-            ids.resize(ids.len() + seq_len - row.len(), pad_id);
+            match runs.last_mut() {
+                Some((length, count)) if *length == row.len() => *count += 1,
+                _ => runs.push((row.len(), 1)),
+            }
         }
-        let lengths = rows.iter().map(|row| row.len()).collect();
         Self {
-            ids,
-            lengths,
-            seq_len,
+            ids: rows.concat(),
+            runs,
         }
     }
 
-    /// The number of rows.
-    pub fn rows(&self) -> usize {
-        self.lengths.len()
+    /// Each run with the index of its first token: (first token, length, rows).
+    fn spans(&self) -> impl Iterator<Item = (usize, usize, usize)> + '_ {
+        self.runs.iter().scan(0, |start, &(length, count)| {
+            let first = *start;
+            *start += length * count;
+            Some((first, length, count))
+        })
     }
 }
 
@@ -158,25 +164,37 @@ impl Layer {
         })
     }
 
-    /// `hidden`: `(rows·seq_len, hidden)`; `bias`: `(rows, heads, seq_len,
-    /// seq_len)`, the position bias plus the padding mask.
-    fn forward(&self, hidden: &Tensor, bias: &Tensor) -> candle_core::Result<Tensor> {
-        let (rows, _, seq_len, _) = bias.dims4()?;
+    /// `hidden`: `(tokens, hidden)`, the rows of `batch` end to end;
+    /// `biases`: the relative position bias `(1, heads, length, length)` of
+    /// each run of `batch`.
+    fn forward(
+        &self,
+        hidden: &Tensor,
+        batch: &TokenBatch,
+        biases: &[Tensor],
+    ) -> candle_core::Result<Tensor> {
         let width = hidden.dim(1)?;
         let head_width = width / self.heads;
-        let qkv = self
-            .qkv
-            .forward(hidden)?
-            .reshape((rows, seq_len, 3, self.heads, head_width))?
-            .permute((2, 0, 3, 1, 4))?
-            .contiguous()?;
-        let (q, k, v) = (qkv.get(0)?, qkv.get(1)?, qkv.get(2)?);
-        let scores = (q.matmul(&k.t()?)? + bias)?;
-        let probs = candle_nn::ops::softmax_last_dim(&scores)?;
-        let context = probs
-            .matmul(&v)?
-            .transpose(1, 2)?
-            .reshape((rows * seq_len, width))?;
+        let qkv = self.qkv.forward(hidden)?;
+        let contexts = batch
+            .spans()
+            .zip(biases)
+            .map(|((first, length, rows), bias)| {
+                let qkv = qkv
+                    .narrow(0, first, length * rows)?
+                    .reshape((rows, length, 3, self.heads, head_width))?
+                    .permute((2, 0, 3, 1, 4))?
+                    .contiguous()?;
+                let (q, k, v) = (qkv.get(0)?, qkv.get(1)?, qkv.get(2)?);
+                let scores = q.matmul(&k.t()?)?.broadcast_add(bias)?;
+                let probs = candle_nn::ops::softmax_last_dim(&scores)?;
+                probs
+                    .matmul(&v)?
+                    .transpose(1, 2)?
+                    .reshape((rows * length, width))
+            })
+            .collect::<candle_core::Result<Vec<_>>>()?;
+        let context = Tensor::cat(&contexts, 0)?;
         let attended = self
             .attention_norm
             .forward(&(self.out.forward(&context)? + hidden)?)?;
@@ -255,53 +273,64 @@ impl Mpnet {
             .saturating_sub(self.config.pad_token_id as usize + 1)
     }
 
-    /// The mean of the last hidden states over the real tokens of each row:
+    /// The mean of the last hidden states over the tokens of each row:
     /// `(rows, hidden)`, not normalised.
     pub fn mean_pooled(&self, batch: &TokenBatch) -> candle_core::Result<Tensor> {
-        let (rows, seq_len) = (batch.rows(), batch.seq_len);
-        let ids = Tensor::from_slice(&batch.ids, (rows * seq_len,), &self.device)?;
-        let positions =
-            Tensor::from_vec(self.position_ids(batch), (rows * seq_len,), &self.device)?;
+        let tokens = batch.ids.len();
+        let ids = Tensor::from_slice(&batch.ids, (tokens,), &self.device)?;
+        let positions = Tensor::from_vec(self.position_ids(batch), (tokens,), &self.device)?;
         let embedded = (self.word_embeddings.forward(&ids)?
             + self.position_embeddings.forward(&positions)?)?;
         let mut hidden = self.embedding_norm.forward(&embedded)?;
-        let bias = self.attention_bias(batch)?;
+        let biases = batch
+            .runs
+            .iter()
+            .map(|&(length, _)| self.position_bias(length))
+            .collect::<candle_core::Result<Vec<_>>>()?;
         for layer in &self.layers {
-            hidden = layer.forward(&hidden, &bias)?;
+            hidden = layer.forward(&hidden, batch, &biases)?;
         }
-        let mask = Tensor::from_vec(
-            self.token_mask(batch, 1.0, 0.0),
-            (rows, seq_len, 1),
-            &self.device,
-        )?;
-        let summed = hidden
-            .reshape((rows, seq_len, self.config.hidden_size))?
-            .broadcast_mul(&mask)?
-            .sum(1)?;
-        let counts = mask.sum(1)?.clamp(1e-9, f32::MAX)?;
-        summed.broadcast_div(&counts)
+        let means = batch
+            .spans()
+            .map(|(first, length, rows)| {
+                hidden
+                    .narrow(0, first, length * rows)?
+                    .reshape((rows, length, self.config.hidden_size))?
+                    .sum(1)?
+                    .broadcast_div(&Tensor::new(length.max(1) as f32, &self.device)?)
+            })
+            .collect::<candle_core::Result<Vec<_>>>()?;
+        Tensor::cat(&means, 0)
     }
 
     /// The floating-point operations of the matrix products of one forward
-    /// pass over `batch`: per layer and row of padded length T, the q, k, v
-    /// and output projections (4·2·T·H²), the feed-forward block (2·2·T·H·I)
+    /// pass over `batch`: per layer and row of length T, the q, k, v and
+    /// output projections (4·2·T·H²), the feed-forward block (2·2·T·H·I)
     /// and the attention products (2·2·T²·H).
     pub fn flops(&self, batch: &TokenBatch) -> u64 {
-        let (t, h) = (batch.seq_len as u64, self.config.hidden_size as u64);
+        let h = self.config.hidden_size as u64;
         let i = self.config.intermediate_size as u64;
-        let per_row = 4 * 2 * t * h * h + 2 * 2 * t * h * i + 2 * 2 * t * t * h;
-        per_row * batch.rows() as u64 * self.config.num_hidden_layers as u64
+        let per_row = |t: u64| 4 * 2 * t * h * h + 2 * 2 * t * h * i + 2 * 2 * t * t * h;
+        let per_pass: u64 = batch
+            .runs
+            .iter()
+            .map(|&(length, rows)| per_row(length as u64) * rows as u64)
+            .sum();
+        per_pass * self.config.num_hidden_layers as u64
     }
 
     /// Position ids as Hugging Face's `create_position_ids_from_input_ids`:
-    /// the running count of non-padding tokens, zero on padding, plus the pad id.
+    /// in each row the running count of non-padding tokens, plus the pad id
+    /// (the pad id itself on a padding token).
     fn position_ids(&self, batch: &TokenBatch) -> Vec<u32> {
         let pad = self.config.pad_token_id;
         batch
-            .ids
-            .chunks(batch.seq_len.max(1))
-            .flat_map(|row| {
-                row.iter().scan(0, move |seen, &id| {
+            .spans()
+            .flat_map(|(first, length, rows)| {
+                (0..rows).map(move |row| first + row * length..first + (row + 1) * length)
+            })
+            .flat_map(|range| {
+                batch.ids[range].iter().scan(0, move |seen, &id| {
                     if id == pad {
                         Some(pad)
                     } else {
@@ -313,40 +342,21 @@ impl Mpnet {
             .collect()
     }
 
-    /// `(rows·seq_len)` values: `real` on the real tokens, `padding` after them.
-    fn token_mask(&self, batch: &TokenBatch, real: f32, padding: f32) -> Vec<f32> {
-        batch
-            .lengths
-            .iter()
-            .flat_map(|&length| {
-                (0..batch.seq_len)
-                    .map(move |position| if position < length { real } else { padding })
-            })
-            .collect()
-    }
-
-    /// The relative position bias of every head plus the padding mask,
-    /// `(rows, heads, seq_len, seq_len)`, computed once for all layers.
-    fn attention_bias(&self, batch: &TokenBatch) -> candle_core::Result<Tensor> {
-        let (rows, seq_len) = (batch.rows(), batch.seq_len);
+    /// The relative position bias of every head for rows of `length`
+    /// tokens, `(1, heads, length, length)`, computed once for all layers.
+    fn position_bias(&self, length: usize) -> candle_core::Result<Tensor> {
         let buckets = self.config.relative_attention_num_buckets;
-        let bucket_ids: Vec<u32> = (0..seq_len)
+        let bucket_ids: Vec<u32> = (0..length)
             .flat_map(|query| {
-                (0..seq_len).map(move |key| relative_position_bucket(query, key, buckets))
+                (0..length).map(move |key| relative_position_bucket(query, key, buckets))
             })
             .collect();
-        let bucket_ids = Tensor::from_vec(bucket_ids, (seq_len * seq_len,), &self.device)?;
-        let position_bias = self
-            .relative_attention_bias
+        let bucket_ids = Tensor::from_vec(bucket_ids, (length * length,), &self.device)?;
+        self.relative_attention_bias
             .forward(&bucket_ids)?
-            .reshape((1, seq_len, seq_len, self.config.num_attention_heads))?
-            .permute((0, 3, 1, 2))?;
-        let padding = Tensor::from_vec(
-            self.token_mask(batch, 0.0, f32::MIN),
-            (rows, 1, 1, seq_len),
-            &self.device,
-        )?;
-        position_bias.broadcast_add(&padding)?.contiguous()
+            .reshape((1, length, length, self.config.num_attention_heads))?
+            .permute((0, 3, 1, 2))?
+            .contiguous()
     }
 }
 
@@ -387,10 +397,11 @@ mod tests {
     }
 
     #[test]
-    fn padding_keeps_real_tokens_and_pads_right() {
-        let batch = TokenBatch::pad(&[&[0, 5, 2], &[0, 2]], 1);
-        assert_eq!(batch.ids, vec![0, 5, 2, 0, 2, 1]);
-        assert_eq!(batch.lengths, vec![3, 2]);
-        assert_eq!(batch.seq_len, 3);
+    fn packing_keeps_the_rows_end_to_end_in_runs_of_one_length() {
+        let batch = TokenBatch::pack(&[&[0, 2], &[0, 7, 2], &[0, 5, 2], &[0, 2]]);
+        assert_eq!(batch.ids, vec![0, 2, 0, 7, 2, 0, 5, 2, 0, 2]);
+        assert_eq!(batch.runs, vec![(2, 1), (3, 2), (2, 1)]);
+        let spans: Vec<_> = batch.spans().collect();
+        assert_eq!(spans, vec![(0, 2, 1), (2, 3, 2), (8, 2, 1)]);
     }
 }

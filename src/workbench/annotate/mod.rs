@@ -136,7 +136,7 @@ fn prepare_image(screen: &mut Judging, picker: &Picker, area: Rect) {
     };
     let msg = match scene_image::encode(picker, image, wanted) {
         Ok(encoded) => Msg::ImageReady(encoded),
-        Err(e) => Msg::ImageUndrawable(e),
+        Err(e) => Msg::ImageUndrawable(e.to_string()),
     };
     screen.update(msg);
 }
@@ -192,7 +192,8 @@ async fn run_async(options: Options) -> Result<Outcome, TuiError> {
         Cmd::LoadImage(path) => {
             let msgs = msg_tx.clone();
             tokio::task::spawn_blocking(move || {
-                let _ = msgs.send(Msg::Image(path.clone(), scene_image::read(&path)));
+                let read = scene_image::read(&path).map_err(|e| e.to_string());
+                let _ = msgs.send(Msg::Image(path, read));
             });
         }
     };

@@ -5,7 +5,6 @@ use ratatui_textarea::TextArea;
 
 use crate::agents::config::{check_max_tokens, check_temperature};
 use crate::agents::AgentRole;
-use crate::workbench::agents::role_label;
 use crate::workbench::app::{single_line_editor, App, Severity};
 use crate::workbench::keymap::Action;
 use crate::workbench::message::Cmd;
@@ -53,7 +52,7 @@ impl App {
                 .map(|f| f.lines().join("").trim().to_string())
                 .unwrap_or_default()
         };
-        let label = role_label(agent);
+        let label = agent.label();
         let checked = || -> Result<AgentSettings, String> {
             if text(0).is_empty() || text(1).is_empty() {
                 return Err("provider and model must be set".into());

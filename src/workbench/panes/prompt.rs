@@ -1,5 +1,6 @@
 //! The Prompt pane: the selected agent's template and its editor.
 
+use std::cell::RefCell;
 use std::collections::BTreeMap;
 
 use ratatui::layout::{Constraint, Layout, Rect};
@@ -9,8 +10,8 @@ use ratatui::Frame;
 use ratatui_textarea::TextArea;
 
 use crate::agents::prompts::template_name;
-use crate::agents::AgentRole;
-use crate::workbench::agents::{role_label, roles};
+use crate::agents::{AgentRole, Approach};
+use crate::workbench::agents;
 use crate::workbench::app::App;
 use crate::workbench::editing::Editing;
 use crate::workbench::panes::{agent_badge, highlighted, pane_block, Pane};
@@ -26,6 +27,10 @@ pub struct PromptPane {
     pub agent: AgentRole,
     /// The editor, holding the shown agent's prompt.
     pub editor: TextArea<'static>,
+    /// Whether each agent's template text is the one the demo recorded,
+    /// with the text that answer is for: the pane asks every frame, and a
+    /// template is parsed again only when its text changed.
+    recorded: RefCell<BTreeMap<(Approach, AgentRole), (String, bool)>>,
 }
 
 impl PromptPane {
@@ -36,6 +41,23 @@ impl PromptPane {
             texts,
             agent: AgentRole::Skm,
             editor: TextArea::default(),
+            recorded: RefCell::default(),
+        }
+    }
+
+    /// Whether `text` is `agent`'s template as the demo's recording has it
+    /// in `approach` ([`agents::is_recorded_prompt`]), parsed once a text.
+    pub fn is_recorded(&self, approach: Approach, agent: AgentRole, text: &str) -> bool {
+        let Ok(mut cache) = self.recorded.try_borrow_mut() else {
+            return agents::is_recorded_prompt(approach, agent, text);
+        };
+        match cache.get(&(approach, agent)) {
+            Some((seen, answer)) if seen == text => *answer,
+            _ => {
+                let answer = agents::is_recorded_prompt(approach, agent, text);
+                cache.insert((approach, agent), (text.to_string(), answer));
+                answer
+            }
         }
     }
 }
@@ -90,14 +112,14 @@ pub(crate) fn draw(frame: &mut Frame, app: &App, area: Rect) {
     let inner = block.inner(area);
     frame.render_widget(block, area);
     let mut tabs = Vec::new();
-    for (i, agent) in roles(app.approach).iter().enumerate() {
+    for (i, agent) in app.approach.roles().iter().enumerate() {
         let style = if *agent == app.prompt.agent {
             t.selection
         } else {
             t.base
         };
         tabs.push(Span::styled(
-            format!(" {} {} ", i + 1, role_label(*agent)),
+            format!(" {} {} ", i + 1, agent.label()),
             style,
         ));
     }
@@ -152,4 +174,25 @@ pub(crate) fn draw(frame: &mut Frame, app: &App, area: Rect) {
         Paragraph::new(footer_lines).wrap(Wrap { trim: true }),
         footer,
     );
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::agents::prompts::PromptSet;
+
+    #[test]
+    fn the_recorded_answer_follows_the_text_it_was_worked_out_for() {
+        let set = PromptSet::load(None).unwrap();
+        let texts = agents::prompt_texts(&set);
+        let pane = PromptPane::new(texts.clone());
+        let (approach, agent) = (Approach::MultiImage, AgentRole::Planner);
+        let built_in = &texts[&template_name(approach, agent)];
+        assert!(pane.is_recorded(approach, agent, built_in));
+        assert!(pane.is_recorded(approach, agent, built_in), "asked again");
+        let edited = format!("{built_in} Be brief.");
+        assert!(!pane.is_recorded(approach, agent, &edited));
+        assert!(pane.is_recorded(approach, agent, built_in), "edited back");
+        assert!(!pane.is_recorded(Approach::SingleImage, AgentRole::Single, built_in));
+    }
 }

@@ -23,6 +23,8 @@ pub struct ScenePane {
     pub image: Option<Arc<DynamicImage>>,
     /// The image encoded for an area of the terminal.
     pub protocol: Option<Encoded>,
+    /// The area an encoding is under way for, off the loop.
+    pub requested: Option<Rect>,
 }
 
 impl ScenePane {
@@ -32,6 +34,7 @@ impl ScenePane {
             enabled: true,
             image: Some(Arc::new(DynamicImage::ImageRgb8(demo::scene_image()))),
             protocol: None,
+            requested: None,
         }
     }
 }
@@ -39,6 +42,7 @@ impl ScenePane {
 impl App {
     pub(crate) fn load_scene(&mut self) -> Vec<Cmd> {
         self.scene.protocol = None;
+        self.scene.requested = None;
         match &self.task.image {
             Some(path) => {
                 self.scene.image = None;
@@ -70,10 +74,18 @@ impl App {
         if inner.width == 0 || inner.height == 0 {
             return None;
         }
-        match &self.scene.protocol {
-            Some((r, _)) if *r == inner => None,
-            _ => Some(inner),
-        }
+        let encoded = matches!(&self.scene.protocol, Some((r, _)) if *r == inner);
+        (!encoded && self.scene.requested != Some(inner)).then_some(inner)
+    }
+
+    /// Notes that the scene is being encoded for `area` and returns what the
+    /// encoding needs, when the image is wanted in an area it is not
+    /// encoded (or being encoded) for: the loop hands it to a task.
+    pub fn request_image(&mut self) -> Option<(Rect, Arc<DynamicImage>)> {
+        let area = self.image_area_wanted()?;
+        let image = self.scene.image.clone()?;
+        self.scene.requested = Some(area);
+        Some((area, image))
     }
 }
 

@@ -9,7 +9,6 @@ use ratatui::Frame;
 use crate::demo;
 use crate::metrics::pg2s::Pg2sReport;
 use crate::plan::parse_steps;
-use crate::workbench::agents::planning_role;
 use crate::workbench::app::{single_line_editor, App};
 use crate::workbench::editing::Editing;
 use crate::workbench::keymap::Action;
@@ -351,7 +350,7 @@ pub(crate) fn draw(frame: &mut Frame, app: &App, list: StepList, area: Rect) {
         StepList::Plan => match &app.plan_source {
             PlanSource::None => None,
             PlanSource::Run { run } => {
-                Some(match app.runs.agents.get(&planning_role(app.approach)) {
+                Some(match app.runs.agents.get(&app.approach.planning_role()) {
                     Some(v) if v.status == AgentStatus::Running => {
                         Span::styled(format!("run {run} · streaming…"), t.warn)
                     }
