@@ -331,6 +331,7 @@ fn session_of(record: &mapvlm::agents::pipeline::PlanRecord) -> Session {
             ground_truth: vec!["Walk to the sink.".into()],
             scores: None,
             cancelled: false,
+            corrupted: None,
         }],
         draft: None,
     }

@@ -23,7 +23,7 @@ use std::sync::Arc;
 use clap::{Args, Parser, Subcommand};
 
 use crate::metrics::pg2s::{GoalModels, Pg2sScorer, Pg2sSettings};
-use crate::metrics::{FramingParser, ModelError, SentenceEncoder};
+use crate::metrics::{ModelError, SentenceEncoder};
 use crate::models::Progress;
 use crate::nlp::embedding_cache::{stamped_identity, CachedEncoder};
 use crate::nlp::en::EnPipeline;
@@ -209,6 +209,17 @@ fn load_scorer(
     report: &dyn Fn(String),
     progress: &Progress,
 ) -> anyhow::Result<Pg2sScorer> {
+    Ok(load_models(args, settings, report, progress)?.0)
+}
+
+/// The PG2S scorer, and the English pipeline and word vectors it frames and
+/// compares with (the workbench corrupts plans with the same two).
+fn load_models(
+    args: &ModelArgs,
+    settings: Pg2sSettings,
+    report: &dyn Fn(String),
+    progress: &Progress,
+) -> anyhow::Result<(Pg2sScorer, Arc<EnPipeline>, Arc<WordVectorTable>)> {
     let dir = crate::models::models_dir(args.models_dir.as_deref());
     models::ensure_pack(&dir, report, progress)?;
     if args.paper {
@@ -219,15 +230,13 @@ fn load_scorer(
         let parser = s.spawn(|| load_parser(&dir));
         (joined(vectors), joined(parser))
     });
+    let (vectors, parser) = (Arc::new(vectors?), parser?);
     let goal = GoalModels {
-        vectors: Arc::new(vectors?),
-        parser: parser?,
+        vectors: vectors.clone(),
+        parser: parser.clone(),
     };
-    Ok(Pg2sScorer::new(
-        Arc::new(args.encoder(&dir, report)),
-        Ok(goal),
-        settings,
-    ))
+    let scorer = Pg2sScorer::new(Arc::new(args.encoder(&dir, report)), Ok(goal), settings);
+    Ok((scorer, parser, vectors))
 }
 
 /// The word vectors of `--vectors`, else the pack's GloVe.
@@ -248,7 +257,7 @@ fn load_vectors(args: &ModelArgs, dir: &Path) -> anyhow::Result<WordVectorTable>
 }
 
 /// The framing parser (the spaCy-compatible English pipeline).
-fn load_parser(dir: &Path) -> anyhow::Result<Arc<dyn FramingParser>> {
+fn load_parser(dir: &Path) -> anyhow::Result<Arc<EnPipeline>> {
     let path = crate::models::verified_model_path(dir, crate::models::EN_CORE_WEB_SM)?;
     Ok(Arc::new(EnPipeline::load(&path)?))
 }

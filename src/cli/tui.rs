@@ -12,8 +12,11 @@ use crate::agents::cache::ResponseCache;
 use crate::agents::config::ConfigFile;
 use crate::agents::prompts::PromptSet;
 use crate::agents::replay::Pace;
+use crate::corrupt::{user_vocabulary_dir, Vocabulary};
 use crate::metrics::pg2s::Pg2sSettings;
 use crate::workbench::agents::{prompt_texts, AgentsPipeline, ProviderConfig};
+use crate::workbench::corrupting::CorruptionModels;
+use crate::workbench::scoring::Loaded;
 use crate::workbench::{self, Options};
 
 /// Arguments of the workbench.
@@ -81,13 +84,25 @@ pub fn run(args: TuiArgs) -> anyhow::Result<ExitCode> {
         theme: args.theme,
         scorer: Box::new(move |progress: &dyn Fn(String)| {
             progress("loading the models".to_string());
-            super::load_scorer(
+            let (scorer, parser, vectors) = super::load_models(
                 &models,
                 Pg2sSettings::default(),
                 progress,
                 &crate::models::Progress::hidden(),
             )
-            .map_err(|e| format!("{e:#}"))
+            .map_err(|e| format!("{e:#}"))?;
+            // Without the vocabularies only the corruptions are off.
+            let vocabulary = Vocabulary::load(user_vocabulary_dir().as_deref());
+            Ok(Loaded {
+                scorer,
+                corruption: vocabulary
+                    .map(|vocabulary| CorruptionModels {
+                        parser,
+                        vectors,
+                        vocabulary: Arc::new(vocabulary),
+                    })
+                    .map_err(|e| e.to_string()),
+            })
         }),
         pipeline: Arc::new(pipeline),
         prompts: prompt_texts(&prompts),

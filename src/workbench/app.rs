@@ -387,6 +387,10 @@ impl App {
             Pane::Prompt => Some(Context::Prompt),
             _ => None,
         };
-        pane.into_iter().chain([Context::Panes]).collect()
+        let plan = (self.focus == Pane::Plan).then_some(Context::Plan);
+        plan.into_iter()
+            .chain(pane)
+            .chain([Context::Panes])
+            .collect()
     }
 }

@@ -11,6 +11,7 @@ use ratatui_image::picker::Picker;
 
 use super::agents::{run_blocking, Pipeline};
 use super::app::App;
+use super::corrupting::{corrupt_plan, CorruptionModels, STILL_LOADING};
 use super::message::{Cmd, Msg, ReadError};
 use super::scene_image;
 use super::scoring::{score_now, ModelSlot};
@@ -33,12 +34,26 @@ pub fn prepare_image(app: &mut App, picker: &Picker) {
 pub struct Headless<'a> {
     pipeline: &'a dyn Pipeline,
     models: ModelSlot,
+    corruption: Result<CorruptionModels, String>,
 }
 
 impl<'a> Headless<'a> {
     /// A runner of `pipeline`'s runs, scoring with `models`.
     pub fn new(pipeline: &'a dyn Pipeline, models: ModelSlot) -> Self {
-        Self { pipeline, models }
+        Self {
+            pipeline,
+            models,
+            corruption: Err(STILL_LOADING.to_string()),
+        }
+    }
+
+    /// The same runner corrupting plans with `models` (without, a
+    /// corruption says the models are still loading).
+    pub fn with_corruption(self, models: CorruptionModels) -> Self {
+        Self {
+            corruption: Ok(models),
+            ..self
+        }
     }
 
     /// Carries out `cmds` and every command their messages lead to, each
@@ -66,6 +81,13 @@ impl<'a> Headless<'a> {
                     vec![Msg::StepFile(path, text)]
                 }
                 Cmd::LoadImage(path) => vec![Msg::SceneImage(scene_image::read(&path))],
+                Cmd::Corrupt(request) => {
+                    let result = match &self.corruption {
+                        Ok(models) => corrupt_plan(models, &request),
+                        Err(reason) => Err(reason.clone()),
+                    };
+                    vec![Msg::Corrupted(result)]
+                }
             };
             for mut msg in msgs {
                 seen(&mut msg);

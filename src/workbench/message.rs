@@ -12,6 +12,7 @@ use ratatui_image::protocol::Protocol;
 use crate::agents::pipeline::AgentEvent;
 use crate::dataset::DatasetError;
 use crate::workbench::agents::RunRequest;
+use crate::workbench::corrupting::{CorruptRequest, Corrupted};
 use crate::workbench::scene_image::SceneImageError;
 use crate::workbench::scoring::{ModelSlot, ScoreOutcome, ScoreRequest};
 use crate::workbench::session::SessionError;
@@ -53,6 +54,8 @@ pub enum Msg {
     ImageReady(Rect, Result<Box<Protocol>, SceneImageError>),
     /// The session was saved, or why not.
     Saved(Result<(), SessionError>),
+    /// The plan was corrupted, or why not.
+    Corrupted(Result<Corrupted, String>),
     /// The process was asked to stop (a signal).
     Quit,
 }
@@ -70,4 +73,6 @@ pub enum Cmd {
     ReadStepFile(PathBuf),
     /// Read the scene image.
     LoadImage(PathBuf),
+    /// Corrupt the plan into a new run.
+    Corrupt(CorruptRequest),
 }

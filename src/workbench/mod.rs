@@ -13,6 +13,7 @@ pub mod agents;
 pub mod annotate;
 pub mod app;
 pub mod component;
+pub mod corrupting;
 pub mod editing;
 pub mod graph_layout;
 pub mod graph_view;

@@ -245,6 +245,7 @@ impl App {
             ground_truth: self.ground_truth.items.clone(),
             scores: None,
             cancelled,
+            corrupted: None,
         });
         let cmd = self.rescore();
         self.runs.awaiting_scores = Some((self.runs.history.len() - 1, self.score_generation));

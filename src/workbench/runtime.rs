@@ -29,6 +29,7 @@ use super::session::{Restored, Session, SessionError};
 use crate::agents::pipeline::AgentEvent;
 use crate::dataset::Dataset;
 
+use super::corrupting::{self, SharedCorruptionModels};
 use super::message::{Cmd, Msg, ReadError};
 use super::scene_image;
 use super::{headless, scoring, session};
@@ -97,6 +98,7 @@ struct Runtime {
     scores: watch::Sender<Option<scoring::ScoreRequest>>,
     pipeline: Arc<dyn Pipeline>,
     runs: HashMap<u64, JoinHandle<()>>,
+    corruption: SharedCorruptionModels,
 }
 
 impl Runtime {
@@ -135,6 +137,18 @@ impl Runtime {
                 let msgs = self.msgs.clone();
                 tokio::task::spawn_blocking(move || {
                     let _ = msgs.send(Msg::SceneImage(scene_image::read(&path)));
+                });
+            }
+            Cmd::Corrupt(request) => {
+                let models = self
+                    .corruption
+                    .read()
+                    .map(|slot| slot.clone())
+                    .unwrap_or_else(|p| p.into_inner().clone());
+                let msgs = self.msgs.clone();
+                tokio::task::spawn_blocking(move || {
+                    let result = models.and_then(|m| corrupting::corrupt_plan(&m, &request));
+                    let _ = msgs.send(Msg::Corrupted(result));
                 });
             }
         }
@@ -315,6 +329,8 @@ async fn run_async(options: Options) -> Result<(), TuiError> {
     let (score_tx, score_rx) = watch::channel(None);
     let (save_tx, save_rx) = watch::channel::<Option<Session>>(None);
     let models: SharedModels = Arc::new(RwLock::new(ModelSlot::Loading("starting".into())));
+    let corruption: SharedCorruptionModels =
+        Arc::new(RwLock::new(Err(corrupting::STILL_LOADING.to_string())));
 
     spawn_input_thread(msg_tx.clone());
     spawn_signal_watch(msg_tx.clone());
@@ -349,7 +365,7 @@ async fn run_async(options: Options) -> Result<(), TuiError> {
                 report(line);
             })
         });
-        scoring::spawn_loader(wrapped, models.clone(), done_tx);
+        scoring::spawn_loader(wrapped, models.clone(), corruption.clone(), done_tx);
         let msgs = msg_tx.clone();
         tokio::spawn(async move {
             if let Some(slot) = done_rx.recv().await {
@@ -365,6 +381,7 @@ async fn run_async(options: Options) -> Result<(), TuiError> {
         scores: score_tx,
         pipeline: options.pipeline,
         runs: HashMap::new(),
+        corruption,
     };
     for cmd in first_cmds {
         runtime.execute(&mut app, cmd);

@@ -7,6 +7,7 @@ use std::time::{Duration, Instant};
 
 use tokio::sync::{mpsc::UnboundedSender, watch};
 
+use super::corrupting::{CorruptionModels, SharedCorruptionModels};
 use crate::metrics::kas::{kas, KasReport};
 use crate::metrics::pg2s::{Pg2sReport, Pg2sScorer};
 
@@ -62,10 +63,18 @@ pub enum ModelSlot {
 /// The models slot shared by the loader, the worker and the app.
 pub type SharedModels = Arc<RwLock<ModelSlot>>;
 
+/// What the loader loads: the PG2S scorer and, in the types the Plan
+/// pane's corruptions need, the English pipeline and word vectors it holds.
+pub struct Loaded {
+    /// The scorer.
+    pub scorer: Pg2sScorer,
+    /// The same parser and vectors for corrupting plans, or why not.
+    pub corruption: Result<CorruptionModels, String>,
+}
+
 /// Loads the PG2S scorer; called on a blocking thread, reporting progress
 /// lines through the callback.
-pub type ScorerLoader =
-    Box<dyn FnOnce(&dyn Fn(String)) -> Result<Pg2sScorer, String> + Send + 'static>;
+pub type ScorerLoader = Box<dyn FnOnce(&dyn Fn(String)) -> Result<Loaded, String> + Send + 'static>;
 
 /// Scores one request now, with whatever models the slot holds.
 pub fn score_now(models: &ModelSlot, request: &ScoreRequest) -> ScoreOutcome {
@@ -113,8 +122,14 @@ pub async fn worker(
 }
 
 /// Loads the models on a blocking thread, keeping the slot's progress line
-/// current, and sends `done` the final slot.
-pub fn spawn_loader(loader: ScorerLoader, models: SharedModels, done: UnboundedSender<ModelSlot>) {
+/// current, puts the corruption models in `corruption`, and sends `done`
+/// the final slot.
+pub fn spawn_loader(
+    loader: ScorerLoader,
+    models: SharedModels,
+    corruption: SharedCorruptionModels,
+    done: UnboundedSender<ModelSlot>,
+) {
     tokio::task::spawn_blocking(move || {
         let progress_slot = models.clone();
         let progress = move |line: String| {
@@ -122,10 +137,13 @@ pub fn spawn_loader(loader: ScorerLoader, models: SharedModels, done: UnboundedS
                 *slot = ModelSlot::Loading(line);
             }
         };
-        let slot = match loader(&progress) {
-            Ok(scorer) => ModelSlot::Ready(Arc::new(scorer)),
-            Err(reason) => ModelSlot::Unavailable(reason),
+        let (slot, language) = match loader(&progress) {
+            Ok(loaded) => (ModelSlot::Ready(Arc::new(loaded.scorer)), loaded.corruption),
+            Err(reason) => (ModelSlot::Unavailable(reason.clone()), Err(reason)),
         };
+        if let Ok(mut shared) = corruption.write() {
+            *shared = language;
+        }
         if let Ok(mut shared) = models.write() {
             *shared = slot.clone();
         }

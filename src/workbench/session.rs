@@ -10,6 +10,7 @@ use std::path::{Path, PathBuf};
 use serde::{Deserialize, Serialize};
 
 use crate::agents::{AgentRole, Approach, Usage};
+use crate::dataset::Corruption;
 
 mod repair;
 
@@ -125,6 +126,20 @@ pub struct RunRecord {
     pub scores: Option<ScoreRecord>,
     /// Whether the user cancelled it.
     pub cancelled: bool,
+    /// Set when the run's plan was made by corrupting a plan (the Plan
+    /// pane's `c`), not by agents: where that plan came from and the edits.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub corrupted: Option<CorruptedFrom>,
+}
+
+/// A plan corrupted on purpose: the plan it was made from and what was
+/// changed, so the change can be checked and undone by hand.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+pub struct CorruptedFrom {
+    /// Where the source plan came from.
+    pub source: PlanSource,
+    /// The kind, the seed and the edits.
+    pub corruption: Corruption,
 }
 
 impl RunRecord {
@@ -617,6 +632,7 @@ mod tests {
                                 ..ScoreRecord::default()
                             }),
                             cancelled: image,
+                            corrupted: None,
                         }],
                         draft: draft.map(|(text, index)| Draft {
                             target: "plan".into(),

@@ -75,6 +75,7 @@ impl App {
                 self.scene.requested = None;
                 Vec::new()
             }
+            Msg::Corrupted(result) => self.on_corrupted(result),
             Msg::ImageReady(rect, encoded) => {
                 if self.scene.requested != Some(rect) {
                     // For an image or an area since replaced.
@@ -244,6 +245,7 @@ impl App {
                 }
             }
             Action::Actions => self.overlay = Some(Overlay::Actions),
+            Action::Corrupt => self.open_corrupt_picker(),
             Action::History => {
                 self.overlay = Some(Overlay::Runs {
                     selected: self.runs.history.len().saturating_sub(1),

@@ -16,6 +16,8 @@ pub enum Context {
     Always,
     /// Any pane, when no editor or overlay has the keyboard.
     Panes,
+    /// The Plan pane (beside the keys of the step lists).
+    Plan,
     /// The Plan and Ground Truth panes (step lists).
     Steps,
     /// The Knowledge Graph pane showing one node's neighbourhood.
@@ -181,6 +183,8 @@ pub enum Action {
     MarkRun,
     /// Compare the marked run with the highlighted one.
     CompareRuns,
+    /// Choose how to corrupt the plan into a new run.
+    Corrupt,
     /// Rate the plan on screen 1–5, save, and move on (annotation).
     Rate(u8),
     /// Prefer one plan of the pair, save, and move on (annotation).

@@ -167,6 +167,12 @@ pub(super) const WORKBENCH: &[Binding] = &[
         "move the selected step down or up",
     ),
     bind(
+        C::Plan,
+        &[(ch('c'), A::Corrupt)],
+        "c (plan)",
+        "corrupt the plan into a new run (choose how); it is scored at once",
+    ),
+    bind(
         C::Panes,
         &[(ch('p'), A::PublishedPlan)],
         "p",

@@ -2,6 +2,7 @@
 //! the model form, the run history and comparison, the framed actions.
 
 pub mod actions;
+pub mod corrupt;
 pub mod help;
 pub mod model_form;
 pub mod pickers;
@@ -60,6 +61,11 @@ pub enum Overlay {
     },
     /// The framed actions and their matches.
     Actions,
+    /// Choose how to corrupt the plan into a new run.
+    CorruptPicker {
+        /// The highlighted kind.
+        selected: usize,
+    },
 }
 
 impl Overlay {
@@ -68,7 +74,9 @@ impl Overlay {
     pub fn context(&self) -> Option<Context> {
         match self {
             Overlay::Help => None,
-            Overlay::GroundTruthPicker { .. } => Some(Context::Picker),
+            Overlay::GroundTruthPicker { .. } | Overlay::CorruptPicker { .. } => {
+                Some(Context::Picker)
+            }
             Overlay::StepFilePath(_) => Some(Context::PathPrompt),
             Overlay::ModelForm { .. } => Some(Context::ModelForm),
             Overlay::Runs { .. } => Some(Context::History),
@@ -106,6 +114,7 @@ impl App {
                 Vec::new()
             }
             Overlay::GroundTruthPicker { selected } => self.on_picker_key(selected, action),
+            Overlay::CorruptPicker { selected } => self.on_corrupt_picker_key(selected, action),
             Overlay::StepFilePath(editor) => self.on_path_key(editor, action, key),
             Overlay::ModelForm {
                 agent,
@@ -220,6 +229,7 @@ pub(crate) fn render_overlay(frame: &mut Frame, app: &App, area: Rect) {
         Overlay::Runs { selected, marked } => runs::draw(frame, app, area, *selected, *marked),
         Overlay::Compare { left, right } => runs::draw_compare(frame, app, area, *left, *right),
         Overlay::Actions => actions::draw(frame, app, area),
+        Overlay::CorruptPicker { selected } => corrupt::draw(frame, app, area, *selected),
     }
 }
 

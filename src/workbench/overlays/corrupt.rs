@@ -1,0 +1,163 @@
+//! The Plan pane's corruption picker (`c`): choose a kind, and the plan is
+//! corrupted on a blocking task into a new run, which is scored at once so
+//! the scores' reaction is seen.
+
+use ratatui::layout::Rect;
+use ratatui::text::{Line, Span};
+use ratatui::widgets::{Clear, Paragraph};
+use ratatui::Frame;
+
+use crate::corrupt::Kind;
+use crate::workbench::app::{unix_now, App, Severity};
+use crate::workbench::corrupting::{CorruptRequest, Corrupted};
+use crate::workbench::keymap::Action;
+use crate::workbench::message::Cmd;
+use crate::workbench::overlays::{centred, frame_box, moved, Overlay};
+use crate::workbench::session::{CorruptedFrom, PlanSource, RunRecord};
+
+/// What each kind does, as the picker says it.
+fn describe(kind: Kind) -> &'static str {
+    match kind {
+        Kind::ObjectSwap => "an object becomes another household object, in every step",
+        Kind::PlaceSwap => "a place or receptacle becomes another one, in every step",
+        Kind::VerbSwap => "a step's action becomes its opposite or a wrong one",
+        Kind::Reorder => "two different steps trade places",
+        Kind::Drop => "one step is removed",
+        Kind::Duplicate => "one step is repeated",
+        Kind::Insert => "a step of another task's plan is inserted",
+        Kind::Truncate => "the plan stops after half its steps",
+    }
+}
+
+impl App {
+    /// Opens the corruption picker, if there is a plan to corrupt.
+    pub(crate) fn open_corrupt_picker(&mut self) {
+        if self.plan.items.is_empty() {
+            self.set_status("the plan is empty: nothing to corrupt", Severity::Info);
+        } else if self.runs.active.is_some() {
+            self.set_status("a run is in flight: x cancels it", Severity::Warn);
+        } else {
+            self.overlay = Some(Overlay::CorruptPicker { selected: 0 });
+        }
+    }
+
+    /// A key of the corruption picker: Enter asks for the chosen kind.
+    pub(crate) fn on_corrupt_picker_key(
+        &mut self,
+        selected: usize,
+        action: Option<Action>,
+    ) -> Vec<Cmd> {
+        match action {
+            Some(Action::Accept) => {
+                if let Some(&kind) = Kind::ALL.get(selected) {
+                    return vec![Cmd::Corrupt(self.corrupt_request(kind))];
+                }
+            }
+            Some(Action::Leave) => {}
+            Some(Action::Move(delta)) => {
+                self.overlay = Some(Overlay::CorruptPicker {
+                    selected: moved(selected, delta, Kind::ALL.len()),
+                });
+            }
+            _ => self.overlay = Some(Overlay::CorruptPicker { selected }),
+        }
+        Vec::new()
+    }
+
+    /// The request for corrupting the plan with `kind` into the next run,
+    /// seeded by the number of runs so far.
+    fn corrupt_request(&mut self, kind: Kind) -> CorruptRequest {
+        let field = self.approach.dataset_field();
+        let others = self
+            .dataset
+            .iter()
+            .flat_map(|d| &d.tasks)
+            .filter(|t| self.task.id.as_deref() != Some(t.id.as_str()))
+            .map(|t| t.plans.get(field).unwrap_or(&t.ground_truth).clone())
+            .collect();
+        self.set_status(format!("corrupting the plan: {kind}…"), Severity::Info);
+        CorruptRequest {
+            run: self.runs.history.iter().map(|r| r.id).max().unwrap_or(0) + 1,
+            kind,
+            seed: self.runs.history.len() as u64,
+            plan: self.plan.items.clone(),
+            others,
+        }
+    }
+
+    /// A corruption finished: a new run with the corrupted plan, scored at
+    /// once; or one line saying why not.
+    pub(crate) fn on_corrupted(&mut self, result: Result<Corrupted, String>) -> Vec<Cmd> {
+        let corrupted = match result {
+            Ok(c) if c.source == self.plan.items && self.runs.active.is_none() => c,
+            Ok(_) => {
+                self.set_status(
+                    "the plan changed while it was being corrupted: c tries again",
+                    Severity::Warn,
+                );
+                return Vec::new();
+            }
+            Err(reason) => {
+                self.set_status(reason, Severity::Warn);
+                return Vec::new();
+            }
+        };
+        let c = &corrupted.corruption;
+        let words = c.words.as_ref().map_or_else(String::new, |w| {
+            let similarity = c
+                .similarity
+                .map_or_else(String::new, |s| format!(", similarity {s:.2}"));
+            format!(" ({} → {}{similarity})", w.from, w.to)
+        });
+        let status = format!(
+            "run {}: {} of the plan{words}, {} step(s) edited",
+            corrupted.run,
+            c.kind,
+            c.edits.len()
+        );
+        self.runs.history.push(RunRecord {
+            id: corrupted.run,
+            started_unix: unix_now(),
+            approach: self.approach,
+            task: self.task.text.clone(),
+            agents: Vec::new(),
+            plan: corrupted.plan.clone(),
+            ground_truth: self.ground_truth.items.clone(),
+            scores: None,
+            cancelled: false,
+            corrupted: Some(CorruptedFrom {
+                source: self.plan_source.clone(),
+                corruption: corrupted.corruption,
+            }),
+        });
+        self.plan.items = corrupted.plan;
+        self.plan.selected = 0;
+        self.plan_source = PlanSource::Run { run: corrupted.run };
+        let cmd = self.rescore();
+        self.runs.awaiting_scores = Some((self.runs.history.len() - 1, self.score_generation));
+        self.set_status(status, Severity::Info);
+        vec![cmd]
+    }
+}
+
+/// Draws the corruption picker: each kind and what it does.
+pub(crate) fn draw(frame: &mut Frame, app: &App, area: Rect, selected: usize) {
+    let t = &app.theme;
+    let lines: Vec<Line> = Kind::ALL
+        .iter()
+        .enumerate()
+        .map(|(i, &kind)| {
+            let style = if i == selected { t.selection } else { t.base };
+            Line::from(vec![
+                Span::styled(format!("{:<12}", kind.name()), style),
+                Span::styled(describe(kind), if i == selected { style } else { t.muted }),
+            ])
+        })
+        .collect();
+    let rect = centred(area, 80, lines.len() as u16 + 2);
+    frame.render_widget(Clear, rect);
+    frame.render_widget(
+        Paragraph::new(lines).block(frame_box(app, "Corrupt the plan into a new run")),
+        rect,
+    );
+}
