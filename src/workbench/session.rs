@@ -510,6 +510,7 @@ mod tests {
             ground_truth: vec!["Wash the mug.".into()],
             scores: None,
             cancelled: false,
+            corrupted: None,
         });
         save(&path, &saved).unwrap();
         let mut json: serde_json::Value =
