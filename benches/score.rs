@@ -1,7 +1,10 @@
 //! Scoring one 6×10 plan pair with PG2S and KAS: cold (nothing cached, models
 //! loaded) and warm (the same pair scored before, then one step edited), and
-//! 40 golden pairs as `score --pairs` does them. Compare with
-//! `scripts/bench_reference.py MODELS pair` and `... pairs40`.
+//! 40 golden pairs as `score --pairs` does them: in memory, and through the
+//! embedding store of `$XDG_CACHE_HOME/mapvlm/embeddings` cold (an empty
+//! store) and warm (every sentence stored by an earlier run; the encoder is
+//! never called). Compare with `scripts/bench_reference.py MODELS pair` and
+//! `... pairs40`; `scripts/bench` also times whole processes.
 
 use std::path::PathBuf;
 use std::sync::Arc;
@@ -9,10 +12,13 @@ use std::sync::Arc;
 use criterion::{criterion_group, criterion_main, BatchSize, Criterion};
 use mapvlm::metrics::kas::kas;
 use mapvlm::metrics::pg2s::{GoalModels, Pg2sScorer, Pg2sSettings};
+use mapvlm::metrics::SentenceEncoder;
 use mapvlm::models::{models_dir, EN_CORE_WEB_SM, GLOVE_6B_50D, MPNET};
+use mapvlm::nlp::embedding_cache::CachedEncoder;
 use mapvlm::nlp::en::EnPipeline;
-use mapvlm::nlp::mpnet::MpnetEncoder;
+use mapvlm::nlp::mpnet::{MpnetEncoder, MpnetOptions};
 use mapvlm::nlp::wordvec::WordVectorTable;
+use mapvlm::store::DiskStore;
 
 struct Models {
     dir: PathBuf,
@@ -41,6 +47,40 @@ fn scorer(models: &Models) -> Pg2sScorer {
         Ok(models.goal.clone()),
         Pg2sSettings::default(),
     )
+}
+
+/// A scorer whose sentences go through the embedding store in `dir`, as a
+/// new `score` process's do; `network` embeds the misses (`None`: a miss
+/// is an error, so a warm run provably never encodes).
+fn stored_scorer(
+    models: &Models,
+    dir: &std::path::Path,
+    network: Option<Arc<dyn SentenceEncoder>>,
+) -> Pg2sScorer {
+    let store = DiskStore::new(dir, 1 << 30);
+    let encoder = CachedEncoder::new(
+        Some((store, "bench-model".to_string())),
+        Box::new(move || network.clone().ok_or_else(|| "a warm run encoded".into())),
+    );
+    Pg2sScorer::new(
+        Arc::new(encoder),
+        Ok(models.goal.clone()),
+        Pg2sSettings::default(),
+    )
+}
+
+/// Scores `pairs` as `score --pairs` does: every step warmed up in one
+/// batch, then each pair.
+fn score_all(s: &Pg2sScorer, pairs: &[(Vec<String>, Vec<String>)]) {
+    let steps: Vec<&str> = pairs
+        .iter()
+        .flat_map(|(g, p)| g.iter().chain(p))
+        .map(String::as_str)
+        .collect();
+    s.warm_up(&steps).unwrap_or_else(|e| panic!("{e}"));
+    for (g, p) in pairs {
+        s.score(g, p).unwrap_or_else(|e| panic!("{e}"));
+    }
 }
 
 fn golden_pairs() -> Vec<(Vec<String>, Vec<String>)> {
@@ -113,17 +153,40 @@ fn bench(c: &mut Criterion) {
     group.bench_function("batched and cached, models loaded", |b| {
         b.iter_batched(
             || scorer(&models),
-            |s| {
-                let steps: Vec<&str> = forty
-                    .iter()
-                    .flat_map(|(g, p)| g.iter().chain(p))
-                    .map(String::as_str)
-                    .collect();
-                s.warm_up(&steps).unwrap_or_else(|e| panic!("{e}"));
-                for (g, p) in forty {
-                    s.score(g, p).unwrap_or_else(|e| panic!("{e}"));
-                }
+            |s| score_all(&s, forty),
+            BatchSize::PerIteration,
+        )
+    });
+    let network: Arc<dyn SentenceEncoder> = Arc::new(
+        MpnetEncoder::load_with(
+            &models.dir.join(MPNET),
+            MpnetOptions {
+                cache: false,
+                ..MpnetOptions::default()
             },
+        )
+        .unwrap_or_else(|e| panic!("{e}")),
+    );
+    group.bench_function("embedding store cold (empty)", |b| {
+        b.iter_batched(
+            || {
+                let dir = tempfile::tempdir().unwrap_or_else(|e| panic!("{e}"));
+                let s = stored_scorer(&models, dir.path(), Some(Arc::clone(&network)));
+                (dir, s)
+            },
+            |(_dir, s)| score_all(&s, forty),
+            BatchSize::PerIteration,
+        )
+    });
+    let warm = tempfile::tempdir().unwrap_or_else(|e| panic!("{e}"));
+    score_all(
+        &stored_scorer(&models, warm.path(), Some(Arc::clone(&network))),
+        forty,
+    );
+    group.bench_function("embedding store warm (never encodes)", |b| {
+        b.iter_batched(
+            || stored_scorer(&models, warm.path(), None),
+            |s| score_all(&s, forty),
             BatchSize::PerIteration,
         )
     });

@@ -117,3 +117,40 @@ async fn recorded_session_gives_triples_a_description_and_steps() {
     assert_eq!(record.steps[0], "Walk forward to the vanity.");
     assert!(record.steps.iter().all(|s| s.ends_with('.')));
 }
+
+#[test]
+fn a_runner_prepares_a_tasks_image_once_for_every_stage() {
+    let dir = tempfile::tempdir().unwrap();
+    let image = dir.path().join("scene.jpg");
+    std::fs::copy(input().image.unwrap(), &image).unwrap();
+    let task = PlanInput {
+        image: Some(image.clone()),
+        ..input()
+    };
+    let runner = || {
+        Runner::new(
+            paper_settings("http://unreachable.invalid/v1"),
+            PromptSet::load(None).unwrap(),
+            Source::Live,
+        )
+    };
+    let sent = |stage: mapvlm::agents::pipeline::Stage| -> Vec<String> {
+        stage
+            .requests
+            .iter()
+            .flat_map(|r| r.request.images.iter().map(|i| i.sha256.clone()))
+            .collect()
+    };
+    let first = runner();
+    let estimate = sent(first.next_stage(Approach::MultiImage, &task).unwrap());
+    assert_eq!(estimate.len(), 2, "SKM and GKM see the scene");
+    // The file is no image any more: the runner that prepared it does not
+    // read it again, a new one does and refuses.
+    std::fs::write(&image, b"not an image").unwrap();
+    let round = sent(first.next_stage(Approach::MultiImage, &task).unwrap());
+    assert_eq!(round, estimate);
+    let fresh = runner()
+        .next_stage(Approach::MultiImage, &task)
+        .unwrap_err();
+    assert!(fresh.to_string().contains("scene.jpg"), "{fresh}");
+}

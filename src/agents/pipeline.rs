@@ -3,9 +3,9 @@
 //! as events, answers taken from the cache when unchanged, and everything
 //! gathered in one record.
 
-use std::collections::BTreeMap;
-use std::path::PathBuf;
-use std::sync::{Arc, Mutex};
+use std::collections::{BTreeMap, HashMap};
+use std::path::{Path, PathBuf};
+use std::sync::{Arc, Mutex, PoisonError};
 use std::time::Instant;
 
 use serde::{Deserialize, Serialize};
@@ -185,7 +185,13 @@ pub struct Runner {
     cache: Option<ResponseCache>,
     recorder: Option<Arc<Mutex<Recording>>>,
     answers: Option<(Arc<Recording>, Pace)>,
+    images: Arc<Mutex<HashMap<PathBuf, ImageInput>>>,
 }
+
+/// The encoded bytes of prepared images a runner keeps (see
+/// [`Runner::image`]); past this it starts afresh, so memory stays bounded
+/// however many tasks one runner plans.
+const PREPARED_IMAGE_BYTES: usize = 256 << 20;
 
 struct Prepared<'a> {
     approach: Approach,
@@ -203,6 +209,7 @@ impl Runner {
             cache: None,
             recorder: None,
             answers: None,
+            images: Arc::default(),
         }
     }
 
@@ -311,7 +318,7 @@ impl Runner {
                 .image
                 .as_deref()
                 .ok_or_else(|| missing(approach, "an image (--image FILE)"))?;
-            images.push(prepare_image(path, self.settings.max_image_edge)?);
+            images.push(self.image(path)?);
         } else {
             let path = input
                 .table
@@ -327,6 +334,24 @@ impl Runner {
             values,
             images,
         })
+    }
+
+    /// The image at `path` as sent: read, checked, downscaled and encoded
+    /// once per runner, so that a task's estimate, each provider-batch round
+    /// and its plan do not prepare it again (up to [`PREPARED_IMAGE_BYTES`]
+    /// of images are kept).
+    fn image(&self, path: &Path) -> Result<ImageInput, AgentError> {
+        let mut images = self.images.lock().unwrap_or_else(PoisonError::into_inner);
+        if let Some(image) = images.get(path) {
+            return Ok(image.clone());
+        }
+        let image = prepare_image(path, self.settings.max_image_edge)?;
+        let kept: usize = images.values().map(|i| i.data_base64.len()).sum();
+        if kept + image.data_base64.len() > PREPARED_IMAGE_BYTES {
+            images.clear();
+        }
+        images.insert(path.to_path_buf(), image.clone());
+        Ok(image)
     }
 
     fn request(
