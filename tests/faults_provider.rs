@@ -508,7 +508,7 @@ async fn malformed_base_urls_and_numbers_are_refused_before_any_request() {
     let home = tempfile::tempdir().unwrap();
     let server = planning_server().await;
     let base = base_url(&server, ProviderKind::Openai);
-    let cases: [(&str, &[&str], &str); 13] = [
+    let cases: [(&str, &[&str], &str); 14] = [
         ("localhost:8000/v1", &[], "not http or https"),
         ("http//localhost/v1", &[], "is not a URL"),
         (
@@ -516,7 +516,7 @@ async fn malformed_base_urls_and_numbers_are_refused_before_any_request() {
             &["--timeout", "1e30"],
             "timeout 1000000000000000000000000000000",
         ),
-        (&base, &["--timeout=-3"], "give a number of seconds"),
+        (&base, &["--timeout", "-3"], "give a number of seconds"),
         (&base, &["--timeout", "NaN"], "give a number of seconds"),
         (
             &base,
@@ -540,7 +540,7 @@ async fn malformed_base_urls_and_numbers_are_refused_before_any_request() {
         ),
         (
             &base,
-            &["--temperature=-0.5"],
+            &["--temperature", "-0.5"],
             "temperature -0.5 is outside 0..=2",
         ),
         (
@@ -549,6 +549,11 @@ async fn malformed_base_urls_and_numbers_are_refused_before_any_request() {
             "planner: temperature inf is outside 0..=2",
         ),
         (&base, &["--max-cost", "NaN"], "--max-cost NaN"),
+        (
+            &base,
+            &["--max-cost", "-1"],
+            "--max-cost -1: give a number of US dollars",
+        ),
         (&base, &["--max-image-edge", "0"], "max image edge 0"),
     ];
     for (url, extra, needle) in cases {

@@ -40,13 +40,28 @@ pub struct AgreeArgs {
     #[arg(long, value_name = "FILE.svg|FILE.png")]
     pub plot: Option<PathBuf>,
     /// Bootstrap resamples for the 95% intervals.
-    #[arg(long, default_value_t = 1000, value_name = "N")]
+    #[arg(
+        long,
+        allow_negative_numbers = true,
+        default_value_t = 1000,
+        value_name = "N"
+    )]
     pub bootstrap: usize,
     /// Permutations of the PG2S-against-KAS test.
-    #[arg(long, default_value_t = 1000, value_name = "N")]
+    #[arg(
+        long,
+        allow_negative_numbers = true,
+        default_value_t = 1000,
+        value_name = "N"
+    )]
     pub permutations: usize,
     /// Seed of the bootstrap and permutation streams (ChaCha20).
-    #[arg(long, default_value_t = 0, value_name = "N")]
+    #[arg(
+        long,
+        allow_negative_numbers = true,
+        default_value_t = 0,
+        value_name = "N"
+    )]
     pub seed: u64,
     /// Model settings, for scoring the items without --scores.
     #[command(flatten)]

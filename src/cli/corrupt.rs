@@ -30,7 +30,12 @@ pub struct CorruptArgs {
     #[arg(long, value_name = "K,K,...", value_delimiter = ',')]
     pub kinds: Vec<Kind>,
     /// The seed of every draw; with the item id and the kind it fixes the corruption.
-    #[arg(long, value_name = "N", default_value_t = 0)]
+    #[arg(
+        long,
+        allow_negative_numbers = true,
+        value_name = "N",
+        default_value_t = 0
+    )]
     pub seed: u64,
     /// The items file to write (every original item, then its corruptions).
     #[arg(long, value_name = "FILE")]

@@ -48,7 +48,12 @@ pub struct EvalArgs {
     #[arg(long, value_enum, value_delimiter = ',')]
     pub metrics: Vec<Metric>,
     /// How many plans are made at once.
-    #[arg(long, default_value_t = 4, value_name = "N")]
+    #[arg(
+        long,
+        allow_negative_numbers = true,
+        default_value_t = 4,
+        value_name = "N"
+    )]
     pub concurrency: usize,
     /// Model settings for PG2S.
     #[command(flatten)]

@@ -32,7 +32,12 @@ pub struct BatchArgs {
     pub batch: bool,
     /// Seconds between two polls of a batch (default 30, or batch_poll_secs
     /// in the config file).
-    #[arg(long, value_name = "SECS", requires = "batch")]
+    #[arg(
+        long,
+        allow_negative_numbers = true,
+        value_name = "SECS",
+        requires = "batch"
+    )]
     pub poll_interval: Option<f64>,
 }
 

@@ -116,7 +116,7 @@ pub struct ModelArgs {
     #[arg(long)]
     pub no_embedding_cache: bool,
     /// The embedding cache's size bound in MB; the least recently used entries go first.
-    #[arg(long, env = "MAPVLM_CACHE_MAX_MB", value_name = "MB", default_value_t = crate::store::DEFAULT_MAX_BYTES >> 20,
+    #[arg(long, allow_negative_numbers = true, env = "MAPVLM_CACHE_MAX_MB", value_name = "MB", default_value_t = crate::store::DEFAULT_MAX_BYTES >> 20,
           value_parser = clap::value_parser!(u64).range(1..=crate::store::MAX_CACHE_MB))]
     pub cache_max_mb: u64,
 }
@@ -170,7 +170,12 @@ pub struct ShardArgs {
     #[arg(long, value_name = "I/N|auto")]
     pub shard: Option<String>,
     /// N for `--shard auto` in a Kubernetes Indexed Job (its `completions`).
-    #[arg(long, env = "MAPVLM_SHARD_COUNT", value_name = "N")]
+    #[arg(
+        long,
+        allow_negative_numbers = true,
+        env = "MAPVLM_SHARD_COUNT",
+        value_name = "N"
+    )]
     pub shard_count: Option<u64>,
 }
 

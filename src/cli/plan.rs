@@ -37,10 +37,10 @@ pub struct AgentArgs {
     #[arg(long, value_name = "NAME")]
     pub model: Option<String>,
     /// The temperature of every agent (default 0, as in the paper).
-    #[arg(long, value_name = "T")]
+    #[arg(long, allow_negative_numbers = true, value_name = "T")]
     pub temperature: Option<f64>,
     /// The token limit of every agent.
-    #[arg(long, value_name = "N")]
+    #[arg(long, allow_negative_numbers = true, value_name = "N")]
     pub max_tokens: Option<u32>,
     /// One agent's setting, ROLE.FIELD=VALUE (roles: skm, gkm, planner, single;
     /// fields: provider, base_url, model, temperature, max_tokens, stream, json_output).
@@ -50,10 +50,10 @@ pub struct AgentArgs {
     #[arg(long)]
     pub no_stream: bool,
     /// Longest image edge sent, in pixels (default 1024).
-    #[arg(long, value_name = "PIXELS")]
+    #[arg(long, allow_negative_numbers = true, value_name = "PIXELS")]
     pub max_image_edge: Option<u32>,
     /// Longest wait for one answer, in seconds (default 180).
-    #[arg(long, value_name = "SECS")]
+    #[arg(long, allow_negative_numbers = true, value_name = "SECS")]
     pub timeout: Option<f64>,
     /// A folder of prompt templates overriding the shipped ones
     /// (default: $XDG_CONFIG_HOME/mapvlm/prompts).
@@ -77,7 +77,7 @@ pub struct AgentArgs {
     pub instant: bool,
     /// Refuse to send anything when the estimated cost exceeds USD dollars
     /// (prices from [prices] in the config file).
-    #[arg(long, value_name = "USD")]
+    #[arg(long, allow_negative_numbers = true, value_name = "USD")]
     pub max_cost: Option<f64>,
 }
 

@@ -50,13 +50,13 @@ pub struct ScoreArgs {
     #[arg(long)]
     pub no_cache: bool,
     /// A sentence match needs a cosine strictly above this.
-    #[arg(long, default_value_t = Pg2sSettings::default().sentence_threshold)]
+    #[arg(long, allow_negative_numbers = true, default_value_t = Pg2sSettings::default().sentence_threshold)]
     pub sentence_threshold: f64,
     /// A verb match needs a similarity above this; nouns agree at or above it.
-    #[arg(long, default_value_t = Pg2sSettings::default().word_threshold)]
+    #[arg(long, allow_negative_numbers = true, default_value_t = Pg2sSettings::default().word_threshold)]
     pub word_threshold: f64,
     /// The weight of S_goal in PG2S.
-    #[arg(long, default_value_t = Pg2sSettings::default().alpha)]
+    #[arg(long, allow_negative_numbers = true, default_value_t = Pg2sSettings::default().alpha)]
     pub alpha: f64,
     /// Which pairs of `--pairs` this process scores.
     #[command(flatten)]
