@@ -86,6 +86,10 @@ pub struct AgentRecord {
     pub duration_ms: u64,
     /// Token use.
     pub usage: Usage,
+    /// Whether its answer came from the response cache or the demo's
+    /// recording, so that it cost nothing (absent in older sessions: paid).
+    #[serde(default)]
+    pub cached: bool,
     /// Why it failed, when it did.
     pub error: Option<String>,
 }
