@@ -27,6 +27,10 @@ const TEMP_PREFIX: &str = ".tmp";
 /// The default size bound of a store: 2 GiB.
 pub const DEFAULT_MAX_BYTES: u64 = 2 << 30;
 
+/// The largest cache size bound a user may set, in MB (1 TiB): larger
+/// bounds are surely typing mistakes, and would overflow in bytes.
+pub const MAX_CACHE_MB: u64 = 1 << 20;
+
 /// The user's cache folder for mapvlm: `$XDG_CACHE_HOME/mapvlm`, else
 /// `$HOME/.cache/mapvlm`, else `.cache/mapvlm` in the current folder.
 pub fn user_cache_root() -> PathBuf {

@@ -222,6 +222,46 @@ fn out_of_range_score_thresholds_are_refused() {
 }
 
 #[test]
+fn cache_sizes_and_delays_out_of_range_are_refused_naming_the_range() {
+    let cases: [(&[&str], &str); 6] = [
+        (
+            &["score", "--metrics", "kas", "--cache-max-mb", "0"],
+            "0 is not in 1..=1048576",
+        ),
+        (
+            &[
+                "score",
+                "--metrics",
+                "kas",
+                "--cache-max-mb",
+                "18446744073709551615",
+            ],
+            "18446744073709551615 is not in 1..=1048576",
+        ),
+        (
+            &["score", "--metrics", "kas", "--cache-max-mb=-1"],
+            "--cache-max-mb",
+        ),
+        (
+            &["cache", "prune", "--max-mb", "1048577"],
+            "1048577 is not in 0..=1048576",
+        ),
+        (
+            &["tui", "--replay-delay", "10001"],
+            "10001 is not in 0..=10000",
+        ),
+        (&["tui", "--replay-delay", "1e300"], "--replay-delay"),
+    ];
+    for (args, needle) in cases {
+        let out = mapvlm(args);
+        no_panic(&out);
+        assert!(!out.status.success(), "{args:?}");
+        let first = stderr(&out).lines().next().unwrap_or_default().to_string();
+        assert!(first.contains(needle), "{args:?}: {}", stderr(&out));
+    }
+}
+
+#[test]
 fn a_model_pack_path_that_is_a_file_is_one_clear_line() {
     let dir = tempfile::tempdir().unwrap_or_else(|e| panic!("{e}"));
     let file = write(dir.path(), "pack", b"x");

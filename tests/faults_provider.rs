@@ -509,7 +509,7 @@ async fn malformed_base_urls_and_numbers_are_refused_before_any_request() {
     let home = tempfile::tempdir().unwrap();
     let server = planning_server().await;
     let base = base_url(&server, ProviderKind::Openai);
-    let cases: [(&str, &[&str], &str); 7] = [
+    let cases: [(&str, &[&str], &str); 13] = [
         ("localhost:8000/v1", &[], "not http or https"),
         ("http//localhost/v1", &[], "is not a URL"),
         (
@@ -519,7 +519,37 @@ async fn malformed_base_urls_and_numbers_are_refused_before_any_request() {
         ),
         (&base, &["--timeout=-3"], "give a number of seconds"),
         (&base, &["--timeout", "NaN"], "give a number of seconds"),
-        (&base, &["--max-tokens", "0"], "max_tokens 0"),
+        (
+            &base,
+            &["--max-tokens", "0"],
+            "max_tokens 0 is outside 1..=1000000",
+        ),
+        (
+            &base,
+            &["--max-tokens", "4294967295"],
+            "max_tokens 4294967295 is outside 1..=1000000",
+        ),
+        (
+            &base,
+            &["--temperature", "1e300"],
+            "temperature 1e300 is outside 0..=2",
+        ),
+        (
+            &base,
+            &["--temperature", "NaN"],
+            "temperature NaN is outside 0..=2",
+        ),
+        (
+            &base,
+            &["--temperature=-0.5"],
+            "temperature -0.5 is outside 0..=2",
+        ),
+        (
+            &base,
+            &["--agent", "planner.temperature=inf"],
+            "planner: temperature inf is outside 0..=2",
+        ),
+        (&base, &["--max-cost", "NaN"], "--max-cost NaN"),
         (&base, &["--max-image-edge", "0"], "max image edge 0"),
     ];
     for (url, extra, needle) in cases {

@@ -44,8 +44,9 @@ pub struct AgentLayer {
     /// The API key (config file or environment only).
     #[serde(default, deserialize_with = "secret_field")]
     pub api_key: Option<Secret>,
-    /// Sampling temperature.
-    pub temperature: Option<f32>,
+    /// Sampling temperature (checked against [`TEMPERATURE_RANGE`] once
+    /// the layers are merged; kept wide so a refusal names the value given).
+    pub temperature: Option<f64>,
     /// Most tokens to write.
     pub max_tokens: Option<u32>,
     /// Whether to stream the answer.
@@ -270,20 +271,16 @@ impl Settings {
                 .then(&from_env)
                 .then(&flags.all)
                 .then(&from_flags);
-            let temperature = merged.temperature.unwrap_or(0.0);
-            if !(0.0..=2.0).contains(&temperature) {
-                return Err(ConfigError::Invalid(format!(
-                    "{role}: temperature {temperature} is outside 0..=2"
-                )));
-            }
+            let temperature = check_temperature(
+                &format!("{role}: temperature"),
+                merged.temperature.unwrap_or(0.0),
+            )?;
             let base_url = merged.base_url.unwrap_or_else(|| default_url.to_string());
             check_base_url(role, &base_url)?;
-            let max_tokens = merged.max_tokens.unwrap_or(1024);
-            if max_tokens == 0 {
-                return Err(ConfigError::Invalid(format!(
-                    "{role}: max_tokens 0: give at least 1"
-                )));
-            }
+            let max_tokens = check_max_tokens(
+                &format!("{role}: max_tokens"),
+                u64::from(merged.max_tokens.unwrap_or(DEFAULT_MAX_TOKENS)),
+            )?;
             agents.insert(
                 role,
                 AgentSettings {
@@ -328,6 +325,41 @@ impl Settings {
             max_image_edge,
         })
     }
+}
+
+/// The temperatures a user may set: what the providers accept.
+pub const TEMPERATURE_RANGE: std::ops::RangeInclusive<f64> = 0.0..=2.0;
+/// The token limits a user may set: at least one token, and no more than a
+/// million (more than any model writes in one answer).
+pub const MAX_TOKENS_RANGE: std::ops::RangeInclusive<u32> = 1..=1_000_000;
+/// The token limit when none is set.
+pub const DEFAULT_MAX_TOKENS: u32 = 1024;
+
+/// Checks a sampling temperature, naming it as `what` when it is refused.
+pub fn check_temperature(what: &str, value: f64) -> Result<f32, ConfigError> {
+    if !TEMPERATURE_RANGE.contains(&value) {
+        return Err(ConfigError::Invalid(format!(
+            "{what} {value:?} is outside {}..={}: give a sampling temperature in that range",
+            TEMPERATURE_RANGE.start(),
+            TEMPERATURE_RANGE.end()
+        )));
+    }
+    // In range, so exactly the f32 nearest the value.
+    Ok(value as f32)
+}
+
+/// Checks a token limit, naming it as `what` when it is refused.
+pub fn check_max_tokens(what: &str, value: u64) -> Result<u32, ConfigError> {
+    u32::try_from(value)
+        .ok()
+        .filter(|n| MAX_TOKENS_RANGE.contains(n))
+        .ok_or_else(|| {
+            ConfigError::Invalid(format!(
+                "{what} {value} is outside {}..={}: give a number of tokens in that range",
+                MAX_TOKENS_RANGE.start(),
+                MAX_TOKENS_RANGE.end()
+            ))
+        })
 }
 
 /// The longest wait for an answer a user may set: a day.

@@ -31,9 +31,10 @@ pub struct Guidelines {
 /// Why a guidelines file cannot be used.
 #[derive(Debug, thiserror::Error)]
 pub enum GuidelinesError {
-    /// Missing, unreadable or not UTF-8.
+    /// Missing, unreadable or not UTF-8 (the message is the reader's, whole:
+    /// not also a source, so an error chain does not say it twice).
     #[error("guidelines: {0}")]
-    Read(#[from] DatasetError),
+    Read(DatasetError),
     /// Valid UTF-8 that is still not text (a NUL or other control byte).
     #[error("guidelines {origin}: not a text file (control byte at offset {offset}); give a plain text file")]
     NotText {
@@ -65,7 +66,7 @@ impl Guidelines {
 
     /// Reads a guidelines file.
     pub fn load(path: &Path) -> Result<Guidelines, GuidelinesError> {
-        let text = read_text(path)?;
+        let text = read_text(path).map_err(GuidelinesError::Read)?;
         Guidelines::parse(&text, &path.display().to_string())
     }
 

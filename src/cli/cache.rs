@@ -28,7 +28,8 @@ pub enum CacheAction {
     /// Evict the least recently used embeddings until the cache fits in MB.
     Prune {
         /// The size to keep, in MB.
-        #[arg(long, env = "MAPVLM_CACHE_MAX_MB", value_name = "MB", default_value_t = crate::store::DEFAULT_MAX_BYTES >> 20)]
+        #[arg(long, env = "MAPVLM_CACHE_MAX_MB", value_name = "MB", default_value_t = crate::store::DEFAULT_MAX_BYTES >> 20,
+              value_parser = clap::value_parser!(u64).range(0..=crate::store::MAX_CACHE_MB))]
         max_mb: u64,
     },
     /// Remove every entry of a cache.

@@ -116,7 +116,8 @@ pub struct ModelArgs {
     #[arg(long)]
     pub no_embedding_cache: bool,
     /// The embedding cache's size bound in MB; the least recently used entries go first.
-    #[arg(long, env = "MAPVLM_CACHE_MAX_MB", value_name = "MB", default_value_t = crate::store::DEFAULT_MAX_BYTES >> 20)]
+    #[arg(long, env = "MAPVLM_CACHE_MAX_MB", value_name = "MB", default_value_t = crate::store::DEFAULT_MAX_BYTES >> 20,
+          value_parser = clap::value_parser!(u64).range(1..=crate::store::MAX_CACHE_MB))]
     pub cache_max_mb: u64,
 }
 

@@ -38,7 +38,7 @@ pub struct AgentArgs {
     pub model: Option<String>,
     /// The temperature of every agent (default 0, as in the paper).
     #[arg(long, value_name = "T")]
-    pub temperature: Option<f32>,
+    pub temperature: Option<f64>,
     /// The token limit of every agent.
     #[arg(long, value_name = "N")]
     pub max_tokens: Option<u32>,

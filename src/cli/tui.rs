@@ -36,8 +36,8 @@ pub struct TuiArgs {
     /// (for slow links and terminals that answer queries badly).
     #[arg(long)]
     pub halfblocks: bool,
-    /// Milliseconds between two words of a replayed recording.
-    #[arg(long, default_value_t = 12, value_name = "MS")]
+    /// Milliseconds between two words of a replayed recording (at most 10000).
+    #[arg(long, default_value_t = 12, value_name = "MS", value_parser = clap::value_parser!(u64).range(0..=10_000))]
     pub replay_delay: u64,
     /// The config file with providers and keys (default:
     /// $XDG_CONFIG_HOME/mapvlm/config.toml).

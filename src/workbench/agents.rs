@@ -290,7 +290,7 @@ impl AgentsPipeline {
                 AgentLayer {
                     provider: Some(provider),
                     model: Some(chosen.model.clone()),
-                    temperature: Some(chosen.temperature),
+                    temperature: Some(f64::from(chosen.temperature)),
                     max_tokens: Some(chosen.max_tokens),
                     ..AgentLayer::default()
                 },

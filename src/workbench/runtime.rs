@@ -251,7 +251,18 @@ fn load_start(
     let path = options.session.clone().or_else(session::default_path);
     let restored = match &path {
         Some(p) => match session::restore(p) {
-            Ok(Restored::Loaded(s)) => Some(*s),
+            Ok(Restored::Loaded { session, repaired }) => {
+                if let Some(first) = repaired.first() {
+                    notices.push(match repaired.len() {
+                        1 => first.clone(),
+                        n => format!(
+                            "{first} (and {} more values put back to their defaults)",
+                            n - 1
+                        ),
+                    });
+                }
+                Some(*session)
+            }
             Ok(Restored::Fresh) => None,
             Ok(Restored::SetAside { moved_to, reason }) => {
                 notices.push(format!(

@@ -12,6 +12,8 @@ use serde::{Deserialize, Serialize};
 use crate::agents::{AgentRole, Approach, Usage};
 use crate::dataset::Corruption;
 
+mod repair;
+
 /// The format version written into every session file.
 pub const SESSION_VERSION: u32 = 2;
 
@@ -249,7 +251,13 @@ pub enum Restored {
     /// No session file yet.
     Fresh,
     /// The session was read.
-    Loaded(Box<Session>),
+    Loaded {
+        /// The session.
+        session: Box<Session>,
+        /// The values that were out of range and put back to their
+        /// defaults, one notice each (see [`decode`]).
+        repaired: Vec<String>,
+    },
     /// The file could not be read as a session; it was moved aside.
     SetAside {
         /// Where the bad file now is.
@@ -347,12 +355,18 @@ fn v1_to_v2(value: &mut serde_json::Value) {
 }
 
 /// The session in the bytes of a session file, brought up to this version
-/// ([`migrate`]), or why they are not one: the part of [`restore`] that
-/// reads, kept apart from the file so that it can be checked on any bytes.
-pub fn decode(bytes: &[u8]) -> Result<Session, DecodeError> {
+/// ([`migrate`]), with a notice for each number that was out of range and
+/// put back to its default (the rest of the session, its run history
+/// included, is kept); or why the bytes are not a session. The part of
+/// [`restore`] that reads, kept apart from the file so that it can be
+/// checked on any bytes.
+pub fn decode(bytes: &[u8]) -> Result<(Session, Vec<String>), DecodeError> {
     let not_session = |e: serde_json::Error| DecodeError::NotSession(e.to_string());
     let value = serde_json::from_slice::<serde_json::Value>(bytes).map_err(not_session)?;
-    serde_json::from_value::<Session>(migrate(value)?).map_err(not_session)
+    let mut value = migrate(value)?;
+    let repaired = repair::repair_numbers(&mut value);
+    let session = serde_json::from_value::<Session>(value).map_err(not_session)?;
+    Ok((session, repaired))
 }
 
 /// Reads the session at `path`. A file that is not a session of this
@@ -364,7 +378,12 @@ pub fn restore(path: &Path) -> Result<Restored, SessionError> {
         Err(e) => return Err(io_error(path)(e)),
     };
     let reason = match decode(&bytes) {
-        Ok(s) => return Ok(Restored::Loaded(Box::new(s))),
+        Ok((session, repaired)) => {
+            return Ok(Restored::Loaded {
+                session: Box::new(session),
+                repaired,
+            })
+        }
         Err(reason) => reason,
     };
     let stamp = std::time::SystemTime::now()
@@ -411,7 +430,10 @@ mod tests {
         let path = dir.path().join("nested/session.json");
         save(&path, &sample()).unwrap();
         match restore(&path).unwrap() {
-            Restored::Loaded(s) => assert_eq!(*s, sample()),
+            Restored::Loaded { session, repaired } => {
+                assert_eq!(*session, sample());
+                assert!(repaired.is_empty(), "{repaired:?}");
+            }
             other => panic!("{other:?}"),
         }
         let left: Vec<_> = std::fs::read_dir(path.parent().unwrap()).unwrap().collect();
@@ -430,7 +452,7 @@ mod tests {
         let dir = tempfile::tempdir().unwrap();
         let path = dir.path().join("session.json");
         std::fs::copy(fixture, &path).unwrap();
-        let Restored::Loaded(s) = restore(&path).unwrap() else {
+        let Restored::Loaded { session: s, .. } = restore(&path).unwrap() else {
             panic!("the version 1 session was not loaded");
         };
         assert_eq!(s.version, SESSION_VERSION);
@@ -460,6 +482,63 @@ mod tests {
             }
             other => panic!("{other:?}"),
         }
+    }
+
+    #[test]
+    fn a_bad_number_falls_back_with_a_notice_and_the_history_is_kept() {
+        let dir = tempfile::tempdir().unwrap();
+        let path = dir.path().join("session.json");
+        let settings = AgentSettings {
+            provider: "openai".into(),
+            model: "gpt-4o".into(),
+            temperature: 0.5,
+            max_tokens: 300,
+        };
+        let mut saved = sample();
+        saved.settings.insert(AgentRole::Planner, settings.clone());
+        saved.runs.push(RunRecord {
+            id: 1,
+            started_unix: 1_700_000_000,
+            approach: Approach::MultiImage,
+            task: "Wash the mug.".into(),
+            agents: vec![AgentRecord {
+                agent: AgentRole::Planner,
+                settings,
+                prompt: "Plan.".into(),
+                output: "1. Wash the mug.".into(),
+                duration_ms: 1200,
+                usage: Usage::default(),
+                error: None,
+            }],
+            plan: vec!["Wash the mug.".into()],
+            ground_truth: vec!["Wash the mug.".into()],
+            scores: None,
+            cancelled: false,
+            corrupted: None,
+        });
+        save(&path, &saved).unwrap();
+        let mut json: serde_json::Value =
+            serde_json::from_slice(&std::fs::read(&path).unwrap()).unwrap();
+        // What an older mapvlm saved for a temperature of 1e300 (an f32
+        // infinity is written as null), and a hand-edited token limit.
+        json["settings"]["planner"]["temperature"] = serde_json::Value::Null;
+        json["runs"][0]["agents"][0]["settings"]["max_tokens"] = (-5).into();
+        std::fs::write(&path, serde_json::to_vec(&json).unwrap()).unwrap();
+        let Restored::Loaded { session, repaired } = restore(&path).unwrap() else {
+            panic!("the session was set aside");
+        };
+        assert_eq!(session.runs, {
+            let mut runs = saved.runs.clone();
+            runs[0].agents[0].settings.max_tokens = crate::agents::config::DEFAULT_MAX_TOKENS;
+            runs
+        });
+        assert_eq!(session.settings[&AgentRole::Planner].temperature, 0.0);
+        assert_eq!(repaired.len(), 2, "{repaired:?}");
+        assert!(
+            repaired[0].contains("settings.planner.temperature = null"),
+            "{repaired:?}"
+        );
+        assert!(repaired[1].contains("runs[0].agents[0].settings.max_tokens = -5"));
     }
 
     #[test]
@@ -497,8 +576,8 @@ mod tests {
             (
                 "[a-z]{1,8}",
                 "[a-z0-9.-]{1,12}",
-                -1.0e6f32..1.0e6,
-                any::<u32>(),
+                0.0f32..=2.0,
+                crate::agents::config::MAX_TOKENS_RANGE,
             )
                 .prop_map(|(provider, model, temperature, max_tokens)| AgentSettings {
                     provider,
@@ -579,7 +658,10 @@ mod tests {
                 let path = dir.path().join("session.json");
                 save(&path, &session).map_err(|e| TestCaseError::fail(e.to_string()))?;
                 match restore(&path) {
-                    Ok(Restored::Loaded(back)) => prop_assert_eq!(*back, session),
+                    Ok(Restored::Loaded { session: back, repaired }) => {
+                        prop_assert_eq!(*back, session);
+                        prop_assert!(repaired.is_empty(), "{:?}", repaired);
+                    }
                     other => prop_assert!(false, "{other:?}"),
                 }
             }
@@ -590,10 +672,10 @@ mod tests {
             fn any_bytes_decode_without_panic_and_round_trip(
                 bytes in prop::collection::vec(any::<u8>(), 0..200),
             ) {
-                if let Ok(session) = decode(&bytes) {
+                if let Ok((session, _)) = decode(&bytes) {
                     prop_assert_eq!(session.version, SESSION_VERSION);
                     let saved = serde_json::to_vec(&session).unwrap_or_default();
-                    prop_assert_eq!(decode(&saved), Ok(session));
+                    prop_assert_eq!(decode(&saved), Ok((session, Vec::new())));
                 }
             }
         }

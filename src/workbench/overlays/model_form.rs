@@ -3,6 +3,7 @@
 use crossterm::event::KeyEvent;
 use ratatui_textarea::TextArea;
 
+use crate::agents::config::{check_max_tokens, check_temperature};
 use crate::agents::AgentRole;
 use crate::workbench::app::{single_line_editor, App, Severity};
 use crate::workbench::keymap::Action;
@@ -51,28 +52,38 @@ impl App {
                 .map(|f| f.lines().join("").trim().to_string())
                 .unwrap_or_default()
         };
-        let temperature = text(2).parse::<f32>();
-        let max_tokens = text(3).parse::<u32>();
-        match (temperature, max_tokens) {
-            (Ok(temperature), Ok(max_tokens)) if !text(0).is_empty() && !text(1).is_empty() => {
+        let label = agent.label();
+        let checked = || -> Result<AgentSettings, String> {
+            if text(0).is_empty() || text(1).is_empty() {
+                return Err("provider and model must be set".into());
+            }
+            let temperature = text(2)
+                .parse::<f64>()
+                .map_err(|_| format!("temperature `{}` is not a number", text(2)))
+                .and_then(|t| check_temperature("temperature", t).map_err(|e| e.to_string()))?;
+            let max_tokens = text(3)
+                .parse::<u64>()
+                .map_err(|_| format!("token limit `{}` is not a whole number", text(3)))
+                .and_then(|n| check_max_tokens("token limit", n).map_err(|e| e.to_string()))?;
+            Ok(AgentSettings {
+                provider: text(0),
+                model: text(1),
+                temperature,
+                max_tokens,
+            })
+        };
+        match checked() {
+            Ok(settings) => {
                 if let Some(v) = self.runs.agents.get_mut(&agent) {
-                    v.settings = AgentSettings {
-                        provider: text(0),
-                        model: text(1),
-                        temperature,
-                        max_tokens,
-                    };
+                    v.settings = settings;
                 }
                 self.session_dirty = true;
                 self.set_status(
-                    format!("{}: {} / {} (r runs what changed)", agent.label(), text(0), text(1)),
+                    format!("{label}: {} / {} (r runs what changed)", text(0), text(1)),
                     Severity::Info,
                 );
             }
-            _ => self.set_status(
-                format!("{}: not changed: provider and model must be set, the temperature a number, the token limit a whole number", agent.label()),
-                Severity::Warn,
-            ),
+            Err(why) => self.set_status(format!("{label}: not changed: {why}"), Severity::Warn),
         }
     }
 
@@ -91,5 +102,46 @@ impl App {
             fields,
             field: 0,
         });
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use crate::agents::AgentRole;
+    use crate::workbench::app::{single_line_editor, App, AppInit, Severity};
+
+    fn apply(app: &mut App, temperature: &str, max_tokens: &str) -> (String, Severity) {
+        let fields = ["openai", "gpt-4o", temperature, max_tokens].map(single_line_editor);
+        app.apply_model_form(AgentRole::Planner, &fields);
+        app.status.clone().unwrap_or_else(|| panic!("no status"))
+    }
+
+    #[test]
+    fn out_of_range_numbers_are_refused_naming_the_value_and_the_range() {
+        let (mut app, _) = App::new(AppInit::demo((120, 40), "no models in this test"));
+        let before = app.runs.agents[&AgentRole::Planner].settings.clone();
+        for (temperature, max_tokens, why) in [
+            ("1e300", "100", "temperature 1e300 is outside 0..=2"),
+            ("NaN", "100", "temperature NaN is outside 0..=2"),
+            ("-0.1", "100", "temperature -0.1 is outside 0..=2"),
+            ("inf", "100", "temperature inf is outside 0..=2"),
+            ("warm", "100", "temperature `warm` is not a number"),
+            ("0.5", "0", "token limit 0 is outside 1..=1000000"),
+            (
+                "0.5",
+                "5000000000",
+                "token limit 5000000000 is outside 1..=1000000",
+            ),
+            ("0.5", "-3", "token limit `-3` is not a whole number"),
+        ] {
+            let (status, severity) = apply(&mut app, temperature, max_tokens);
+            assert_eq!(severity, Severity::Warn, "{status}");
+            assert!(status.contains(why), "{temperature} {max_tokens}: {status}");
+            assert_eq!(app.runs.agents[&AgentRole::Planner].settings, before);
+        }
+        let (status, severity) = apply(&mut app, "2", "1000000");
+        assert_eq!(severity, Severity::Info, "{status}");
+        let set = &app.runs.agents[&AgentRole::Planner].settings;
+        assert_eq!((set.temperature, set.max_tokens), (2.0, 1_000_000));
     }
 }
