@@ -508,6 +508,7 @@ mod tests {
                 output: "1. Wash the mug.".into(),
                 duration_ms: 1200,
                 usage: Usage::default(),
+                cached: false,
                 error: None,
             }],
             plan: vec!["Wash the mug.".into()],
