@@ -301,6 +301,7 @@ fn session_of(record: &mapvlm::agents::pipeline::PlanRecord) -> Session {
             output: a.output.clone().unwrap_or_default(),
             duration_ms: a.elapsed_ms,
             usage: mapvlm::agents::Usage::default(),
+            cached: a.cached,
             error: a.error.clone(),
         })
         .collect();

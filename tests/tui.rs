@@ -678,3 +678,60 @@ fn the_whole_graph_is_the_default_and_the_neighbourhood_a_mode() {
     h.key(KeyCode::Char('v'));
     assert!(!h.screen().contains("node 1/13"));
 }
+
+/// A run whose agents asked gpt-4o (the Planner's answer from the cache),
+/// with a price table for gpt-4o: the history and the comparison show what
+/// each agent and the run cost; an unpriced model shows `no price`.
+#[test]
+fn run_history_shows_each_agent_and_run_cost_from_the_price_table() {
+    use mapvlm::agents::cost::{Price, PriceTable};
+    use mapvlm::agents::Usage;
+    use mapvlm::workbench::overlays::Overlay;
+    use std::collections::BTreeMap;
+
+    let mut h = Harness::new((120, 40), None, false, unavailable());
+    let price = Price {
+        input_per_million: 2.5,
+        output_per_million: 10.0,
+        batch_input_per_million: None,
+        batch_output_per_million: None,
+    };
+    let models = BTreeMap::from([("gpt-4o".to_string(), price)]);
+    h.app.prices =
+        PriceTable::from_config(&BTreeMap::from([("openai".to_string(), models)])).unwrap();
+    let mut paid = h.app.runs.history[0].clone();
+    for a in &mut paid.agents {
+        a.settings.provider = "openai".into();
+        a.settings.model = "gpt-4o".into();
+        a.usage = Usage {
+            input_tokens: 1_000,
+            output_tokens: 200,
+        };
+        a.cached = a.agent == AgentRole::Planner;
+    }
+    let mut unpriced = paid.clone();
+    unpriced.id = paid.id + 1;
+    unpriced.agents[0].settings.model = "gpt-4.1".into();
+    let paid_agents = paid.agents.iter().filter(|a| !a.cached).count();
+    assert!(paid_agents >= 1 && paid_agents < paid.agents.len());
+    h.app.runs.history = vec![paid, unpriced];
+
+    h.app.overlay = Some(Overlay::Runs {
+        selected: 1,
+        marked: None,
+    });
+    let history = h.screen();
+    // Each paid agent: 1,000 × $2.50 + 200 × $10 per million = $0.0045.
+    let total = format!("${:.4}", 0.0045 * paid_agents as f64);
+    assert!(history.contains(&total), "{history}");
+    assert!(history.contains("no price"), "{history}");
+    insta::assert_snapshot!("run_history_costs", history);
+
+    h.app.overlay = Some(Overlay::Compare { left: 0, right: 1 });
+    let compare = h.screen();
+    assert!(compare.contains("tok · $0.0045"), "{compare}");
+    // The cached Planner's line wraps before its figure.
+    assert!(compare.contains("$0.0000"), "{compare}");
+    assert!(compare.contains("tok · no price"), "{compare}");
+    assert!(compare.contains(&format!("tok · {total}")), "{compare}");
+}

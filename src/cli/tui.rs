@@ -10,6 +10,7 @@ use clap::Args;
 
 use crate::agents::cache::ResponseCache;
 use crate::agents::config::ConfigFile;
+use crate::agents::cost::PriceTable;
 use crate::agents::prompts::PromptSet;
 use crate::agents::replay::Pace;
 use crate::corrupt::{user_vocabulary_dir, Vocabulary};
@@ -67,6 +68,7 @@ pub fn run(args: TuiArgs) -> anyhow::Result<ExitCode> {
         0 => Pace::Instant,
         ms => Pace::Every(Duration::from_millis(ms)),
     };
+    let prices = PriceTable::from_config(&file.prices);
     let pipeline = AgentsPipeline::new(
         ProviderConfig {
             file,
@@ -109,6 +111,7 @@ pub fn run(args: TuiArgs) -> anyhow::Result<ExitCode> {
         picker: args
             .halfblocks
             .then(ratatui_image::picker::Picker::halfblocks),
+        prices,
     };
     workbench::run(options)?;
     Ok(ExitCode::SUCCESS)

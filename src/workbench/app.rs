@@ -8,6 +8,7 @@ use std::path::PathBuf;
 
 use ratatui_textarea::TextArea;
 
+use crate::agents::cost::PriceTable;
 use crate::agents::Approach;
 use crate::dataset::{Dataset, Task};
 use crate::demo;
@@ -130,6 +131,9 @@ pub struct App {
     pub approach: Approach,
     /// The agents and the runs.
     pub runs: Runs,
+    /// The config file's prices, for the cost of each run in the history
+    /// (empty: every cost shows as `no price`).
+    pub prices: PriceTable,
     /// The Prompt pane: every template's text, and its editor.
     pub prompt: PromptPane,
     /// The plan steps.
@@ -228,6 +232,7 @@ impl App {
             dataset: init.dataset,
             approach: Approach::MultiImage,
             runs: Runs::new(),
+            prices: PriceTable::default(),
             prompt: PromptPane::new(init.prompts),
             plan: Steps::default(),
             plan_source: PlanSource::None,

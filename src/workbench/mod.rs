@@ -42,6 +42,8 @@ use std::time::Duration;
 
 use ratatui_image::picker::Picker;
 
+use crate::agents::config::ConfigError;
+use crate::agents::cost::PriceTable;
 use agents::Pipeline;
 use scoring::ScorerLoader;
 
@@ -70,6 +72,9 @@ pub struct Options {
     /// How the scene image is drawn: `None` asks the terminal; `Some` forces
     /// a picker (e.g. half-blocks over slow links).
     pub picker: Option<Picker>,
+    /// The config file's price table for the run history's costs, or why
+    /// its `[prices]` section cannot be used (shown once at the start).
+    pub prices: Result<PriceTable, ConfigError>,
 }
 
 /// Why the workbench could not run.

@@ -46,6 +46,8 @@ pub struct AgentView {
     pub usage: Usage,
     /// Wall time of its latest call in milliseconds.
     pub duration_ms: u64,
+    /// Whether its latest answer came from the cache or the recording.
+    pub cached: bool,
 }
 
 /// The run in flight.
@@ -102,6 +104,7 @@ fn fresh_agents() -> BTreeMap<AgentRole, AgentView> {
                     ran_with: None,
                     usage: Usage::default(),
                     duration_ms: 0,
+                    cached: false,
                 },
             )
         })
@@ -228,6 +231,7 @@ impl App {
                     output: v.output.clone(),
                     duration_ms: v.duration_ms,
                     usage: v.usage,
+                    cached: v.cached,
                     error: match &v.status {
                         AgentStatus::Failed(e) => Some(e.clone()),
                         _ => None,
@@ -297,12 +301,14 @@ impl App {
                 role: agent,
                 usage,
                 elapsed_ms: duration_ms,
+                cached,
                 ..
             } => {
                 let prompt = self.prompt_of(agent);
                 if let Some(v) = self.runs.agents.get_mut(&agent) {
                     v.status = AgentStatus::Done;
                     v.usage = usage;
+                    v.cached = cached;
                     v.duration_ms = duration_ms;
                     v.ran_with = Some((prompt, v.settings.clone()));
                 }

@@ -283,6 +283,11 @@ fn load_start(
             None
         }
     };
+    if let Err(e) = &options.prices {
+        notices.push(format!(
+            "costs off, the config file's prices are not used: {e}; fix that entry"
+        ));
+    }
     (dataset, restored, notices, path)
 }
 
@@ -307,6 +312,7 @@ async fn run_async(options: Options) -> Result<(), TuiError> {
         models: ModelSlot::Loading("starting".to_string()),
         prompts: options.prompts.clone(),
     });
+    app.prices = options.prices.as_ref().ok().cloned().unwrap_or_default();
     terminal.draw(|f| render::render(f, &app))?;
 
     let (msg_tx, mut msg_rx) = mpsc::unbounded_channel::<Msg>();

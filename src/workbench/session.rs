@@ -88,6 +88,10 @@ pub struct AgentRecord {
     pub duration_ms: u64,
     /// Token use.
     pub usage: Usage,
+    /// Whether its answer came from the response cache or the demo's
+    /// recording, so that it cost nothing (absent in older sessions: paid).
+    #[serde(default)]
+    pub cached: bool,
     /// Why it failed, when it did.
     pub error: Option<String>,
 }
@@ -504,6 +508,7 @@ mod tests {
                 output: "1. Wash the mug.".into(),
                 duration_ms: 1200,
                 usage: Usage::default(),
+                cached: false,
                 error: None,
             }],
             plan: vec!["Wash the mug.".into()],

@@ -5,11 +5,13 @@ use ratatui::text::{Line, Span};
 use ratatui::widgets::{Paragraph, Sparkline, Wrap};
 use ratatui::Frame;
 
+use crate::agents::cost::{dollars, Billing, PriceTable};
+use crate::agents::ProviderKind;
 use crate::workbench::app::{App, Severity};
 use crate::workbench::keymap::Action;
 use crate::workbench::message::Cmd;
 use crate::workbench::overlays::{fmt_score, moved, open_box, Overlay};
-use crate::workbench::session::{PlanSource, RunRecord};
+use crate::workbench::session::{AgentRecord, PlanSource, RunRecord};
 
 impl App {
     /// A key of the run history.
@@ -100,7 +102,7 @@ pub(crate) fn draw(
         spark,
     );
     let mut lines = vec![Line::from(Span::styled(
-        "   run  approach       PG2S   S_plan S_goal KAS     ms      tokens  steps",
+        "   run  approach       PG2S   S_plan S_goal KAS     ms      tokens  steps       cost",
         t.muted,
     ))];
     let (first, count) = super::list_window(
@@ -116,7 +118,7 @@ pub(crate) fn draw(
         let style = if i == selected { t.selection } else { t.base };
         lines.push(Line::from(Span::styled(
             format!(
-                "{mark}  #{:<3} {:<14} {:<6} {:<6} {:<6} {:<6} {:>6} {:>8} {:>6}{}",
+                "{mark}  #{:<3} {:<14} {:<6} {:<6} {:<6} {:<6} {:>6} {:>8} {:>6} {:>10}{}",
                 r.id,
                 r.approach.name(),
                 fmt_score(s.pg2s),
@@ -126,12 +128,40 @@ pub(crate) fn draw(
                 ms,
                 tokens,
                 r.plan.len(),
+                cost_text(run_cost(&app.prices, r)),
                 if r.cancelled { " cancelled" } else { "" }
             ),
             style,
         )));
     }
     frame.render_widget(Paragraph::new(lines), table);
+}
+
+/// What one agent's answer cost in US dollars at `prices`: nothing when it
+/// came from the response cache, `None` when its model has no price (the
+/// demo's `replay` agents among them).
+fn agent_cost(prices: &PriceTable, agent: &AgentRecord) -> Option<f64> {
+    let provider: ProviderKind = agent.settings.provider.parse().ok()?;
+    let billing = if agent.cached {
+        Billing::Cached
+    } else {
+        Billing::Interactive
+    };
+    prices.cost(provider, &agent.settings.model, agent.usage, billing)
+}
+
+/// What a whole run cost: the sum over its agents, `None` when any of them
+/// has no price (a partial sum would read as the whole).
+fn run_cost(prices: &PriceTable, run: &RunRecord) -> Option<f64> {
+    run.agents.iter().map(|a| agent_cost(prices, a)).sum()
+}
+
+/// A cost as the run history shows it: `$0.0123`, or `no price`.
+fn cost_text(usd: Option<f64>) -> String {
+    match usd {
+        Some(_) => format!("${}", dollars(usd)),
+        None => dollars(None),
+    }
 }
 
 pub(crate) fn run_lines<'a>(app: &App, run: &'a RunRecord, other: &RunRecord) -> Vec<Line<'a>> {
@@ -152,6 +182,15 @@ pub(crate) fn run_lines<'a>(app: &App, run: &'a RunRecord, other: &RunRecord) ->
             ),
             t.accent,
         )),
+        Line::from(Span::styled(
+            format!(
+                "{} ms · {} tok · {}",
+                run.total_ms(),
+                run.total_tokens(),
+                cost_text(run_cost(&app.prices, run))
+            ),
+            t.muted,
+        )),
     ];
     for a in &run.agents {
         let same_prompt = other
@@ -162,13 +201,14 @@ pub(crate) fn run_lines<'a>(app: &App, run: &'a RunRecord, other: &RunRecord) ->
             Span::styled(format!("{} ", a.agent), t.accent),
             Span::styled(
                 format!(
-                    "{}/{} t={} · {} ms · {}+{} tok",
+                    "{}/{} t={} · {} ms · {}+{} tok · {}",
                     a.settings.provider,
                     a.settings.model,
                     a.settings.temperature,
                     a.duration_ms,
                     a.usage.input_tokens,
-                    a.usage.output_tokens
+                    a.usage.output_tokens,
+                    cost_text(agent_cost(&app.prices, a))
                 ),
                 t.muted,
             ),
@@ -214,4 +254,94 @@ pub(crate) fn draw_compare(frame: &mut Frame, app: &App, area: Rect, left: usize
         Paragraph::new(run_lines(app, b, a)).wrap(Wrap { trim: false }),
         r,
     );
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::agents::config::ConfigFile;
+    use crate::agents::{AgentRole, Approach, Usage};
+    use crate::workbench::session::AgentSettings;
+
+    /// gpt-4o at $2.50 in and $10 out per million tokens, as a config
+    /// file writes it; nothing else.
+    fn prices() -> PriceTable {
+        let file: ConfigFile = toml::from_str(
+            "[prices.openai.\"gpt-4o\"]\ninput_per_million = 2.5\noutput_per_million = 10.0\n",
+        )
+        .unwrap();
+        PriceTable::from_config(&file.prices).unwrap()
+    }
+
+    fn agent(provider: &str, model: &str, cached: bool) -> AgentRecord {
+        AgentRecord {
+            agent: AgentRole::Planner,
+            settings: AgentSettings {
+                provider: provider.into(),
+                model: model.into(),
+                temperature: 0.0,
+                max_tokens: 512,
+            },
+            prompt: String::new(),
+            output: String::new(),
+            duration_ms: 0,
+            usage: Usage {
+                input_tokens: 1_000,
+                output_tokens: 200,
+            },
+            cached,
+            error: None,
+        }
+    }
+
+    fn run(agents: Vec<AgentRecord>) -> RunRecord {
+        RunRecord {
+            id: 1,
+            started_unix: 0,
+            approach: Approach::MultiImage,
+            task: String::new(),
+            agents,
+            plan: Vec::new(),
+            ground_truth: Vec::new(),
+            scores: None,
+            cancelled: false,
+            corrupted: None,
+        }
+    }
+
+    #[test]
+    fn a_priced_answer_costs_its_tokens_a_cached_one_nothing_an_unpriced_one_no_figure() {
+        let p = prices();
+        // 1,000 × $2.50 / 1e6 + 200 × $10 / 1e6 = $0.0045.
+        let cases = [
+            (("openai", "gpt-4o", false), "$0.0045"),
+            (("openai", "gpt-4o", true), "$0.0000"),
+            (("openai", "gpt-4.1", false), "no price"),
+            (("replay", "demo-recording", false), "no price"),
+        ];
+        for ((provider, model, cached), shown) in cases {
+            let a = agent(provider, model, cached);
+            assert_eq!(cost_text(agent_cost(&p, &a)), shown, "{provider}/{model}");
+        }
+    }
+
+    #[test]
+    fn a_run_costs_the_sum_of_its_agents_and_nothing_when_one_has_no_price() {
+        let p = prices();
+        let paid = || agent("openai", "gpt-4o", false);
+        assert_eq!(
+            cost_text(run_cost(
+                &p,
+                &run(vec![paid(), paid(), agent("openai", "gpt-4o", true)])
+            )),
+            "$0.0090"
+        );
+        assert_eq!(
+            cost_text(run_cost(
+                &p,
+                &run(vec![paid(), agent("anthropic", "claude", false)])
+            )),
+            "no price"
+        );
+    }
 }
