@@ -3,7 +3,10 @@
 //! 40 golden pairs as `score --pairs` does them: in memory, and through the
 //! embedding store of `$XDG_CACHE_HOME/mapvlm/embeddings` cold (an empty
 //! store) and warm (every sentence stored by an earlier run; the encoder is
-//! never called). Compare with `scripts/bench_reference.py MODELS pair` and
+//! never called). Beside them, what every start pays to trust the pack: the
+//! three models' verification stamps checked against their files' metadata
+//! (nothing is hashed when the files are unchanged), to be set against the
+//! cold pair. Compare with `scripts/bench_reference.py MODELS pair` and
 //! `... pairs40`; `scripts/bench` also times whole processes.
 
 use std::path::PathBuf;
@@ -13,7 +16,7 @@ use criterion::{criterion_group, criterion_main, BatchSize, Criterion};
 use mapvlm::metrics::kas::kas;
 use mapvlm::metrics::pg2s::{GoalModels, Pg2sScorer, Pg2sSettings};
 use mapvlm::metrics::SentenceEncoder;
-use mapvlm::models::{models_dir, EN_CORE_WEB_SM, GLOVE_6B_50D, MPNET};
+use mapvlm::models::{models_dir, verified_model_path, EN_CORE_WEB_SM, GLOVE_6B_50D, MPNET};
 use mapvlm::nlp::embedding_cache::CachedEncoder;
 use mapvlm::nlp::en::EnPipeline;
 use mapvlm::nlp::mpnet::{MpnetEncoder, MpnetOptions};
@@ -146,6 +149,16 @@ fn bench(c: &mut Criterion) {
             BatchSize::PerIteration,
         )
     });
+    pair.bench_function(
+        "the pack's stamps checked at start (3 models, unchanged)",
+        |b| {
+            b.iter(|| {
+                for folder in [MPNET, EN_CORE_WEB_SM, GLOVE_6B_50D] {
+                    verified_model_path(&models.dir, folder).unwrap_or_else(|e| panic!("{e}"));
+                }
+            })
+        },
+    );
     pair.finish();
     let forty = &pairs[..40];
     let mut group = c.benchmark_group("score 40 golden pairs");
