@@ -232,15 +232,18 @@ impl HttpEndpoint {
                 });
             let limit = self.settings.total_timeout;
             if started.elapsed() + wait > limit {
-                let asked = asked.map_or_else(String::new, |a| {
-                    format!(" (Retry-After {:.0} s)", a.as_secs_f64())
-                });
+                let why = match asked {
+                    Some(asked) => format!(
+                        "the server asks to wait {:.0} s (Retry-After)",
+                        asked.as_secs_f64()
+                    ),
+                    None => format!("the next retry would wait {:.1} s", wait.as_secs_f64()),
+                };
                 return Err(AgentError::Http {
                     provider: self.provider,
                     status: status.as_u16(),
                     message: format!(
-                        "the server asks to wait {:.1} s{asked}, past the limit of {:.1} s (--timeout); try again later or raise --timeout",
-                        wait.as_secs_f64(),
+                        "{why}, past the limit of {:.1} s (--timeout); try again later or raise --timeout",
                         limit.as_secs_f64()
                     ),
                 });
