@@ -10,17 +10,18 @@ use std::time::Instant;
 
 use serde::{Deserialize, Serialize};
 use tokio::sync::mpsc::UnboundedSender;
+use tokio::sync::Semaphore;
 use tokio_util::sync::CancellationToken;
 
 use super::anthropic::Anthropic;
-use super::cache::{request_key, CachedAnswer, ResponseCache};
+use super::cache::{request_key, sample_key, CachedAnswer, ResponseCache};
 use super::config::{AgentSettings, Settings};
 use super::cost::estimate_usage;
 use super::graph::{parse_triples, triples_schema, KnowledgeGraph, ParsedTriples};
 use super::images::prepare_image;
 use super::openai::OpenAi;
 use super::prompts::{render_table, PromptSet};
-use super::provider::{elapsed_ms, ChatRequest, Completion, ImageInput, Provider, SharedProvider};
+use super::provider::{elapsed_ms, ChatRequest, Completion, ImageInput, SharedProvider};
 use super::replay::{Pace, Recording, ReplayProvider};
 use super::{AgentError, AgentRole, Approach, ProviderKind, Usage};
 use crate::plan::parse_steps;
@@ -131,6 +132,21 @@ pub struct PlanRecord {
     pub usage: Usage,
     /// Milliseconds for the whole run.
     pub elapsed_ms: u64,
+    /// Which sample of the request this run is (0 for the first, the only
+    /// one of a run without `--samples`; left out of the JSON then, so
+    /// records of one sample read as before).
+    #[serde(default, skip_serializing_if = "is_first_sample")]
+    pub sample: u32,
+}
+
+/// The most samples of one plan a run may ask for (`--samples`): enough for
+/// a spread, bounded so that a typo cannot send thousands of requests.
+pub const MAX_SAMPLES: u32 = 100;
+
+/// Whether `sample` is the first sample: records leave the index out then
+/// (a serde `skip_serializing_if`), so files of one sample read as before.
+pub fn is_first_sample(sample: &u32) -> bool {
+    *sample == 0
 }
 
 impl PlanRecord {
@@ -195,6 +211,7 @@ const PREPARED_IMAGE_BYTES: usize = 256 << 20;
 
 struct Prepared<'a> {
     approach: Approach,
+    sample: u32,
     values: BTreeMap<&'a str, String>,
     images: Vec<ImageInput>,
 }
@@ -238,9 +255,8 @@ impl Runner {
         &self.settings
     }
 
-    /// Makes a plan for `input` with `approach`. Bad input (image, table,
-    /// prompt) is an error before any request; an agent's failure is kept in
-    /// its record, the other agents' results stay intact.
+    /// Makes a plan for `input` with `approach`: its first sample (see
+    /// [`Runner::plan_sample`]).
     pub async fn plan(
         &self,
         approach: Approach,
@@ -248,8 +264,62 @@ impl Runner {
         events: &EventSender,
         cancel: &CancellationToken,
     ) -> Result<PlanRecord, AgentError> {
+        self.plan_sample(approach, input, 0, events, cancel).await
+    }
+
+    /// Makes samples `0..samples` of the plan for `input`, at most
+    /// `concurrency` at once; each sample's events come tagged with its
+    /// index. The records come in sample order.
+    pub async fn plan_samples(
+        &self,
+        approach: Approach,
+        input: &PlanInput,
+        samples: u32,
+        concurrency: usize,
+        events: &UnboundedSender<(u32, AgentEvent)>,
+        cancel: &CancellationToken,
+    ) -> Result<Vec<PlanRecord>, AgentError> {
+        let limit = Semaphore::new(concurrency.max(1));
+        let runs = (0..samples).map(|sample| {
+            let limit = &limit;
+            async move {
+                let _permit = limit.acquire().await;
+                let (tagged, mut received) = tokio::sync::mpsc::unbounded_channel();
+                let plan = async move {
+                    let record = self
+                        .plan_sample(approach, input, sample, &tagged, cancel)
+                        .await;
+                    drop(tagged);
+                    record
+                };
+                let forward = async {
+                    while let Some(event) = received.recv().await {
+                        let _ = events.send((sample, event));
+                    }
+                };
+                tokio::join!(plan, forward).0
+            }
+        });
+        futures::future::join_all(runs).await.into_iter().collect()
+    }
+
+    /// Makes sample `sample` of the plan for `input` with `approach`: the
+    /// same requests as sample 0, cached and recorded under their own keys
+    /// (see [`sample_key`]), so that sample k of an unchanged request is
+    /// reused and one more sample asks only for that one; the Planner of
+    /// sample k reads sample k of SKM and GKM. Bad input (image, table,
+    /// prompt) is an error before any request; an agent's failure is kept in
+    /// its record, the other agents' results stay intact.
+    pub async fn plan_sample(
+        &self,
+        approach: Approach,
+        input: &PlanInput,
+        sample: u32,
+        events: &EventSender,
+        cancel: &CancellationToken,
+    ) -> Result<PlanRecord, AgentError> {
         let start = Instant::now();
-        let prepared = self.prepare(approach, input)?;
+        let prepared = self.prepare(approach, input, sample)?;
         let mut record = PlanRecord {
             approach,
             task: input.task.clone(),
@@ -262,6 +332,7 @@ impl Runner {
             steps: Vec::new(),
             usage: Usage::default(),
             elapsed_ms: 0,
+            sample,
         };
         let planner = if approach.is_multi_agent() {
             let (skm, gkm) = tokio::join!(
@@ -310,6 +381,7 @@ impl Runner {
         &self,
         approach: Approach,
         input: &PlanInput,
+        sample: u32,
     ) -> Result<Prepared<'a>, AgentError> {
         let mut values = BTreeMap::from([("task", input.task.trim().to_string())]);
         let mut images = Vec::new();
@@ -331,6 +403,7 @@ impl Runner {
         }
         Ok(Prepared {
             approach,
+            sample,
             values,
             images,
         })
@@ -426,7 +499,7 @@ impl Runner {
                 return blank_record(role, settings, "", "", String::new(), Some(error));
             }
         };
-        let key = request_key(settings.provider, &request);
+        let key = sample_key(request_key(settings.provider, &request), prepared.sample);
         let mut record = blank_record(role, settings, &prompt, &prompt_hash, key.clone(), None);
         let start = Instant::now();
         let _ = events.send(AgentEvent::Started { role });
@@ -441,6 +514,10 @@ impl Runner {
             .answers
             .as_ref()
             .filter(|(recording, _)| hit.is_none() && recording.answers.contains_key(&key));
+        let replayed = match &self.source {
+            Source::Replay(recording, pace) => Some((recording, pace)),
+            Source::Live => recorded.map(|(recording, pace)| (recording, pace)),
+        };
         let result = match hit {
             Some(answer) => {
                 record.cached = true;
@@ -449,10 +526,10 @@ impl Runner {
                 }
                 Ok(answer.completion)
             }
-            None => match recorded {
+            None => match replayed {
                 Some((recording, pace)) => {
-                    ReplayProvider::new(recording.clone(), settings.provider, *pace)
-                        .complete(&request, &sink, cancel)
+                    ReplayProvider::new(recording.clone(), *pace)
+                        .replay(&key, prepared.sample, &request, &sink, cancel)
                         .await
                 }
                 None => match self.provider(settings) {
@@ -525,7 +602,7 @@ impl Runner {
     ) -> Result<PendingRequest, AgentError> {
         let provider = self.settings.agent(role).provider;
         let (request, _, _) = self.request(prepared, role)?;
-        let key = request_key(provider, &request);
+        let key = sample_key(request_key(provider, &request), prepared.sample);
         Ok(PendingRequest {
             role,
             provider,
@@ -535,14 +612,19 @@ impl Runner {
         })
     }
 
-    /// The requests `approach` can send now for `input`, before any is
-    /// sent: the single agent's; or the miners'; or, once both miners'
-    /// answers are in the cache, the Planner's. While the Planner waits on
-    /// the miners, a rough upper bound of its tokens comes instead (its
-    /// prompt without their answers, plus their token limits). Estimates and
-    /// provider batches are made from this.
-    pub fn next_stage(&self, approach: Approach, input: &PlanInput) -> Result<Stage, AgentError> {
-        let prepared = self.prepare(approach, input)?;
+    /// The requests sample `sample` of `approach` can send now for
+    /// `input`, before any is sent: the single agent's; or the miners'; or,
+    /// once both miners' answers are in the cache, the Planner's. While the
+    /// Planner waits on the miners, a rough upper bound of its tokens comes
+    /// instead (its prompt without their answers, plus their token limits).
+    /// Estimates and provider batches are made from this.
+    pub fn next_stage(
+        &self,
+        approach: Approach,
+        input: &PlanInput,
+        sample: u32,
+    ) -> Result<Stage, AgentError> {
+        let prepared = self.prepare(approach, input, sample)?;
         if !approach.is_multi_agent() {
             return Ok(Stage {
                 requests: vec![self.pending(&prepared, AgentRole::Single)?],
@@ -578,19 +660,14 @@ impl Runner {
         })
     }
 
+    /// The live provider of an agent (answers from a recording are served
+    /// before one is asked for, in `run_agent`).
     fn provider(&self, settings: &AgentSettings) -> Result<SharedProvider, AgentError> {
         let http = self.settings.http.clone();
         let key = settings.api_key.clone();
-        Ok(match (&self.source, settings.provider) {
-            (Source::Replay(recording, pace), kind) => {
-                Arc::new(ReplayProvider::new(recording.clone(), kind, *pace))
-            }
-            (Source::Live, ProviderKind::Openai) => {
-                Arc::new(OpenAi::new(&settings.base_url, key, http)?)
-            }
-            (Source::Live, ProviderKind::Anthropic) => {
-                Arc::new(Anthropic::new(&settings.base_url, key, http)?)
-            }
+        Ok(match settings.provider {
+            ProviderKind::Openai => Arc::new(OpenAi::new(&settings.base_url, key, http)?),
+            ProviderKind::Anthropic => Arc::new(Anthropic::new(&settings.base_url, key, http)?),
         })
     }
 

@@ -10,9 +10,9 @@ use std::time::{Duration, Instant};
 use serde::{Deserialize, Serialize};
 use tokio_util::sync::CancellationToken;
 
-use super::cache::{request_key, write_atomic, CachedAnswer};
-use super::provider::{cancellable, BoxFuture, ChatRequest, Completion, Provider, TokenSink};
-use super::{AgentError, ProviderKind};
+use super::cache::{write_atomic, CachedAnswer};
+use super::provider::{cancellable, ChatRequest, Completion, TokenSink};
+use super::AgentError;
 
 /// Bumped when the layout of a recording changes.
 const FORMAT: u32 = 1;
@@ -78,38 +78,40 @@ pub enum Pace {
     Every(Duration),
 }
 
-/// A provider that answers from a recording.
+/// A provider that answers from a recording, by request key.
 #[derive(Debug, Clone)]
 pub struct ReplayProvider {
     recording: Arc<Recording>,
-    provider: ProviderKind,
     pace: Pace,
 }
 
 impl ReplayProvider {
-    /// Serves `recording` in place of `provider` (part of the request key).
-    pub fn new(recording: Arc<Recording>, provider: ProviderKind, pace: Pace) -> Self {
-        Self {
-            recording,
-            provider,
-            pace,
-        }
+    /// Serves `recording` at `pace`.
+    pub fn new(recording: Arc<Recording>, pace: Pace) -> Self {
+        Self { recording, pace }
     }
 
-    async fn run(
+    /// Serves the recorded answer keyed `key`: sample `sample` of `request`
+    /// (see [`sample_key`](super::cache::sample_key)). A recording holds
+    /// the samples it was made with (`--record --samples N`), and a sample
+    /// it lacks fails: never a copy of another sample, which would show a
+    /// spread of zero.
+    pub async fn replay(
         &self,
+        key: &str,
+        sample: u32,
         request: &ChatRequest,
         on_token: TokenSink<'_>,
         cancel: &CancellationToken,
     ) -> Result<Completion, AgentError> {
-        let key = request_key(self.provider, request);
         let answer = self
             .recording
             .answers
-            .get(&key)
+            .get(key)
             .ok_or_else(|| AgentError::NotRecorded {
                 model: request.model.clone(),
-                key: key.clone(),
+                key: key.to_string(),
+                sample,
             })?;
         let start = Instant::now();
         for chunk in &answer.completion.chunks {
@@ -124,16 +126,5 @@ impl ReplayProvider {
             on_token(&chunk.text);
         }
         Ok(answer.completion.clone())
-    }
-}
-
-impl Provider for ReplayProvider {
-    fn complete<'a>(
-        &'a self,
-        request: &'a ChatRequest,
-        on_token: TokenSink<'a>,
-        cancel: &'a CancellationToken,
-    ) -> BoxFuture<'a, Result<Completion, AgentError>> {
-        Box::pin(self.run(request, on_token, cancel))
     }
 }
