@@ -26,7 +26,7 @@ use crate::agents::Approach;
 use crate::dataset::{Dataset, Task};
 use crate::metrics::kas::kas;
 use crate::metrics::pg2s::{Pg2sScorer, Pg2sSettings};
-use crate::stats::spread::Spread;
+use crate::stats::summary::{self, Spread};
 
 /// Options of `mapvlm eval`.
 #[derive(Debug, Args)]
@@ -468,9 +468,10 @@ fn cell(value: Option<f64>, digits: usize) -> String {
     value.map_or_else(String::new, |v| format!("{v:.digits$}"))
 }
 
+/// The mean of the values present, if any.
 fn mean(values: impl Iterator<Item = Option<f64>>) -> Option<f64> {
     let present: Vec<f64> = values.flatten().collect();
-    (!present.is_empty()).then(|| present.iter().sum::<f64>() / present.len() as f64)
+    summary::mean(&present).ok()
 }
 
 /// Sorts `results` by task (in the order of `task_ids`, the dataset's) and

@@ -1,5 +1,28 @@
-//! The mean and spread of repeated measurements: the scores of a plan's
-//! samples, for the Scores pane, Table 3 and the run history.
+//! The mean and the sample standard deviation of a list of values, and a
+//! [`Spread`] (mean, sd, min–max): what the spread of a run's samples, the
+//! spread of Table 3 over samples and the change between two runs are
+//! stated in.
+
+use super::{Estimate, Undefined};
+
+/// The arithmetic mean; undefined for no values.
+pub fn mean(values: &[f64]) -> Estimate {
+    if values.is_empty() {
+        return Err(Undefined::TooFewItems);
+    }
+    Ok(values.iter().sum::<f64>() / values.len() as f64)
+}
+
+/// The sample standard deviation (divided by n − 1, as `numpy.std(ddof=1)`);
+/// undefined for fewer than two values.
+pub fn sd(values: &[f64]) -> Estimate {
+    if values.len() < 2 {
+        return Err(Undefined::TooFewItems);
+    }
+    let m = mean(values)?;
+    let squares: f64 = values.iter().map(|v| (v - m) * (v - m)).sum();
+    Ok((squares / (values.len() - 1) as f64).sqrt())
+}
 
 /// The mean, sample standard deviation and range of some values.
 #[derive(Debug, Clone, Copy, PartialEq)]
@@ -22,19 +45,12 @@ impl Spread {
     /// not finite are left out.
     pub fn of(values: impl IntoIterator<Item = f64>) -> Option<Spread> {
         let values: Vec<f64> = values.into_iter().filter(|v| v.is_finite()).collect();
-        let count = values.len();
-        if count == 0 {
-            return None;
-        }
-        let mean = values.iter().sum::<f64>() / count as f64;
-        let sd = (count > 1).then(|| {
-            let squares: f64 = values.iter().map(|v| (v - mean).powi(2)).sum();
-            (squares / (count - 1) as f64).sqrt()
-        });
+        let mean = mean(&values).ok()?;
+        let sd = sd(&values).ok();
         let min = values.iter().copied().fold(f64::INFINITY, f64::min);
         let max = values.iter().copied().fold(f64::NEG_INFINITY, f64::max);
         Some(Spread {
-            count,
+            count: values.len(),
             mean,
             sd,
             min,
@@ -60,6 +76,16 @@ impl Spread {
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    #[test]
+    fn mean_and_sd_match_numpy_and_refuse_too_few_values() {
+        // numpy.mean([1, 2, 4]) = 2.3333…, numpy.std([1, 2, 4], ddof=1) = 1.5275252316519465
+        assert!((mean(&[1.0, 2.0, 4.0]).unwrap_or(f64::NAN) - 7.0 / 3.0).abs() < 1e-15);
+        assert!((sd(&[1.0, 2.0, 4.0]).unwrap_or(f64::NAN) - 1.527_525_231_651_946_5).abs() < 1e-15);
+        assert_eq!(mean(&[]), Err(Undefined::TooFewItems));
+        assert_eq!(sd(&[0.5]), Err(Undefined::TooFewItems));
+        assert_eq!(sd(&[0.5, 0.5]), Ok(0.0));
+    }
 
     #[test]
     fn the_spread_of_three_scores_is_their_mean_sample_sd_and_range() {
