@@ -115,28 +115,6 @@ async fn plan_fails_in_one_line_when_the_key_is_refused_or_the_image_is_bad() {
     );
 }
 
-/// Answers each request with its agent's text and a number of its own, so
-/// that every sample's answer differs and a Planner's request shows which
-/// miners' answers it read.
-struct Numbered {
-    count: std::sync::atomic::AtomicUsize,
-}
-
-impl wiremock::Respond for Numbered {
-    fn respond(&self, request: &wiremock::Request) -> ResponseTemplate {
-        let n = self.count.fetch_add(1, std::sync::atomic::Ordering::SeqCst);
-        let body = String::from_utf8_lossy(&request.body);
-        let text = if body.contains(SKM_MARK) {
-            format!("(sponge, on, bathtub)\n(mark, is, skm-answer-{n})")
-        } else if body.contains(GKM_MARK) {
-            format!("The sponge is on the bathtub. gkm-answer-{n}")
-        } else {
-            format!("1. Walk to the bathtub.\n2. Say planner-answer-{n}.")
-        };
-        whole(ProviderKind::Openai, &text)
-    }
-}
-
 fn samples_args(server: &MockServer, image: &Path, samples: u32) -> Vec<String> {
     let mut args = plan_args(server, image);
     args.extend([
@@ -161,9 +139,7 @@ async fn samples_are_asked_once_each_and_each_planner_reads_its_own_miners() {
     let image = scene(home.path());
     let server = MockServer::start().await;
     wiremock::Mock::given(wiremock::matchers::method("POST"))
-        .respond_with(Numbered {
-            count: Default::default(),
-        })
+        .respond_with(Numbered::default())
         .mount(&server)
         .await;
     let first = mapvlm(samples_args(&server, &image, 3), home.path()).await;

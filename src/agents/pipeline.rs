@@ -42,6 +42,13 @@ pub enum AgentEvent {
         /// The text.
         text: String,
     },
+    /// A later sample of the run is complete: the workbench asks for
+    /// samples after the first without streaming their agents' events, and
+    /// gets each whole record here.
+    Sampled {
+        /// The sample's run.
+        record: Box<PlanRecord>,
+    },
     /// The answer is complete.
     Finished {
         /// Which agent.
@@ -267,20 +274,20 @@ impl Runner {
         self.plan_sample(approach, input, 0, events, cancel).await
     }
 
-    /// Makes samples `0..samples` of the plan for `input`, at most
-    /// `concurrency` at once; each sample's events come tagged with its
-    /// index. The records come in sample order.
+    /// Makes the samples `samples` (e.g. `0..3`) of the plan for `input`,
+    /// at most `concurrency` at once; each sample's events come tagged with
+    /// its index. The records come in sample order.
     pub async fn plan_samples(
         &self,
         approach: Approach,
         input: &PlanInput,
-        samples: u32,
+        samples: std::ops::Range<u32>,
         concurrency: usize,
         events: &UnboundedSender<(u32, AgentEvent)>,
         cancel: &CancellationToken,
     ) -> Result<Vec<PlanRecord>, AgentError> {
         let limit = Semaphore::new(concurrency.max(1));
-        let runs = (0..samples).map(|sample| {
+        let runs = samples.map(|sample| {
             let limit = &limit;
             async move {
                 let _permit = limit.acquire().await;

@@ -283,7 +283,7 @@ pub fn run(args: &PlanArgs) -> anyhow::Result<ExitCode> {
     let records = runtime.block_on(runner.plan_samples(
         args.approach,
         &input,
-        samples,
+        0..samples,
         args.agents.concurrency,
         &events,
         &cancel,
@@ -345,7 +345,7 @@ fn sample_label(sample: u32, samples: u32) -> String {
 fn print_event(label: String, event: &AgentEvent) {
     match event {
         AgentEvent::Started { role } => eprintln!("{role}{label}: started"),
-        AgentEvent::Token { .. } => {}
+        AgentEvent::Token { .. } | AgentEvent::Sampled { .. } => {}
         AgentEvent::Finished {
             role,
             usage,

@@ -131,6 +131,8 @@ pub struct App {
     pub approach: Approach,
     /// The agents and the runs.
     pub runs: Runs,
+    /// How many samples `r` asks each agent for (the `S` key, `--samples`).
+    pub samples: u32,
     /// The config file's prices, for the cost of each run in the history
     /// (empty: every cost shows as `no price`).
     pub prices: PriceTable,
@@ -232,6 +234,7 @@ impl App {
             dataset: init.dataset,
             approach: Approach::MultiImage,
             runs: Runs::new(),
+            samples: 1,
             prices: PriceTable::default(),
             prompt: PromptPane::new(init.prompts),
             plan: Steps::default(),

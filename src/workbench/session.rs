@@ -15,7 +15,7 @@ use crate::dataset::Corruption;
 mod repair;
 
 /// The format version written into every session file.
-pub const SESSION_VERSION: u32 = 2;
+pub const SESSION_VERSION: u32 = 3;
 
 /// The provider, model and sampling settings of one agent.
 #[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
@@ -139,6 +139,30 @@ pub struct RunRecord {
     /// scoring again (absent in older sessions and before scoring).
     #[serde(default, skip_serializing_if = "Vec::is_empty")]
     pub steps: Vec<StepScore>,
+    /// The samples after the first, in order, when the run asked for more
+    /// than one (the run's own `agents`, `plan` and `scores` are sample 0;
+    /// a run of one sample, and every run saved before version 3, has none).
+    #[serde(default)]
+    pub samples: Vec<SampleRecord>,
+}
+
+/// A later sample of a run (see [`RunRecord::samples`]): the same agents,
+/// prompts and settings asked again, with what they answered and how the
+/// plan scored.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+pub struct SampleRecord {
+    /// Which sample (1 for the second; the run itself is sample 0).
+    pub sample: u32,
+    /// Each agent's answer, by agent.
+    pub outputs: BTreeMap<AgentRole, String>,
+    /// The plan it produced.
+    pub plan: Vec<String>,
+    /// Token use over its agents.
+    pub usage: Usage,
+    /// The first agent's failure, when one failed.
+    pub error: Option<String>,
+    /// Its scores, once computed.
+    pub scores: Option<ScoreRecord>,
 }
 
 /// One plan step's part of a run's scores: its KAS step score and the
@@ -221,6 +245,9 @@ pub struct Session {
     pub image: bool,
     /// Every run.
     pub runs: Vec<RunRecord>,
+    /// How many samples `r` asks each agent for (1 to
+    /// [`MAX_SAMPLES`](crate::agents::pipeline::MAX_SAMPLES)).
+    pub samples: u32,
     /// Text being edited at the time of saving.
     pub draft: Option<Draft>,
 }
@@ -338,6 +365,7 @@ fn migrate(mut value: serde_json::Value) -> Result<serde_json::Value, DecodeErro
     while version < u64::from(SESSION_VERSION) {
         match version {
             1 => v1_to_v2(&mut value),
+            2 => v2_to_v3(&mut value),
             _ => return Err(DecodeError::TooOld(version)),
         }
         version += 1;
@@ -368,6 +396,23 @@ fn v1_to_v2(value: &mut serde_json::Value) {
                 }
             }
         }
+    }
+}
+
+/// Version 3 keeps every sample of a run: each run gains its later samples
+/// (none: an older run is one sample) and the session its samples setting
+/// (1, as every older run was made).
+fn v2_to_v3(value: &mut serde_json::Value) {
+    let runs = value
+        .get_mut("runs")
+        .and_then(serde_json::Value::as_array_mut);
+    for run in runs.into_iter().flatten() {
+        if let Some(run) = run.as_object_mut() {
+            run.insert("samples".into(), serde_json::Value::Array(Vec::new()));
+        }
+    }
+    if let Some(session) = value.as_object_mut() {
+        session.insert("samples".into(), 1.into());
     }
 }
 
@@ -433,6 +478,7 @@ mod tests {
             theme: "dark".into(),
             image: true,
             runs: Vec::new(),
+            samples: 3,
             draft: Some(Draft {
                 target: "plan".into(),
                 index: 0,
@@ -481,7 +527,12 @@ mod tests {
                 assert_eq!(agent.usage.input_tokens, old_agent["usage"]["input"]);
                 assert_eq!(agent.usage.output_tokens, old_agent["usage"]["output"]);
             }
+            assert!(run.samples.is_empty(), "an older run is one sample");
+            let scores = crate::workbench::runs::sample_scores(run);
+            assert_eq!(scores.len(), 1, "its one sample's scores");
+            assert_eq!(Some(scores[0]), run.scores);
         }
+        assert_eq!(s.samples, 1, "older runs were made with one sample");
         assert!(path.exists(), "the file stays where it was");
     }
 
@@ -534,6 +585,7 @@ mod tests {
             cancelled: false,
             corrupted: None,
             steps: Vec::new(),
+            samples: Vec::new(),
         });
         save(&path, &saved).unwrap();
         let mut json: serde_json::Value =
@@ -658,7 +710,9 @@ mod tests {
                             cancelled: image,
                             corrupted: None,
                             steps: Vec::new(),
+                            samples: Vec::new(),
                         }],
+                        samples: 1 + (run % 100) as u32,
                         draft: draft.map(|(text, index)| Draft {
                             target: "plan".into(),
                             index,

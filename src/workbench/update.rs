@@ -35,6 +35,10 @@ impl App {
                 self.on_scored(outcome);
                 Vec::new()
             }
+            Msg::SamplesScored(run, scores) => {
+                self.on_samples_scored(run, scores);
+                Vec::new()
+            }
             Msg::ModelsProgress(line) => {
                 self.models = ModelSlot::Loading(line);
                 Vec::new()
@@ -204,6 +208,7 @@ impl App {
                 self.overlay = Some(Overlay::GroundTruthPicker { selected });
             }
             Action::NextApproach => return self.cycle_approach(),
+            Action::NextSamples => self.next_samples(),
             Action::PublishedPlan => {
                 self.load_published_plan();
                 if self.plan.items.is_empty() {

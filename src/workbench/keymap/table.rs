@@ -186,6 +186,12 @@ pub(super) const WORKBENCH: &[Binding] = &[
     ),
     bind(
         C::Panes,
+        &[(ch('S'), A::NextSamples)],
+        "S",
+        "samples per run: 1, 3, 5, 10 (r asks each agent that many times; Scores shows the spread)",
+    ),
+    bind(
+        C::Panes,
         &[(ch('x'), A::CancelRun)],
         "x",
         "cancel the run in flight",

@@ -307,6 +307,7 @@ mod tests {
             cancelled: false,
             corrupted: None,
             steps: Vec::new(),
+            samples: Vec::new(),
         }
     }
 
