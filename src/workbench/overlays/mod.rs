@@ -1,5 +1,6 @@
 //! The modal views over the panes, each in its own module: help, pickers,
-//! the model form, the run history and comparison, the framed actions.
+//! the model form, the run history and the diff of two runs, the framed
+//! actions.
 
 pub mod actions;
 pub mod corrupt;
@@ -45,20 +46,8 @@ pub enum Overlay {
         /// The field with focus.
         field: usize,
     },
-    /// The history of runs.
-    Runs {
-        /// The highlighted run.
-        selected: usize,
-        /// A run marked for comparison.
-        marked: Option<usize>,
-    },
-    /// Two runs side by side.
-    Compare {
-        /// Index of the left run.
-        left: usize,
-        /// Index of the right run.
-        right: usize,
-    },
+    /// The history of runs and the diff of two.
+    Runs(Box<runs::RunsOverlay>),
     /// The framed actions and their matches.
     Actions,
     /// Choose how to corrupt the plan into a new run.
@@ -79,8 +68,8 @@ impl Overlay {
             }
             Overlay::StepFilePath(_) => Some(Context::PathPrompt),
             Overlay::ModelForm { .. } => Some(Context::ModelForm),
-            Overlay::Runs { .. } => Some(Context::History),
-            Overlay::Compare { .. } | Overlay::Actions => Some(Context::Viewer),
+            Overlay::Runs(view) => Some(view.context()),
+            Overlay::Actions => Some(Context::Viewer),
         }
     }
 }
@@ -107,7 +96,7 @@ impl App {
                 let Close = component::dispatch(&mut Help, &key);
                 Vec::new()
             }
-            Overlay::Actions | Overlay::Compare { .. } => {
+            Overlay::Actions => {
                 if action != Some(Action::Leave) {
                     self.overlay = Some(overlay);
                 }
@@ -121,7 +110,10 @@ impl App {
                 fields,
                 field,
             } => self.on_model_form_key(agent, fields, field, action, key),
-            Overlay::Runs { selected, marked } => self.on_history_key(selected, marked, action),
+            Overlay::Runs(mut view) => {
+                let outcome = component::dispatch(view.as_mut(), &key);
+                self.on_runs_outcome(view, outcome)
+            }
         }
     }
 }
@@ -226,8 +218,7 @@ pub(crate) fn render_overlay(frame: &mut Frame, app: &App, area: Rect) {
                 frame.render_widget(editor, r);
             }
         }
-        Overlay::Runs { selected, marked } => runs::draw(frame, app, area, *selected, *marked),
-        Overlay::Compare { left, right } => runs::draw_compare(frame, app, area, *left, *right),
+        Overlay::Runs(view) => view.draw(frame, area, t),
         Overlay::Actions => actions::draw(frame, app, area),
         Overlay::CorruptPicker { selected } => corrupt::draw(frame, app, area, *selected),
     }
