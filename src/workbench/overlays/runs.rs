@@ -306,6 +306,7 @@ mod tests {
             scores: None,
             cancelled: false,
             corrupted: None,
+            steps: Vec::new(),
         }
     }
 
