@@ -25,6 +25,7 @@ pub mod overlays;
 pub mod panes;
 pub mod persist;
 pub mod render;
+pub mod run_diff;
 pub mod runs;
 pub mod runtime;
 pub mod scene_image;
@@ -44,8 +45,10 @@ use ratatui_image::picker::Picker;
 
 use crate::agents::config::ConfigError;
 use crate::agents::cost::PriceTable;
+use crate::agents::AgentRole;
 use agents::Pipeline;
 use scoring::ScorerLoader;
+use session::AgentSettings;
 
 pub use headless::prepare_image;
 pub use runtime::run;
@@ -78,6 +81,10 @@ pub struct Options {
     /// How many samples `r` asks each agent for, over the session's setting
     /// (`--samples`).
     pub samples: Option<u32>,
+    /// The agents the config file and the environment configure, with the
+    /// settings they start with on a user's task, or why the config cannot
+    /// give them (shown once at the start; every agent then replays).
+    pub configured: Result<BTreeMap<AgentRole, AgentSettings>, ConfigError>,
 }
 
 /// Why the workbench could not run.

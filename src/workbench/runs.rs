@@ -319,6 +319,7 @@ impl App {
         let mut cmds = vec![self.rescore()];
         self.runs.awaiting_scores = Some((self.runs.history.len() - 1, self.score_generation));
         cmds.extend(self.score_samples(active.id));
+        self.refresh_runs();
         cmds
     }
 
@@ -351,6 +352,7 @@ impl App {
         kept.samples.push(sample);
         kept.samples.sort_by_key(|s| s.sample);
         self.session_dirty = true;
+        self.refresh_runs();
         self.score_samples(run).into_iter().collect()
     }
 
@@ -383,6 +385,7 @@ impl App {
             }
         }
         self.session_dirty = true;
+        self.refresh_runs();
     }
 
     pub(crate) fn on_agent(&mut self, run: u64, event: AgentEvent) -> Vec<Cmd> {
@@ -513,6 +516,7 @@ impl App {
                     run.steps = step_breakdown(&outcome, run.plan.len());
                 }
                 self.runs.awaiting_scores = None;
+                self.refresh_runs();
                 self.session_dirty = true;
             }
         }

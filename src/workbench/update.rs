@@ -4,7 +4,6 @@
 use crossterm::event::{KeyEvent, KeyEventKind, MouseButton, MouseEvent, MouseEventKind};
 use ratatui::layout::{Position, Rect};
 
-use crate::agents::AgentRole;
 use crate::plan::parse_steps;
 use crate::workbench::app::{single_line_editor, App, Severity};
 use crate::workbench::editing::Editing;
@@ -219,18 +218,7 @@ impl App {
                 }
                 return vec![self.rescore()];
             }
-            Action::ModelForm => {
-                let agent = if self.focus == Pane::Prompt {
-                    self.prompt.agent
-                } else {
-                    match self.focus {
-                        Pane::Graph => AgentRole::Skm,
-                        Pane::Description => AgentRole::Gkm,
-                        _ => self.approach.planning_role(),
-                    }
-                };
-                self.open_model_form(agent);
-            }
+            Action::ModelForm => self.open_model_form(),
             Action::ToggleImage => {
                 self.scene.enabled = !self.scene.enabled;
                 self.session_dirty = true;
@@ -251,17 +239,13 @@ impl App {
             }
             Action::Actions => self.overlay = Some(Overlay::Actions),
             Action::Corrupt => self.open_corrupt_picker(),
-            Action::History => {
-                self.overlay = Some(Overlay::Runs {
-                    selected: self.runs.history.len().saturating_sub(1),
-                    marked: None,
-                })
-            }
+            Action::History => self.open_runs(),
             Action::Accept
             | Action::Leave
             | Action::RunFromEditor
             | Action::NextField
             | Action::PreviousField
+            | Action::EveryAgent
             | Action::MarkRun
             | Action::CompareRuns => {}
             // The annotation screen's actions: never bound in a pane.
