@@ -6,6 +6,7 @@ pub mod corrupt;
 pub mod help;
 pub mod model_form;
 pub mod pickers;
+pub mod prompt_sets;
 pub mod runs;
 
 use crossterm::event::KeyEvent;
@@ -21,6 +22,7 @@ use crate::workbench::keymap::{self, Action, Context};
 use crate::workbench::message::Cmd;
 use crate::workbench::overlays::help::{Close, Help};
 use crate::workbench::overlays::model_form::ModelForm;
+use crate::workbench::overlays::prompt_sets::{SetName, SetPicker};
 use crate::workbench::panes::list_window;
 use crate::workbench::theme::Theme;
 
@@ -38,6 +40,10 @@ pub enum Overlay {
     StepFilePath(Box<TextArea<'static>>),
     /// Provider, model, temperature and token limit of an agent.
     ModelForm(ModelForm),
+    /// The name to save the prompts under as a prompt set.
+    PromptSetName(Box<SetName>),
+    /// The saved prompt sets, to load one.
+    PromptSetPicker(SetPicker),
     /// The history of runs.
     Runs {
         /// The highlighted run.
@@ -72,6 +78,8 @@ impl Overlay {
             }
             Overlay::StepFilePath(_) => Some(Context::PathPrompt),
             Overlay::ModelForm(_) => Some(Context::ModelForm),
+            Overlay::PromptSetName(_) => Some(Context::SetName),
+            Overlay::PromptSetPicker(_) => Some(Context::Picker),
             Overlay::Runs { .. } => Some(Context::History),
             Overlay::Compare { .. } | Overlay::Actions => Some(Context::Viewer),
         }
@@ -110,6 +118,8 @@ impl App {
             Overlay::CorruptPicker { selected } => self.on_corrupt_picker_key(selected, action),
             Overlay::StepFilePath(editor) => self.on_path_key(editor, action, key),
             Overlay::ModelForm(form) => self.on_model_form_key(form, key),
+            Overlay::PromptSetName(prompt) => self.on_set_name_key(prompt, key),
+            Overlay::PromptSetPicker(picker) => self.on_set_picker_key(picker, key),
             Overlay::Runs { selected, marked } => self.on_history_key(selected, marked, action),
         }
     }
@@ -195,6 +205,8 @@ pub(crate) fn render_overlay(frame: &mut Frame, app: &App, area: Rect) {
             frame.render_widget(editor.as_ref(), inner);
         }
         Overlay::ModelForm(form) => form.draw(frame, area, t),
+        Overlay::PromptSetName(prompt) => prompt.draw(frame, area, t),
+        Overlay::PromptSetPicker(picker) => picker.draw(frame, area, t),
         Overlay::Runs { selected, marked } => runs::draw(frame, app, area, *selected, *marked),
         Overlay::Compare { left, right } => runs::draw_compare(frame, app, area, *left, *right),
         Overlay::Actions => actions::draw(frame, app, area),
