@@ -42,8 +42,10 @@ pub enum Context {
     ModelForm,
     /// Typing the name of a prompt set to save.
     SetName,
-    /// A view to read and close: the framed actions, two runs compared.
+    /// A view to read and close: the framed actions.
     Viewer,
+    /// The diff of two runs, scrolled.
+    RunDiff,
     /// The annotation screen, rating single plans or choosing between two.
     Annotate,
     /// The annotation screen rating single plans.
@@ -66,6 +68,7 @@ impl Context {
                 | Context::ModelForm
                 | Context::SetName
                 | Context::Viewer
+                | Context::RunDiff
         )
     }
 
@@ -93,6 +96,7 @@ impl Context {
             Context::ModelForm => Some("MODEL"),
             Context::SetName => Some("SAVE prompts"),
             Context::Viewer => Some("VIEW"),
+            Context::RunDiff => Some("DIFF"),
             _ => None,
         }
     }
@@ -192,7 +196,7 @@ pub enum Action {
     PreviousField,
     /// Mark the highlighted run for comparison, or unmark it.
     MarkRun,
-    /// Compare the marked run with the highlighted one.
+    /// Open the diff of the marked run (or the one before) and the highlighted one.
     CompareRuns,
     /// Choose how to corrupt the plan into a new run.
     Corrupt,

@@ -1,5 +1,6 @@
 //! The modal views over the panes, each in its own module: help, pickers,
-//! the model form, the run history and comparison, the framed actions.
+//! the model form, the run history and the diff of two runs, the framed
+//! actions.
 
 pub mod actions;
 pub mod corrupt;
@@ -44,20 +45,8 @@ pub enum Overlay {
     PromptSetName(Box<SetName>),
     /// The saved prompt sets, to load one.
     PromptSetPicker(SetPicker),
-    /// The history of runs.
-    Runs {
-        /// The highlighted run.
-        selected: usize,
-        /// A run marked for comparison.
-        marked: Option<usize>,
-    },
-    /// Two runs side by side.
-    Compare {
-        /// Index of the left run.
-        left: usize,
-        /// Index of the right run.
-        right: usize,
-    },
+    /// The history of runs and the diff of two.
+    Runs(Box<runs::RunsOverlay>),
     /// The framed actions and their matches.
     Actions,
     /// Choose how to corrupt the plan into a new run.
@@ -80,8 +69,8 @@ impl Overlay {
             Overlay::ModelForm(_) => Some(Context::ModelForm),
             Overlay::PromptSetName(_) => Some(Context::SetName),
             Overlay::PromptSetPicker(_) => Some(Context::Picker),
-            Overlay::Runs { .. } => Some(Context::History),
-            Overlay::Compare { .. } | Overlay::Actions => Some(Context::Viewer),
+            Overlay::Runs(view) => Some(view.context()),
+            Overlay::Actions => Some(Context::Viewer),
         }
     }
 }
@@ -108,7 +97,7 @@ impl App {
                 let Close = component::dispatch(&mut Help, &key);
                 Vec::new()
             }
-            Overlay::Actions | Overlay::Compare { .. } => {
+            Overlay::Actions => {
                 if action != Some(Action::Leave) {
                     self.overlay = Some(overlay);
                 }
@@ -120,7 +109,10 @@ impl App {
             Overlay::ModelForm(form) => self.on_model_form_key(form, key),
             Overlay::PromptSetName(prompt) => self.on_set_name_key(prompt, key),
             Overlay::PromptSetPicker(picker) => self.on_set_picker_key(picker, key),
-            Overlay::Runs { selected, marked } => self.on_history_key(selected, marked, action),
+            Overlay::Runs(mut view) => {
+                let outcome = component::dispatch(view.as_mut(), &key);
+                self.on_runs_outcome(view, outcome)
+            }
         }
     }
 }
@@ -207,8 +199,7 @@ pub(crate) fn render_overlay(frame: &mut Frame, app: &App, area: Rect) {
         Overlay::ModelForm(form) => form.draw(frame, area, t),
         Overlay::PromptSetName(prompt) => prompt.draw(frame, area, t),
         Overlay::PromptSetPicker(picker) => picker.draw(frame, area, t),
-        Overlay::Runs { selected, marked } => runs::draw(frame, app, area, *selected, *marked),
-        Overlay::Compare { left, right } => runs::draw_compare(frame, app, area, *left, *right),
+        Overlay::Runs(view) => view.draw(frame, area, t),
         Overlay::Actions => actions::draw(frame, app, area),
         Overlay::CorruptPicker { selected } => corrupt::draw(frame, app, area, *selected),
     }
