@@ -180,15 +180,9 @@ pub(super) const WORKBENCH: &[Binding] = &[
     ),
     bind(
         C::Panes,
-        &[(ch('a'), A::NextApproach)],
-        "a",
-        "next approach (table ones when the task has a table)",
-    ),
-    bind(
-        C::Panes,
-        &[(ch('S'), A::NextSamples)],
-        "S",
-        "samples per run: 1, 3, 5, 10 (r asks each agent that many times; Scores shows the spread)",
+        &[(ch('a'), A::NextApproach), (ch('S'), A::NextSamples)],
+        "a, S",
+        "next approach (tables if the task has one); samples 1, 3, 5, 10",
     ),
     bind(
         C::Panes,
@@ -211,6 +205,12 @@ pub(super) const WORKBENCH: &[Binding] = &[
         ],
         "Enter, e, 1 2 3, ←/→ (prompt)",
         "edit the prompt; the prompt of SKM, GKM, Planner; other agent",
+    ),
+    bind(
+        C::Prompt,
+        &[(ch('S'), A::SavePromptSet), (ch('L'), A::LoadPromptSet)],
+        "S L (prompt)",
+        "save every prompt as a named prompt set; load a saved set",
     ),
     hinted(
         bind(
@@ -498,6 +498,26 @@ pub(super) const WORKBENCH: &[Binding] = &[
         ),
         "Enter",
         "saves",
+    ),
+    hinted(
+        bind(
+            C::SetName,
+            &[(key(KeyCode::Enter), A::Accept)],
+            "Enter (prompt set name)",
+            "save the prompts as this set",
+        ),
+        "Enter",
+        "saves",
+    ),
+    hinted(
+        bind(
+            C::SetName,
+            &[(key(KeyCode::Esc), A::Leave)],
+            "Esc (prompt set name)",
+            "cancel",
+        ),
+        "Esc",
+        "cancels",
     ),
     hinted(
         bind(
