@@ -701,13 +701,13 @@ fn run_history_shows_each_agent_and_run_cost_from_the_price_table() {
         PriceTable::from_config(&BTreeMap::from([("openai".to_string(), models)])).unwrap();
     let mut paid = h.app.runs.history[0].clone();
     for a in &mut paid.agents {
-        a.settings.provider = "openai".into();
+        a.settings.provider = mapvlm::agents::ProviderKind::Openai;
         a.settings.model = "gpt-4o".into();
         a.usage = Usage {
             input_tokens: 1_000,
             output_tokens: 200,
         };
-        a.cached = a.agent == AgentRole::Planner;
+        a.cached = a.role == AgentRole::Planner;
     }
     let mut unpriced = paid.clone();
     unpriced.id = paid.id + 1;

@@ -3,13 +3,12 @@
 use crossterm::event::KeyEvent;
 use ratatui_textarea::TextArea;
 
-use crate::agents::config::{check_max_tokens, check_temperature};
-use crate::agents::AgentRole;
+use crate::agents::config::{check_max_tokens, check_temperature, AgentSettings};
+use crate::agents::{AgentRole, ProviderKind};
 use crate::workbench::app::{single_line_editor, App, Severity};
 use crate::workbench::keymap::Action;
 use crate::workbench::message::Cmd;
 use crate::workbench::overlays::Overlay;
-use crate::workbench::session::AgentSettings;
 
 impl App {
     /// A key of the model form: other keys are typed into the field.
@@ -53,10 +52,12 @@ impl App {
                 .unwrap_or_default()
         };
         let label = agent.label();
+        let before = self.runs.agents.get(&agent).map(|v| v.settings.clone());
         let checked = || -> Result<AgentSettings, String> {
             if text(0).is_empty() || text(1).is_empty() {
                 return Err("provider and model must be set".into());
             }
+            let provider = text(0).parse::<ProviderKind>()?;
             let temperature = text(2)
                 .parse::<f64>()
                 .map_err(|_| format!("temperature `{}` is not a number", text(2)))
@@ -65,11 +66,17 @@ impl App {
                 .parse::<u64>()
                 .map_err(|_| format!("token limit `{}` is not a whole number", text(3)))
                 .and_then(|n| check_max_tokens("token limit", n).map_err(|e| e.to_string()))?;
+            // The same provider keeps its resolved endpoint and switches;
+            // another starts from its defaults until a run resolves it.
+            let base = before
+                .clone()
+                .filter(|b| b.provider == provider)
+                .unwrap_or_else(|| AgentSettings::new(provider, &text(1), temperature, max_tokens));
             Ok(AgentSettings {
-                provider: text(0),
                 model: text(1),
                 temperature,
                 max_tokens,
+                ..base
             })
         };
         match checked() {
@@ -92,7 +99,7 @@ impl App {
             return;
         };
         let fields = vec![
-            single_line_editor(&v.settings.provider),
+            single_line_editor(v.settings.provider.name()),
             single_line_editor(&v.settings.model),
             single_line_editor(&v.settings.temperature.to_string()),
             single_line_editor(&v.settings.max_tokens.to_string()),

@@ -6,12 +6,12 @@ use ratatui::widgets::{Paragraph, Sparkline, Wrap};
 use ratatui::Frame;
 
 use crate::agents::cost::{dollars, Billing, PriceTable};
-use crate::agents::ProviderKind;
+use crate::agents::pipeline::AgentRecord;
 use crate::workbench::app::{App, Severity};
 use crate::workbench::keymap::Action;
 use crate::workbench::message::Cmd;
 use crate::workbench::overlays::{fmt_score, moved, open_box, Overlay};
-use crate::workbench::session::{AgentRecord, PlanSource, RunRecord};
+use crate::workbench::session::{PlanSource, RunRecord};
 
 impl App {
     /// A key of the run history.
@@ -141,13 +141,17 @@ pub(crate) fn draw(
 /// came from the response cache, `None` when its model has no price (the
 /// demo's `replay` agents among them).
 fn agent_cost(prices: &PriceTable, agent: &AgentRecord) -> Option<f64> {
-    let provider: ProviderKind = agent.settings.provider.parse().ok()?;
     let billing = if agent.cached {
         Billing::Cached
     } else {
         Billing::Interactive
     };
-    prices.cost(provider, &agent.settings.model, agent.usage, billing)
+    prices.cost(
+        agent.settings.provider,
+        &agent.settings.model,
+        agent.usage,
+        billing,
+    )
 }
 
 /// What a whole run cost: the sum over its agents, `None` when any of them
@@ -196,16 +200,16 @@ pub(crate) fn run_lines<'a>(app: &App, run: &'a RunRecord, other: &RunRecord) ->
         let same_prompt = other
             .agents
             .iter()
-            .any(|b| b.agent == a.agent && b.prompt == a.prompt);
+            .any(|b| b.role == a.role && b.prompt_hash == a.prompt_hash);
         lines.push(Line::from(vec![
-            Span::styled(format!("{} ", a.agent), t.accent),
+            Span::styled(format!("{} ", a.role), t.accent),
             Span::styled(
                 format!(
                     "{}/{} t={} · {} ms · {}+{} tok · {}",
                     a.settings.provider,
                     a.settings.model,
                     a.settings.temperature,
-                    a.duration_ms,
+                    a.elapsed_ms,
                     a.usage.input_tokens,
                     a.usage.output_tokens,
                     cost_text(agent_cost(&app.prices, a))
@@ -259,9 +263,10 @@ pub(crate) fn draw_compare(frame: &mut Frame, app: &App, area: Rect, left: usize
 #[cfg(test)]
 mod tests {
     use super::*;
+    use crate::agents::config::AgentSettings;
     use crate::agents::config::ConfigFile;
+    use crate::agents::ProviderKind;
     use crate::agents::{AgentRole, Approach, Usage};
-    use crate::workbench::session::AgentSettings;
 
     /// gpt-4o at $2.50 in and $10 out per million tokens, as a config
     /// file writes it; nothing else.
@@ -274,23 +279,19 @@ mod tests {
     }
 
     fn agent(provider: &str, model: &str, cached: bool) -> AgentRecord {
+        let provider: ProviderKind = provider.parse().unwrap();
         AgentRecord {
-            agent: AgentRole::Planner,
-            settings: AgentSettings {
-                provider: provider.into(),
-                model: model.into(),
-                temperature: 0.0,
-                max_tokens: 512,
-            },
-            prompt: String::new(),
-            output: String::new(),
-            duration_ms: 0,
             usage: Usage {
                 input_tokens: 1_000,
                 output_tokens: 200,
             },
             cached,
-            error: None,
+            ..AgentRecord::blank(
+                AgentRole::Planner,
+                &AgentSettings::new(provider, model, 0.0, 512),
+                "multi-image-planner",
+                "",
+            )
         }
     }
 
@@ -301,6 +302,7 @@ mod tests {
             approach: Approach::MultiImage,
             task: String::new(),
             agents,
+            prompts: Default::default(),
             plan: Vec::new(),
             ground_truth: Vec::new(),
             scores: None,
