@@ -319,6 +319,7 @@ fn session_of(record: &mapvlm::agents::pipeline::PlanRecord) -> Session {
             scores: None,
             cancelled: false,
             corrupted: None,
+            steps: Vec::new(),
         }],
         draft: None,
     }

@@ -341,6 +341,38 @@ fn scores_of_a_finished_run_are_kept_in_its_record() {
         h.app.scores.as_ref().map(|s| &s.pg2s),
         Some(Pg2sOutcome::Waiting(_))
     ));
+    // Each step's KAS is kept beside the run's, as the Plan pane shows it;
+    // PG2S matched nothing here (its models are unavailable).
+    let run = &h.app.runs.history[0];
+    let kas_steps = &h.app.scores.as_ref().expect("scored").kas.step_scores;
+    assert_eq!(run.steps.len(), run.plan.len());
+    for (i, step) in run.steps.iter().enumerate() {
+        assert_eq!(step.kas, kas_steps.get(i).copied(), "step {i}");
+        assert_eq!(step.matched, None, "step {i}");
+    }
+    assert_eq!(mapvlm::workbench::runs::sample_scores(run), vec![scores]);
+}
+
+#[test]
+fn each_step_of_a_scored_run_keeps_its_pg2s_match() {
+    let h = Harness::new((120, 40), None, false, bag_of_words());
+    let run = &h.app.runs.history[0];
+    let Some(Pg2sOutcome::Ready(report)) = h.app.scores.as_ref().map(|s| &s.pg2s) else {
+        panic!("PG2S was scored");
+    };
+    let matched: Vec<(usize, usize)> = report
+        .sentence_matches
+        .iter()
+        .filter_map(|m| m.pred.map(|p| (p, m.gt)))
+        .collect();
+    assert!(!matched.is_empty());
+    for (pred, gt) in matched {
+        assert_eq!(
+            run.steps[pred].matched.map(|m| m.0),
+            Some(gt),
+            "step {pred}"
+        );
+    }
 }
 
 #[test]

@@ -69,12 +69,14 @@ pub fn run(args: TuiArgs) -> anyhow::Result<ExitCode> {
         ms => Pace::Every(Duration::from_millis(ms)),
     };
     let prices = PriceTable::from_config(&file.prices);
+    let providers = ProviderConfig {
+        file,
+        path,
+        env: Box::new(env),
+    };
+    let configured = providers.configured_agents();
     let pipeline = AgentsPipeline::new(
-        ProviderConfig {
-            file,
-            path,
-            env: Box::new(env),
-        },
+        providers,
         ResponseCache::default_dir().map(ResponseCache::new),
         pace,
     )
@@ -112,6 +114,7 @@ pub fn run(args: TuiArgs) -> anyhow::Result<ExitCode> {
             .halfblocks
             .then(ratatui_image::picker::Picker::halfblocks),
         prices,
+        configured,
     };
     workbench::run(options)?;
     Ok(ExitCode::SUCCESS)

@@ -1,6 +1,7 @@
 //! Agreement statistics, written once for the whole product: rank
 //! correlations as scipy computes them, pairwise accuracy, percentile
-//! bootstrap intervals, a paired permutation test and Krippendorff's alpha.
+//! bootstrap intervals, permutation tests (paired tau-b, two-sample means),
+//! Krippendorff's alpha, and the mean and sd of samples.
 //!
 //! Every statistic that can be undefined (too few items, a constant column)
 //! returns [`Undefined`] with the reason instead of NaN, so a report can
@@ -12,6 +13,7 @@ pub mod krippendorff;
 pub mod permutation;
 pub mod rank;
 pub mod rng;
+pub mod summary;
 
 /// Why a statistic has no value.
 #[derive(Debug, Clone, Copy, PartialEq, Eq, thiserror::Error)]

@@ -1,5 +1,7 @@
-//! A paired permutation test: is the difference between two metrics'
-//! Kendall's tau-b with the human scores more than chance?
+//! Permutation tests. The paired one: is the difference between two
+//! metrics' Kendall's tau-b with the human scores more than chance? The
+//! two-sample one ([`mean_difference`]): is the difference between the means
+//! of two groups (two runs' samples) more than their spread?
 //!
 //! Over the items that have both metrics, each metric's values are replaced
 //! by their average ranks (the two metrics have different scales; tau-b only
@@ -14,7 +16,8 @@ use rayon::prelude::*;
 
 use super::correlation::{Paired, Ranked};
 use super::rank::{average_ranks, dense_ranks, dense_ranks_of_keys};
-use super::rng::{stream, PERMUTATION};
+use super::rng::{below, stream, PERMUTATION};
+use super::summary::mean;
 use super::Undefined;
 
 /// The outcome of the test.
@@ -99,9 +102,75 @@ pub fn tau_b_difference(
     })
 }
 
+/// Tests the mean of `b` minus the mean of `a` against chance: under the
+/// null hypothesis the values are exchangeable between the groups, so each
+/// of `permutations` shuffles (Fisher–Yates, stream `PERMUTATION + p` of
+/// `seed`) deals the pooled values out again and recomputes the difference.
+/// Two-sided p-value as [`tau_b_difference`]; `n` is the pooled count.
+/// Undefined unless each group has two values or more.
+pub fn mean_difference(
+    a: &[f64],
+    b: &[f64],
+    permutations: usize,
+    seed: u64,
+) -> Result<PermutationTest, Undefined> {
+    if a.len() < 2 || b.len() < 2 {
+        return Err(Undefined::TooFewItems);
+    }
+    if permutations == 0 {
+        return Err(Undefined::NoResample);
+    }
+    let observed = mean(b)? - mean(a)?;
+    let pooled: Vec<f64> = a.iter().chain(b).copied().collect();
+    let tolerance = 1e-12 * (1.0 + observed.abs());
+    let hits = (0..permutations)
+        .into_par_iter()
+        .filter(|&p| {
+            let mut rng = stream(seed, PERMUTATION + p as u64);
+            let mut dealt = pooled.clone();
+            for i in (1..dealt.len()).rev() {
+                dealt.swap(i, below(&mut rng, i as u64 + 1) as usize);
+            }
+            let (x, y) = dealt.split_at(a.len());
+            let d = mean(y).unwrap_or(0.0) - mean(x).unwrap_or(0.0);
+            d.abs() >= observed.abs() - tolerance
+        })
+        .count();
+    Ok(PermutationTest {
+        difference: observed,
+        p_value: (1 + hits) as f64 / (1 + permutations) as f64,
+        n: pooled.len(),
+        permutations,
+    })
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    #[test]
+    fn two_sample_means_apart_beyond_their_spread_are_significant_and_within_it_are_not() {
+        let low = [0.40, 0.41, 0.39, 0.40, 0.42];
+        let high = [0.60, 0.61, 0.59, 0.62, 0.60];
+        let apart = mean_difference(&low, &high, 2000, 0).unwrap_or_else(|e| panic!("{e}"));
+        assert!((apart.difference - 0.2).abs() < 1e-9, "{apart:?}");
+        // 5 + 5 values fully apart: only 2 of the 252 deals are as extreme.
+        assert!(apart.p_value < 0.02, "{apart:?}");
+        assert_eq!(apart.n, 10);
+        let noisy = [0.30, 0.70, 0.45, 0.55, 0.50];
+        let close = mean_difference(&noisy, &[0.52, 0.48, 0.60, 0.40, 0.51], 2000, 0)
+            .unwrap_or_else(|e| panic!("{e}"));
+        assert!(close.p_value > 0.5, "{close:?}");
+        assert_eq!(
+            close,
+            mean_difference(&noisy, &[0.52, 0.48, 0.60, 0.40, 0.51], 2000, 0)
+                .unwrap_or_else(|e| panic!("{e}"))
+        );
+        assert_eq!(
+            mean_difference(&[0.5], &high, 100, 0),
+            Err(Undefined::TooFewItems)
+        );
+    }
 
     #[test]
     fn identical_metrics_are_never_significant_and_opposite_ones_are() {

@@ -190,6 +190,34 @@ pub struct ProviderConfig {
     pub env: EnvReader,
 }
 
+impl ProviderConfig {
+    /// The settings each configured agent starts with on a user's task:
+    /// what the config file and the environment resolve for it (the key
+    /// left out). An agent is configured when the config file
+    /// names a provider, base URL or model under `[agents.ROLE]` or
+    /// `[defaults]`, or when its provider's key or base-URL variable (e.g.
+    /// `OPENAI_API_KEY`, `OPENAI_BASE_URL`) is set; the others are left out
+    /// and start on the demo's recording.
+    pub fn configured_agents(&self) -> Result<BTreeMap<AgentRole, AgentSettings>, ConfigError> {
+        let settings = Settings::resolve(&self.file, &*self.env, &FlagLayers::default())?;
+        let names = |layer: Option<&AgentLayer>| {
+            layer.is_some_and(|l| l.provider.is_some() || l.base_url.is_some() || l.model.is_some())
+        };
+        let set = |name: &str| (self.env)(name).is_some_and(|v| !v.trim().is_empty());
+        Ok(settings
+            .agents
+            .iter()
+            .filter(|(role, agent)| {
+                names(self.file.agents.get(role.name()))
+                    || names(Some(&self.file.defaults))
+                    || agent.provider.key_variable().is_some_and(set)
+                    || agent.provider.base_url_variable().is_some_and(set)
+            })
+            .map(|(&role, agent)| (role, agent.without_key()))
+            .collect())
+    }
+}
+
 /// A [`Pipeline`] over the real agents: each run gets settings from the
 /// request's provider, model, temperature and token limit on top of the
 /// config file and the environment (keys never come from the session), the
@@ -457,4 +485,70 @@ pub fn demo_scene_file() -> Result<PathBuf, RunError> {
     let path = std::env::temp_dir().join("mapvlm-demo-scene.png");
     write_atomic(&path, &bytes)?;
     Ok(path)
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    fn configured(toml: &str, env: &[(&'static str, &'static str)]) -> Vec<(AgentRole, String)> {
+        let env: Vec<(&'static str, &'static str)> = env.to_vec();
+        let config = ProviderConfig {
+            file: toml::from_str(toml).unwrap(),
+            path: None,
+            env: Box::new(move |name| {
+                env.iter()
+                    .find(|(k, _)| *k == name)
+                    .map(|(_, v)| v.to_string())
+            }),
+        };
+        let agents = config.configured_agents().unwrap();
+        agents
+            .into_iter()
+            .map(|(role, s)| (role, format!("{}/{}", s.provider, s.model)))
+            .collect()
+    }
+
+    #[test]
+    fn an_agent_is_configured_by_the_file_or_its_providers_variables_and_only_so() {
+        use AgentRole::*;
+        assert_eq!(configured("", &[]), []);
+        assert_eq!(
+            configured("max_retries = 2\n[defaults]\ntemperature = 0.5", &[]),
+            [],
+            "sampling settings alone name no provider"
+        );
+        assert_eq!(
+            configured("", &[("ANTHROPIC_API_KEY", "k")]),
+            [],
+            "the agents default to openai, whose key is not set"
+        );
+        let all = |p: &str| AgentRole::ALL.map(|r| (r, p.to_string())).to_vec();
+        assert_eq!(
+            configured("", &[("OPENAI_API_KEY", "k")]),
+            all("openai/gpt-4o")
+        );
+        assert_eq!(
+            configured("", &[("OPENAI_BASE_URL", "http://127.0.0.1:1/v1")]),
+            all("openai/gpt-4o")
+        );
+        assert_eq!(
+            configured("[defaults]\nmodel = \"m\"", &[]),
+            all("openai/m")
+        );
+        assert_eq!(
+            configured(
+                "[agents.planner]\nprovider = \"anthropic\"",
+                &[("OPENAI_API_KEY", "")]
+            ),
+            [(Planner, "anthropic/claude-sonnet-4-5".to_string())]
+        );
+        assert_eq!(
+            configured(
+                "[agents.gkm]\nbase_url = \"http://127.0.0.1:1/v1\"\nmodel = \"local\"",
+                &[]
+            ),
+            [(Gkm, "openai/local".to_string())]
+        );
+    }
 }

@@ -8,8 +8,9 @@ use std::path::PathBuf;
 
 use ratatui_textarea::TextArea;
 
+use crate::agents::config::AgentSettings;
 use crate::agents::cost::PriceTable;
-use crate::agents::Approach;
+use crate::agents::{AgentRole, Approach, ProviderKind};
 use crate::dataset::{Dataset, Task};
 use crate::demo;
 use crate::workbench::agents;
@@ -83,6 +84,10 @@ pub struct AppInit {
     /// The prompt templates' texts by name: the built-in ones, or the
     /// user's where the user folder has one ([`agents::prompt_texts`]).
     pub prompts: BTreeMap<String, String>,
+    /// The settings of the agents the config file and the environment
+    /// configure ([`agents::ProviderConfig::configured_agents`]): on a
+    /// user's task they start on these, the others on the demo's recording.
+    pub configured: BTreeMap<AgentRole, AgentSettings>,
 }
 
 impl AppInit {
@@ -101,6 +106,7 @@ impl AppInit {
             prompts: crate::agents::prompts::PromptSet::load(None)
                 .map(|set| agents::prompt_texts(&set))
                 .unwrap_or_default(),
+            configured: BTreeMap::new(),
         }
     }
 }
@@ -131,6 +137,8 @@ pub struct App {
     pub approach: Approach,
     /// The agents and the runs.
     pub runs: Runs,
+    /// The settings configured agents start with on a user's task.
+    pub configured: BTreeMap<AgentRole, AgentSettings>,
     /// The config file's prices, for the cost of each run in the history
     /// (empty: every cost shows as `no price`).
     pub prices: PriceTable,
@@ -232,6 +240,7 @@ impl App {
             dataset: init.dataset,
             approach: Approach::MultiImage,
             runs: Runs::new(),
+            configured: init.configured,
             prices: PriceTable::default(),
             prompt: PromptPane::new(init.prompts),
             plan: Steps::default(),
@@ -308,9 +317,26 @@ impl App {
             v.status = AgentStatus::Idle;
             v.ran_with = None;
         }
+        self.use_configured_providers();
         self.refresh_graph();
         self.load_published_plan();
         self.load_scene()
+    }
+
+    /// On a user's task, puts every agent still on the demo's recording
+    /// (which has answers for the demo alone) on the provider the config
+    /// file and the environment configure for it, if any.
+    pub(crate) fn use_configured_providers(&mut self) {
+        if self.is_demo() {
+            return;
+        }
+        for (role, view) in self.runs.agents.iter_mut() {
+            if let Some(chosen) = self.configured.get(role) {
+                if view.settings.provider == ProviderKind::Replay {
+                    view.settings = chosen.clone();
+                }
+            }
+        }
     }
 
     pub(crate) fn load_published_plan(&mut self) {
@@ -397,5 +423,40 @@ impl App {
             .chain(pane)
             .chain([Context::Panes])
             .collect()
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    fn configured_planner() -> BTreeMap<AgentRole, AgentSettings> {
+        let live = AgentSettings::new(ProviderKind::Openai, "local", 0.0, 512);
+        BTreeMap::from([(AgentRole::Planner, live)])
+    }
+
+    fn providers(app: &App) -> Vec<String> {
+        [AgentRole::Skm, AgentRole::Gkm, AgentRole::Planner]
+            .map(|r| app.runs.agents[&r].settings.provider.to_string())
+            .to_vec()
+    }
+
+    #[test]
+    fn the_demo_replays_and_a_users_task_starts_on_the_configured_providers() {
+        let (demo, _) = App::new(AppInit {
+            configured: configured_planner(),
+            ..AppInit::demo((120, 40), "no models in this test")
+        });
+        assert_eq!(providers(&demo), ["replay"; 3]);
+
+        let root = concat!(env!("CARGO_MANIFEST_DIR"), "/../shared/data/alfred30");
+        let (dataset, _) = Dataset::load(std::path::Path::new(root)).unwrap();
+        let (app, _) = App::new(AppInit {
+            dataset: Some(dataset),
+            configured: configured_planner(),
+            ..AppInit::demo((120, 40), "no models in this test")
+        });
+        assert!(!app.is_demo());
+        assert_eq!(providers(&app), ["replay", "replay", "openai"]);
     }
 }

@@ -42,8 +42,9 @@ use std::time::Duration;
 
 use ratatui_image::picker::Picker;
 
-use crate::agents::config::ConfigError;
+use crate::agents::config::{AgentSettings, ConfigError};
 use crate::agents::cost::PriceTable;
+use crate::agents::AgentRole;
 use agents::Pipeline;
 use scoring::ScorerLoader;
 
@@ -75,6 +76,10 @@ pub struct Options {
     /// The config file's price table for the run history's costs, or why
     /// its `[prices]` section cannot be used (shown once at the start).
     pub prices: Result<PriceTable, ConfigError>,
+    /// The agents the config file and the environment configure, with the
+    /// settings they start with on a user's task, or why the config cannot
+    /// give them (shown once at the start; every agent then replays).
+    pub configured: Result<BTreeMap<AgentRole, AgentSettings>, ConfigError>,
 }
 
 /// Why the workbench could not run.

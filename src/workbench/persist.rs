@@ -161,6 +161,7 @@ impl App {
                 self.theme = theme.clone();
             }
         }
+        self.use_configured_providers();
         self.scene.enabled = s.image;
         self.runs.history = s.runs;
         self.refresh_graph();

@@ -5,6 +5,7 @@ use ratatui::text::{Line, Span};
 use ratatui::widgets::{Block, Paragraph, Wrap};
 use ratatui::Frame;
 
+use crate::agents::ProviderKind;
 use crate::workbench::app::{App, Severity};
 use crate::workbench::editing::Editing;
 use crate::workbench::keymap::{self};
@@ -68,9 +69,38 @@ fn render_header(frame: &mut Frame, app: &App, area: Rect) {
         Span::styled(" │ ", t.border),
         Span::styled(app.approach.name(), t.accent),
         Span::styled(" │ ", t.border),
+        Span::styled(providers_in_use(app), t.accent),
+        Span::styled(" │ ", t.border),
         models,
     ]);
     frame.render_widget(Paragraph::new(line).style(t.base), area);
+}
+
+/// Which provider each agent of the approach runs on, short: agents in a
+/// row with the same provider and model share one entry, e.g.
+/// `SKM·GKM·Planner replay` or `SKM·GKM openai/gpt-4o, Planner replay`.
+pub fn providers_in_use(app: &App) -> String {
+    let mut groups: Vec<(Vec<&str>, String)> = Vec::new();
+    for &role in app.approach.roles() {
+        let Some(view) = app.runs.agents.get(&role) else {
+            continue;
+        };
+        let settings = &view.settings;
+        let provider = if settings.provider == ProviderKind::Replay {
+            settings.provider.to_string()
+        } else {
+            format!("{}/{}", settings.provider, settings.model)
+        };
+        match groups.last_mut() {
+            Some((roles, last)) if *last == provider => roles.push(role.label()),
+            _ => groups.push((vec![role.label()], provider)),
+        }
+    }
+    let entries: Vec<String> = groups
+        .into_iter()
+        .map(|(roles, provider)| format!("{} {provider}", roles.join("·")))
+        .collect();
+    entries.join(", ")
 }
 
 fn render_tabs(frame: &mut Frame, app: &App, area: Rect) {

@@ -14,7 +14,32 @@ use crate::workbench::editing::Editing;
 use crate::workbench::message::Cmd;
 use crate::workbench::panes::steps::StepList;
 use crate::workbench::scoring::{Pg2sOutcome, ScoreOutcome};
-use crate::workbench::session::{PlanSource, RunRecord, ScoreRecord};
+use crate::workbench::session::{PlanSource, RunRecord, ScoreRecord, StepScore};
+
+/// Every sample's scores of `run`, in sample order: the one place the run
+/// diff's verdicts read a run's samples from. A run holds one sample today,
+/// so this is its one score (none before scoring).
+pub fn sample_scores(run: &RunRecord) -> Vec<ScoreRecord> {
+    run.scores.into_iter().collect()
+}
+
+/// Each of `steps` plan steps' part of `outcome`: the KAS of the step and
+/// the ground-truth step PG2S matched it to, as the Plan pane marks it.
+fn step_breakdown(outcome: &ScoreOutcome, steps: usize) -> Vec<StepScore> {
+    let matches = match &outcome.pg2s {
+        Pg2sOutcome::Ready(report) => report.sentence_matches.as_slice(),
+        _ => &[],
+    };
+    (0..steps)
+        .map(|i| StepScore {
+            kas: outcome.kas.step_scores.get(i).copied(),
+            matched: matches
+                .iter()
+                .find(|m| m.pred == Some(i))
+                .map(|m| (m.gt, m.cosine.unwrap_or_default())),
+        })
+        .collect()
+}
 
 /// What an agent is doing.
 #[derive(Debug, Clone, PartialEq, Eq)]
@@ -274,6 +299,7 @@ impl App {
             scores: None,
             cancelled,
             corrupted: None,
+            steps: Vec::new(),
         });
         let cmd = self.rescore();
         self.runs.awaiting_scores = Some((self.runs.history.len() - 1, self.score_generation));
@@ -409,6 +435,7 @@ impl App {
                         s_goal: report.and_then(|r| r.s_goal()),
                         pg2s: report.and_then(|r| r.pg2s()),
                     });
+                    run.steps = step_breakdown(&outcome, run.plan.len());
                 }
                 self.runs.awaiting_scores = None;
                 self.session_dirty = true;

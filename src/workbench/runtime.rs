@@ -288,6 +288,11 @@ fn load_start(
             "costs off, the config file's prices are not used: {e}; fix that entry"
         ));
     }
+    if let Err(e) = &options.configured {
+        notices.push(format!(
+            "the agents start on the demo's recording, the config file's providers cannot be used: {e}"
+        ));
+    }
     (dataset, restored, notices, path)
 }
 
@@ -311,6 +316,12 @@ async fn run_async(options: Options) -> Result<(), TuiError> {
         size: (size.width, size.height),
         models: ModelSlot::Loading("starting".to_string()),
         prompts: options.prompts.clone(),
+        configured: options
+            .configured
+            .as_ref()
+            .ok()
+            .cloned()
+            .unwrap_or_default(),
     });
     app.prices = options.prices.as_ref().ok().cloned().unwrap_or_default();
     terminal.draw(|f| render::render(f, &app))?;

@@ -104,6 +104,23 @@ pub struct RunRecord {
     /// pane's `c`), not by agents: where that plan came from and the edits.
     #[serde(default, skip_serializing_if = "Option::is_none")]
     pub corrupted: Option<CorruptedFrom>,
+    /// Each plan step's part of the scores, as the Plan pane marked it when
+    /// the run was scored, so two runs' steps can be compared without
+    /// scoring again (absent in older sessions and before scoring).
+    #[serde(default, skip_serializing_if = "Vec::is_empty")]
+    pub steps: Vec<StepScore>,
+}
+
+/// One plan step's part of a run's scores: its KAS step score and the
+/// ground-truth step PG2S matched it to, the breakdown the Plan pane shows
+/// under each step (the reason for every point lost).
+#[derive(Debug, Clone, Copy, Default, PartialEq, Serialize, Deserialize)]
+pub struct StepScore {
+    /// KAS of this step against the ground-truth step at the same position.
+    pub kas: Option<f64>,
+    /// The ground-truth step (0-based) PG2S matched this step to, and the
+    /// cosine of the match; `None` when unmatched or PG2S was not computed.
+    pub matched: Option<(usize, f64)>,
 }
 
 /// A plan corrupted on purpose: the plan it was made from and what was
@@ -402,6 +419,7 @@ mod tests {
             scores: None,
             cancelled: false,
             corrupted: None,
+            steps: Vec::new(),
         });
         save(&path, &saved).unwrap();
         let mut json: serde_json::Value =
@@ -546,6 +564,7 @@ mod tests {
                             }),
                             cancelled: image,
                             corrupted: None,
+                            steps: Vec::new(),
                         }],
                         draft: draft.map(|(text, index)| Draft {
                             target: "plan".into(),

@@ -1,8 +1,11 @@
 //! Helpers shared by the integration tests: the real binary with a cache of
-//! its own, the shared data folder, the golden files and a tmux driver.
+//! its own, the shared data folder, the golden files, a tmux driver, a
+//! local OpenAI-compatible server and a user's home with a config file.
 #![allow(dead_code)]
 
+pub mod server;
 pub mod tmux;
+pub mod workbench;
 
 use std::path::PathBuf;
 use std::process::{Command, Output};

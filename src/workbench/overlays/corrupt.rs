@@ -130,6 +130,7 @@ impl App {
                 source: self.plan_source.clone(),
                 corruption: corrupted.corruption,
             }),
+            steps: Vec::new(),
         });
         self.plan.items = corrupted.plan;
         self.plan.selected = 0;

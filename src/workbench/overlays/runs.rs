@@ -308,6 +308,7 @@ mod tests {
             scores: None,
             cancelled: false,
             corrupted: None,
+            steps: Vec::new(),
         }
     }
 
