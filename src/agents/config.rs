@@ -309,13 +309,10 @@ impl Settings {
             let (default_url, default_model) =
                 (provider.default_base_url(), provider.default_model());
             let from_env = AgentLayer {
-                api_key: provider
-                    .key_variable()
-                    .and_then(|v| env(v))
-                    .and_then(Secret::new),
+                api_key: provider.key_variable().and_then(env).and_then(Secret::new),
                 base_url: provider
                     .base_url_variable()
-                    .and_then(|v| env(v))
+                    .and_then(env)
                     .filter(|v| !v.trim().is_empty()),
                 ..AgentLayer::default()
             };
