@@ -4,7 +4,6 @@
 use crossterm::event::{KeyEvent, KeyEventKind, MouseButton, MouseEvent, MouseEventKind};
 use ratatui::layout::{Position, Rect};
 
-use crate::agents::AgentRole;
 use crate::plan::parse_steps;
 use crate::workbench::app::{single_line_editor, App, Severity};
 use crate::workbench::editing::Editing;
@@ -214,18 +213,7 @@ impl App {
                 }
                 return vec![self.rescore()];
             }
-            Action::ModelForm => {
-                let agent = if self.focus == Pane::Prompt {
-                    self.prompt.agent
-                } else {
-                    match self.focus {
-                        Pane::Graph => AgentRole::Skm,
-                        Pane::Description => AgentRole::Gkm,
-                        _ => self.approach.planning_role(),
-                    }
-                };
-                self.open_model_form(agent);
-            }
+            Action::ModelForm => self.open_model_form(),
             Action::ToggleImage => {
                 self.scene.enabled = !self.scene.enabled;
                 self.session_dirty = true;
@@ -257,6 +245,7 @@ impl App {
             | Action::RunFromEditor
             | Action::NextField
             | Action::PreviousField
+            | Action::EveryAgent
             | Action::MarkRun
             | Action::CompareRuns => {}
             // The annotation screen's actions: never bound in a pane.

@@ -141,6 +141,9 @@ pub enum Action {
     CancelRun,
     /// Open the model form of an agent.
     ModelForm,
+    /// In the model form: save for every agent, or for the form's agent
+    /// alone (a toggle).
+    EveryAgent,
     /// Show the framed actions and their matches.
     Actions,
     /// Open the run history.

@@ -496,6 +496,16 @@ pub(super) const WORKBENCH: &[Binding] = &[
     hinted(
         bind(
             C::ModelForm,
+            &[(ctrl('a'), A::EveryAgent)],
+            "Ctrl-A (model form)",
+            "save for every agent, or for this agent alone (toggle)",
+        ),
+        "Ctrl-A",
+        "every agent",
+    ),
+    hinted(
+        bind(
+            C::ModelForm,
             &[(key(KeyCode::Esc), A::Leave)],
             "Esc (model form)",
             "cancel",

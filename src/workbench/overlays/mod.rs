@@ -9,18 +9,18 @@ pub mod pickers;
 pub mod runs;
 
 use crossterm::event::KeyEvent;
-use ratatui::layout::{Constraint, Layout, Rect};
+use ratatui::layout::Rect;
 use ratatui::text::{Line, Span};
 use ratatui::widgets::{Block, Borders, Clear, Paragraph};
 use ratatui::Frame;
 use ratatui_textarea::TextArea;
 
-use crate::agents::AgentRole;
 use crate::workbench::app::App;
 use crate::workbench::component::{self, Component};
 use crate::workbench::keymap::{self, Action, Context};
 use crate::workbench::message::Cmd;
 use crate::workbench::overlays::help::{Close, Help};
+use crate::workbench::overlays::model_form::ModelForm;
 use crate::workbench::panes::list_window;
 use crate::workbench::theme::Theme;
 
@@ -37,14 +37,7 @@ pub enum Overlay {
     /// Type the path of a step file.
     StepFilePath(Box<TextArea<'static>>),
     /// Provider, model, temperature and token limit of an agent.
-    ModelForm {
-        /// The agent.
-        agent: AgentRole,
-        /// One editor per field.
-        fields: Vec<TextArea<'static>>,
-        /// The field with focus.
-        field: usize,
-    },
+    ModelForm(ModelForm),
     /// The history of runs.
     Runs {
         /// The highlighted run.
@@ -78,7 +71,7 @@ impl Overlay {
                 Some(Context::Picker)
             }
             Overlay::StepFilePath(_) => Some(Context::PathPrompt),
-            Overlay::ModelForm { .. } => Some(Context::ModelForm),
+            Overlay::ModelForm(_) => Some(Context::ModelForm),
             Overlay::Runs { .. } => Some(Context::History),
             Overlay::Compare { .. } | Overlay::Actions => Some(Context::Viewer),
         }
@@ -116,11 +109,7 @@ impl App {
             Overlay::GroundTruthPicker { selected } => self.on_picker_key(selected, action),
             Overlay::CorruptPicker { selected } => self.on_corrupt_picker_key(selected, action),
             Overlay::StepFilePath(editor) => self.on_path_key(editor, action, key),
-            Overlay::ModelForm {
-                agent,
-                fields,
-                field,
-            } => self.on_model_form_key(agent, fields, field, action, key),
+            Overlay::ModelForm(form) => self.on_model_form_key(form, key),
             Overlay::Runs { selected, marked } => self.on_history_key(selected, marked, action),
         }
     }
@@ -205,27 +194,7 @@ pub(crate) fn render_overlay(frame: &mut Frame, app: &App, area: Rect) {
             );
             frame.render_widget(editor.as_ref(), inner);
         }
-        Overlay::ModelForm {
-            agent,
-            fields,
-            field,
-        } => {
-            let rect = centred(area, 70, 7);
-            frame.render_widget(Clear, rect);
-            let title = format!("{agent}: provider and model (Tab next, Enter saves)");
-            let block = frame_box(app, "").title(Span::styled(title, t.title));
-            let inner = block.inner(rect);
-            frame.render_widget(block, rect);
-            let labels = ["provider", "model", "temperature", "max tokens"];
-            let rows = Layout::vertical([Constraint::Length(1); 4]).split(inner);
-            for (i, (label, editor)) in labels.iter().zip(fields).enumerate() {
-                let [l, r] =
-                    Layout::horizontal([Constraint::Length(14), Constraint::Min(1)]).areas(rows[i]);
-                let style = if i == *field { t.accent } else { t.muted };
-                frame.render_widget(Paragraph::new(Span::styled(*label, style)), l);
-                frame.render_widget(editor, r);
-            }
-        }
+        Overlay::ModelForm(form) => form.draw(frame, area, t),
         Overlay::Runs { selected, marked } => runs::draw(frame, app, area, *selected, *marked),
         Overlay::Compare { left, right } => runs::draw_compare(frame, app, area, *left, *right),
         Overlay::Actions => actions::draw(frame, app, area),

@@ -1,154 +1,429 @@
-//! The form of an agent's provider, model, temperature and token limit.
+//! The model form: an agent's provider, model, temperature and token limit,
+//! as a [`Component`] with its own state. It opens for the agent in
+//! question (the one the status message names, e.g. "SKM needs a
+//! provider"), and can save its settings for every agent at once.
 
 use crossterm::event::KeyEvent;
+use ratatui::layout::{Constraint, Layout, Rect};
+use ratatui::text::{Line, Span};
+use ratatui::widgets::{Clear, Paragraph};
+use ratatui::Frame;
 use ratatui_textarea::TextArea;
 
 use crate::agents::config::{check_max_tokens, check_temperature, AgentSettings};
 use crate::agents::{AgentRole, ProviderKind};
 use crate::workbench::app::{single_line_editor, App, Severity};
-use crate::workbench::keymap::Action;
+use crate::workbench::component::{self, Component};
+use crate::workbench::keymap::{Action, Context};
 use crate::workbench::message::Cmd;
-use crate::workbench::overlays::Overlay;
+use crate::workbench::overlays::{centred, themed_box, Overlay};
+use crate::workbench::panes::Pane;
+use crate::workbench::theme::Theme;
 
-impl App {
-    /// A key of the model form: other keys are typed into the field.
-    pub(crate) fn on_model_form_key(
-        &mut self,
-        agent: AgentRole,
-        mut fields: Vec<TextArea<'static>>,
-        field: usize,
-        action: Option<Action>,
-        key: KeyEvent,
-    ) -> Vec<Cmd> {
-        let n = fields.len();
-        let field = match action {
-            Some(Action::Leave) => return Vec::new(),
-            Some(Action::Accept) => {
-                self.apply_model_form(agent, &fields);
-                return Vec::new();
-            }
-            Some(Action::NextField) => (field + 1) % n,
-            Some(Action::PreviousField) => (field + n - 1) % n,
-            _ => {
-                if let Some(f) = fields.get_mut(field) {
-                    f.input(key);
-                }
-                field
-            }
-        };
-        self.overlay = Some(Overlay::ModelForm {
+/// The form's fields, in order.
+const LABELS: [&str; 4] = ["provider", "model", "temperature", "max tokens"];
+
+/// The model form's state: one editor per field, the field with focus,
+/// whether saving applies to every agent, and why the last save was refused.
+#[derive(Debug, Clone)]
+pub struct ModelForm {
+    agent: AgentRole,
+    fields: Vec<TextArea<'static>>,
+    focus: usize,
+    every_agent: bool,
+    problem: Option<String>,
+    /// The settings it opened with: a save on the same provider keeps
+    /// their endpoint and switches.
+    opened_with: AgentSettings,
+}
+
+/// What a key in the form asks of the workbench.
+#[derive(Debug, Clone, PartialEq)]
+pub enum FormOutcome {
+    /// The form stays open.
+    Open,
+    /// The form was closed without saving.
+    Cancelled,
+    /// The form was saved: give these agents these settings.
+    Saved {
+        /// The agents to set: the form's agent, or every agent.
+        agents: Vec<AgentRole>,
+        /// The checked settings.
+        settings: AgentSettings,
+    },
+}
+
+impl ModelForm {
+    /// The form for `agent`, filled with its current `settings`.
+    pub fn new(agent: AgentRole, settings: &AgentSettings) -> ModelForm {
+        let values = [
+            settings.provider.to_string(),
+            settings.model.clone(),
+            settings.temperature.to_string(),
+            settings.max_tokens.to_string(),
+        ];
+        ModelForm {
             agent,
-            fields,
-            field,
-        });
-        Vec::new()
-    }
-
-    pub(crate) fn apply_model_form(&mut self, agent: AgentRole, fields: &[TextArea<'static>]) {
-        let text = |i: usize| {
-            fields
-                .get(i)
-                .map(|f| f.lines().join("").trim().to_string())
-                .unwrap_or_default()
-        };
-        let label = agent.label();
-        let before = self.runs.agents.get(&agent).map(|v| v.settings.clone());
-        let checked = || -> Result<AgentSettings, String> {
-            if text(0).is_empty() || text(1).is_empty() {
-                return Err("provider and model must be set".into());
-            }
-            let provider = text(0).parse::<ProviderKind>()?;
-            let temperature = text(2)
-                .parse::<f64>()
-                .map_err(|_| format!("temperature `{}` is not a number", text(2)))
-                .and_then(|t| check_temperature("temperature", t).map_err(|e| e.to_string()))?;
-            let max_tokens = text(3)
-                .parse::<u64>()
-                .map_err(|_| format!("token limit `{}` is not a whole number", text(3)))
-                .and_then(|n| check_max_tokens("token limit", n).map_err(|e| e.to_string()))?;
-            // The same provider keeps its resolved endpoint and switches;
-            // another starts from its defaults until a run resolves it.
-            let base = before
-                .clone()
-                .filter(|b| b.provider == provider)
-                .unwrap_or_else(|| AgentSettings::new(provider, &text(1), temperature, max_tokens));
-            Ok(AgentSettings {
-                model: text(1),
-                temperature,
-                max_tokens,
-                ..base
-            })
-        };
-        match checked() {
-            Ok(settings) => {
-                if let Some(v) = self.runs.agents.get_mut(&agent) {
-                    v.settings = settings;
-                }
-                self.session_dirty = true;
-                self.set_status(
-                    format!("{label}: {} / {} (r runs what changed)", text(0), text(1)),
-                    Severity::Info,
-                );
-            }
-            Err(why) => self.set_status(format!("{label}: not changed: {why}"), Severity::Warn),
+            fields: values.iter().map(|v| single_line_editor(v)).collect(),
+            focus: 0,
+            every_agent: false,
+            problem: None,
+            opened_with: settings.clone(),
         }
     }
 
-    pub(crate) fn open_model_form(&mut self, agent: AgentRole) {
-        let Some(v) = self.runs.agents.get(&agent) else {
-            return;
+    /// The agent the form was opened for.
+    pub fn agent(&self) -> AgentRole {
+        self.agent
+    }
+
+    /// Whether saving sets every agent, not just [`ModelForm::agent`].
+    pub fn every_agent(&self) -> bool {
+        self.every_agent
+    }
+
+    fn text(&self, i: usize) -> String {
+        self.fields
+            .get(i)
+            .map(|f| f.lines().join("").trim().to_string())
+            .unwrap_or_default()
+    }
+
+    /// The settings typed, checked: a known provider (or the recording), a
+    /// model, and numbers in range; else why not, naming the value.
+    fn checked(&self) -> Result<AgentSettings, String> {
+        let (provider, model) = (self.text(0), self.text(1));
+        if provider.is_empty() || model.is_empty() {
+            return Err("provider and model must be set".into());
+        }
+        let provider = provider.parse::<ProviderKind>()?;
+        let temperature = self
+            .text(2)
+            .parse::<f64>()
+            .map_err(|_| format!("temperature `{}` is not a number", self.text(2)))
+            .and_then(|t| check_temperature("temperature", t).map_err(|e| e.to_string()))?;
+        let max_tokens = self
+            .text(3)
+            .parse::<u64>()
+            .map_err(|_| format!("token limit `{}` is not a whole number", self.text(3)))
+            .and_then(|n| check_max_tokens("token limit", n).map_err(|e| e.to_string()))?;
+        // Another provider starts from its defaults until a run resolves it.
+        let base = Some(&self.opened_with)
+            .filter(|b| b.provider == provider)
+            .cloned()
+            .unwrap_or_else(|| AgentSettings::new(provider, &model, temperature, max_tokens));
+        Ok(AgentSettings {
+            model,
+            temperature,
+            max_tokens,
+            ..base
+        })
+    }
+}
+
+impl Component for ModelForm {
+    type Outcome = FormOutcome;
+
+    fn contexts(&self) -> Vec<Context> {
+        vec![Context::ModelForm]
+    }
+
+    fn on_action(&mut self, action: Action) -> FormOutcome {
+        let n = self.fields.len();
+        match action {
+            Action::Leave => return FormOutcome::Cancelled,
+            Action::Accept => match self.checked() {
+                Ok(settings) => {
+                    let agents = if self.every_agent {
+                        AgentRole::ALL.to_vec()
+                    } else {
+                        vec![self.agent]
+                    };
+                    return FormOutcome::Saved { agents, settings };
+                }
+                Err(why) => self.problem = Some(why),
+            },
+            Action::NextField => self.focus = (self.focus + 1) % n,
+            Action::PreviousField => self.focus = (self.focus + n - 1) % n,
+            Action::EveryAgent => self.every_agent = !self.every_agent,
+            _ => {}
+        }
+        FormOutcome::Open
+    }
+
+    fn on_other_key(&mut self, key: KeyEvent) -> FormOutcome {
+        if let Some(field) = self.fields.get_mut(self.focus) {
+            field.input(key);
+            self.problem = None;
+        }
+        FormOutcome::Open
+    }
+
+    fn draw(&self, frame: &mut Frame, area: Rect, theme: &Theme) {
+        let rect = centred(area, 76, 9);
+        frame.render_widget(Clear, rect);
+        let title = format!(
+            "{}: provider and model (Tab next, Enter saves)",
+            self.agent.label()
+        );
+        let block = themed_box(theme, &title);
+        let inner = block.inner(rect);
+        frame.render_widget(block, rect);
+        let rows = Layout::vertical([Constraint::Length(1); 7]).split(inner);
+        for (i, (label, editor)) in LABELS.iter().zip(&self.fields).enumerate() {
+            let [l, r] =
+                Layout::horizontal([Constraint::Length(14), Constraint::Min(1)]).areas(rows[i]);
+            let style = if i == self.focus {
+                theme.accent
+            } else {
+                theme.muted
+            };
+            frame.render_widget(Paragraph::new(Span::styled(*label, style)), l);
+            frame.render_widget(editor, r);
+        }
+        let scope = if self.every_agent {
+            Line::from(vec![
+                Span::styled("saves for    ", theme.muted),
+                Span::styled("every agent", theme.accent),
+                Span::styled(" (Ctrl-A: this agent only)", theme.muted),
+            ])
+        } else {
+            Line::from(vec![
+                Span::styled("saves for    ", theme.muted),
+                Span::styled(self.agent.label(), theme.accent),
+                Span::styled(" only (Ctrl-A: every agent)", theme.muted),
+            ])
         };
-        let fields = vec![
-            single_line_editor(v.settings.provider.name()),
-            single_line_editor(&v.settings.model),
-            single_line_editor(&v.settings.temperature.to_string()),
-            single_line_editor(&v.settings.max_tokens.to_string()),
-        ];
-        self.overlay = Some(Overlay::ModelForm {
-            agent,
-            fields,
-            field: 0,
-        });
+        frame.render_widget(Paragraph::new(scope), rows[5]);
+        if let Some(problem) = &self.problem {
+            let line = Span::styled(format!("not saved: {problem}"), theme.warn);
+            frame.render_widget(Paragraph::new(line), rows[6]);
+        }
+    }
+}
+
+impl App {
+    /// A key of the open model form; the form closes when saved or cancelled.
+    pub(crate) fn on_model_form_key(&mut self, mut form: ModelForm, key: KeyEvent) -> Vec<Cmd> {
+        match component::dispatch(&mut form, &key) {
+            FormOutcome::Open => self.overlay = Some(Overlay::ModelForm(form)),
+            FormOutcome::Cancelled => {}
+            FormOutcome::Saved { agents, settings } => self.apply_settings(&agents, settings),
+        }
+        Vec::new()
+    }
+
+    fn apply_settings(&mut self, agents: &[AgentRole], settings: AgentSettings) {
+        for agent in agents {
+            if let Some(view) = self.runs.agents.get_mut(agent) {
+                view.settings = settings.clone();
+            }
+        }
+        self.session_dirty = true;
+        let who = match agents {
+            [one] => one.label().to_string(),
+            _ => "every agent".to_string(),
+        };
+        self.set_status(
+            format!(
+                "{who}: {} / {} (r runs what changed)",
+                settings.provider, settings.model
+            ),
+            Severity::Info,
+        );
+    }
+
+    /// Opens the model form for the agent in question
+    /// ([`App::agent_in_question`]).
+    pub(crate) fn open_model_form(&mut self) {
+        let agent = self.agent_in_question();
+        if let Some(view) = self.runs.agents.get(&agent) {
+            self.overlay = Some(Overlay::ModelForm(ModelForm::new(agent, &view.settings)));
+        }
+    }
+
+    /// The agent the model form is for: the one the status message or the
+    /// start notice names as needing a provider or a key (e.g. "SKM needs a
+    /// provider"), else the agent of the focused pane (Knowledge Graph:
+    /// SKM, Grounded Description: GKM), else the Prompt pane's agent.
+    pub fn agent_in_question(&self) -> AgentRole {
+        let messages = [&self.status, &self.notice];
+        let named = messages
+            .iter()
+            .filter_map(|m| m.as_ref())
+            .find_map(|(text, _)| {
+                AgentRole::ALL.into_iter().find(|role| {
+                    let label = role.label();
+                    text.contains(&format!("{label} needs a provider"))
+                        || text.contains(&format!("{label} uses "))
+                        || text.starts_with(&format!("{label} failed"))
+                })
+            });
+        named.unwrap_or(match self.focus {
+            Pane::Graph => AgentRole::Skm,
+            Pane::Description => AgentRole::Gkm,
+            _ => self.prompt.agent,
+        })
     }
 }
 
 #[cfg(test)]
 mod tests {
-    use crate::agents::AgentRole;
-    use crate::workbench::app::{single_line_editor, App, AppInit, Severity};
+    use super::*;
+    use crate::workbench::app::AppInit;
+    use crossterm::event::{KeyCode, KeyModifiers};
+    use ratatui::backend::TestBackend;
+    use ratatui::Terminal;
 
-    fn apply(app: &mut App, temperature: &str, max_tokens: &str) -> (String, Severity) {
-        let fields = ["openai", "gpt-4o", temperature, max_tokens].map(single_line_editor);
-        app.apply_model_form(AgentRole::Planner, &fields);
-        app.status.clone().unwrap_or_else(|| panic!("no status"))
+    fn demo() -> App {
+        App::new(AppInit::demo((120, 40), "no models in this test")).0
+    }
+
+    fn press(app: &mut App, code: KeyCode, modifiers: KeyModifiers) {
+        let Some(Overlay::ModelForm(form)) = app.overlay.take() else {
+            panic!("the model form is not open");
+        };
+        app.on_model_form_key(form, KeyEvent::new(code, modifiers));
+    }
+
+    /// Replaces the text of field `index` with `text`.
+    fn type_into(app: &mut App, index: usize, text: &str) {
+        for _ in 0..index {
+            press(app, KeyCode::Tab, KeyModifiers::NONE);
+        }
+        press(app, KeyCode::End, KeyModifiers::NONE);
+        for _ in 0..40 {
+            press(app, KeyCode::Backspace, KeyModifiers::NONE);
+        }
+        for c in text.chars() {
+            press(app, KeyCode::Char(c), KeyModifiers::NONE);
+        }
+        for _ in 0..index {
+            press(app, KeyCode::BackTab, KeyModifiers::NONE);
+        }
+    }
+
+    fn fill(app: &mut App, values: [&str; 4]) {
+        for (i, value) in values.iter().enumerate() {
+            type_into(app, i, value);
+        }
+    }
+
+    fn provider(app: &App, role: AgentRole) -> String {
+        let settings = &app.runs.agents[&role].settings;
+        format!("{}/{}", settings.provider, settings.model)
     }
 
     #[test]
     fn out_of_range_numbers_are_refused_naming_the_value_and_the_range() {
-        let (mut app, _) = App::new(AppInit::demo((120, 40), "no models in this test"));
+        let mut app = demo();
         let before = app.runs.agents[&AgentRole::Planner].settings.clone();
-        for (temperature, max_tokens, why) in [
-            ("1e300", "100", "temperature 1e300 is outside 0..=2"),
-            ("NaN", "100", "temperature NaN is outside 0..=2"),
-            ("-0.1", "100", "temperature -0.1 is outside 0..=2"),
-            ("inf", "100", "temperature inf is outside 0..=2"),
-            ("warm", "100", "temperature `warm` is not a number"),
-            ("0.5", "0", "token limit 0 is outside 1..=1000000"),
+        for (provider, temperature, max_tokens, why) in [
             (
+                "openai",
+                "1e300",
+                "100",
+                "temperature 1e300 is outside 0..=2",
+            ),
+            ("openai", "NaN", "100", "temperature NaN is outside 0..=2"),
+            ("openai", "-0.1", "100", "temperature -0.1 is outside 0..=2"),
+            ("openai", "inf", "100", "temperature inf is outside 0..=2"),
+            (
+                "openai",
+                "warm",
+                "100",
+                "temperature `warm` is not a number",
+            ),
+            ("openai", "0.5", "0", "token limit 0 is outside 1..=1000000"),
+            (
+                "openai",
                 "0.5",
                 "5000000000",
                 "token limit 5000000000 is outside 1..=1000000",
             ),
-            ("0.5", "-3", "token limit `-3` is not a whole number"),
+            (
+                "openai",
+                "0.5",
+                "-3",
+                "token limit `-3` is not a whole number",
+            ),
+            ("opnai", "0.5", "100", "unknown provider `opnai`"),
         ] {
-            let (status, severity) = apply(&mut app, temperature, max_tokens);
-            assert_eq!(severity, Severity::Warn, "{status}");
-            assert!(status.contains(why), "{temperature} {max_tokens}: {status}");
+            app.prompt.agent = AgentRole::Planner;
+            app.open_model_form();
+            fill(&mut app, [provider, "gpt-4o", temperature, max_tokens]);
+            press(&mut app, KeyCode::Enter, KeyModifiers::NONE);
+            let Some(Overlay::ModelForm(form)) = &app.overlay else {
+                panic!("a refused form stays open with what was typed");
+            };
+            let problem = form.problem.clone().unwrap_or_default();
+            assert!(
+                problem.contains(why),
+                "{temperature} {max_tokens}: {problem}"
+            );
+            assert_eq!(form.text(2), temperature);
             assert_eq!(app.runs.agents[&AgentRole::Planner].settings, before);
+            press(&mut app, KeyCode::Esc, KeyModifiers::NONE);
+            assert!(app.overlay.is_none());
         }
-        let (status, severity) = apply(&mut app, "2", "1000000");
-        assert_eq!(severity, Severity::Info, "{status}");
+        app.open_model_form();
+        fill(&mut app, ["openai", "gpt-4o", "2", "1000000"]);
+        press(&mut app, KeyCode::Enter, KeyModifiers::NONE);
+        assert!(app.overlay.is_none());
         let set = &app.runs.agents[&AgentRole::Planner].settings;
         assert_eq!((set.temperature, set.max_tokens), (2.0, 1_000_000));
+        assert_eq!(provider(&app, AgentRole::Skm), "replay/demo-recording");
+    }
+
+    #[test]
+    fn the_form_opens_for_the_agent_a_message_names_and_saves_for_every_agent() {
+        let mut app = demo();
+        app.prompt.agent = AgentRole::Planner;
+        app.set_status(
+            "the replay provider only has the demo's recording, not this task: GKM needs a provider. Press m …",
+            Severity::Warn,
+        );
+        app.open_model_form();
+        let Some(Overlay::ModelForm(form)) = &app.overlay else {
+            panic!("not open");
+        };
+        assert_eq!(form.agent(), AgentRole::Gkm);
+        fill(&mut app, ["openai", "local", "0", "512"]);
+        press(&mut app, KeyCode::Char('a'), KeyModifiers::CONTROL);
+        press(&mut app, KeyCode::Enter, KeyModifiers::NONE);
+        for role in AgentRole::ALL {
+            assert_eq!(provider(&app, role), "openai/local", "{role:?}");
+        }
+        assert!(app
+            .status
+            .as_ref()
+            .is_some_and(|(s, _)| s.starts_with("every agent: openai / local")));
+
+        app.status = None;
+        app.focus = Pane::Graph;
+        assert_eq!(app.agent_in_question(), AgentRole::Skm);
+        app.focus = Pane::Plan;
+        assert_eq!(app.agent_in_question(), AgentRole::Planner);
+        app.set_status(
+            "Planner uses openai but no API key is set: …",
+            Severity::Warn,
+        );
+        app.focus = Pane::Graph;
+        assert_eq!(app.agent_in_question(), AgentRole::Planner);
+    }
+
+    #[test]
+    fn the_form_draws_its_fields_scope_and_problem() {
+        let mut form = ModelForm::new(AgentRole::Skm, &AgentSettings::demo_recording());
+        form.on_action(Action::EveryAgent);
+        form.on_action(Action::NextField);
+        form.on_action(Action::NextField);
+        form.on_other_key(KeyEvent::new(KeyCode::Char('x'), KeyModifiers::NONE));
+        assert_eq!(form.on_action(Action::Accept), FormOutcome::Open);
+        let mut terminal = Terminal::new(TestBackend::new(80, 11)).unwrap();
+        terminal
+            .draw(|f| form.draw(f, f.area(), &Theme::no_color()))
+            .unwrap();
+        insta::assert_snapshot!(terminal.backend());
     }
 }
