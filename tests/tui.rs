@@ -601,6 +601,15 @@ fn open_overlay(h: &mut Harness, context: Context, warm: bool) {
             h.keys("jj");
             h.key(KeyCode::Enter);
         }
+        Context::RunDiff => {
+            // At 80×24 the diff of two runs is longer than the screen.
+            let cmds = h.app.update(Msg::Resize(80, 24));
+            h.run(cmds);
+            h.keys("RHd");
+            if warm {
+                h.key(KeyCode::End);
+            }
+        }
         Context::ModelForm => h.key(KeyCode::Char('m')),
         Context::Viewer => h.key(KeyCode::Char('f')),
         _ => return,
@@ -615,18 +624,24 @@ fn open_overlay(h: &mut Harness, context: Context, warm: bool) {
     );
 }
 
-const OVERLAYS: [Context; 5] = [
+const OVERLAYS: [Context; 6] = [
     Context::Picker,
     Context::History,
     Context::PathPrompt,
     Context::ModelForm,
     Context::Viewer,
+    Context::RunDiff,
 ];
 
 #[test]
 fn a_key_missing_from_the_key_table_does_nothing_in_an_overlay() {
     // The path prompt and the model form type every other key.
-    for context in [Context::Picker, Context::History, Context::Viewer] {
+    for context in [
+        Context::Picker,
+        Context::History,
+        Context::Viewer,
+        Context::RunDiff,
+    ] {
         let mut h = Harness::new((200, 60), None, false, unavailable());
         open_overlay(&mut h, context, false);
         for key in every_key() {
@@ -718,7 +733,6 @@ fn the_whole_graph_is_the_default_and_the_neighbourhood_a_mode() {
 fn run_history_shows_each_agent_and_run_cost_from_the_price_table() {
     use mapvlm::agents::cost::{Price, PriceTable};
     use mapvlm::agents::Usage;
-    use mapvlm::workbench::overlays::Overlay;
     use std::collections::BTreeMap;
 
     let mut h = Harness::new((120, 40), None, false, unavailable());
@@ -748,22 +762,88 @@ fn run_history_shows_each_agent_and_run_cost_from_the_price_table() {
     assert!(paid_agents >= 1 && paid_agents < paid.agents.len());
     h.app.runs.history = vec![paid, unpriced];
 
-    h.app.overlay = Some(Overlay::Runs {
-        selected: 1,
-        marked: None,
-    });
+    h.key(KeyCode::Char('H'));
     let history = h.screen();
     // Each paid agent: 1,000 × $2.50 + 200 × $10 per million = $0.0045.
     let total = format!("${:.4}", 0.0045 * paid_agents as f64);
     assert!(history.contains(&total), "{history}");
     assert!(history.contains("no price"), "{history}");
+    // The selected run's agents, each with its own cost.
+    assert!(history.contains("run #2 per agent:"), "{history}");
+    assert!(
+        history.contains("openai/gpt-4.1 · 100 ms · 1000+200 tok · no price"),
+        "{history}"
+    );
+    assert!(
+        history.contains("1000+200 tok · $0.0000 (cached)"),
+        "{history}"
+    );
     insta::assert_snapshot!("run_history_costs", history);
 
-    h.app.overlay = Some(Overlay::Compare { left: 0, right: 1 });
-    let compare = h.screen();
-    assert!(compare.contains("tok · $0.0045"), "{compare}");
-    // The cached Planner's line wraps before its figure.
-    assert!(compare.contains("$0.0000"), "{compare}");
-    assert!(compare.contains("tok · no price"), "{compare}");
-    assert!(compare.contains(&format!("tok · {total}")), "{compare}");
+    h.key(KeyCode::Char('d'));
+    let diff = h.screen();
+    assert!(
+        diff.contains(&format!("Cost    #1 {total} → #2 no price")),
+        "{diff}"
+    );
+    assert!(
+        diff.contains("1000+200 tok $0.0045 → #2 1000+200 tok no price"),
+        "{diff}"
+    );
+    assert!(diff.contains("model: gpt-4o → gpt-4.1"), "{diff}");
+}
+
+/// Two runs of the demo task, the second after a Planner prompt edit that
+/// rewrote one step and raised its KAS: at 80×24 the diff shows the
+/// verdicts, the prompt's changed words and, scrolled, each step's change.
+#[test]
+fn the_run_diff_shows_the_prompt_change_and_each_steps_score_change() {
+    let mut h = Harness::new((80, 24), None, false, bag_of_words());
+    let first = h.app.runs.history[0].clone();
+    let mut second = first.clone();
+    second.id = first.id + 1;
+    let planner = second
+        .prompts
+        .get_mut(&AgentRole::Planner)
+        .expect("the demo runs a Planner");
+    *planner = planner.replacen("atomic action", "short, atomic action", 1);
+    assert_ne!(Some(&*planner), first.prompts.get(&AgentRole::Planner));
+    second.agents.retain(|a| a.role == AgentRole::Planner);
+    second.plan[1] = format!("{} carefully", second.plan[1].trim_end_matches('.'));
+    let mut scores = second.scores.expect("the demo run was scored");
+    scores.kas = scores.kas.map(|k| k + 0.1);
+    second.scores = Some(scores);
+    second.steps[1].kas = Some(1.0);
+    h.app.runs.history.push(second);
+
+    h.key(KeyCode::Char('H'));
+    h.key(KeyCode::Char('d'));
+    assert_eq!(h.app.key_context(), Context::RunDiff);
+    let top = h.screen();
+    assert!(top.contains("Diff run #1 → #2"), "{top}");
+    assert!(
+        top.contains("1+1 samples: cannot tell a change from noise"),
+        "{top}"
+    );
+    assert!(top.contains("+0.100"), "{top}");
+    assert!(
+        top.contains("did not run (the output of #1 was reused)"),
+        "{top}"
+    );
+    insta::assert_snapshot!("run_diff_80x24_top", top);
+
+    let mut seen = top.clone();
+    for _ in 0..20 {
+        h.key(KeyCode::PageDown);
+        seen.push_str(&h.screen());
+    }
+    assert!(seen.contains("{+short,"), "{seen}");
+    assert!(seen.contains("carefully+}"), "{seen}");
+    assert!(seen.contains("→ KAS 1.00"), "{seen}");
+    h.key(KeyCode::End);
+    insta::assert_snapshot!("run_diff_80x24_end", h.screen());
+    h.key(KeyCode::Esc);
+    assert_eq!(h.app.key_context(), Context::History);
+    h.key(KeyCode::Esc);
+    assert!(h.app.overlay.is_none());
 }

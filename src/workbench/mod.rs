@@ -25,6 +25,7 @@ pub mod overlays;
 pub mod panes;
 pub mod persist;
 pub mod render;
+pub mod run_diff;
 pub mod runs;
 pub mod runtime;
 pub mod scene_image;

@@ -303,6 +303,7 @@ impl App {
         });
         let cmd = self.rescore();
         self.runs.awaiting_scores = Some((self.runs.history.len() - 1, self.score_generation));
+        self.refresh_runs();
         vec![cmd]
     }
 
@@ -438,6 +439,7 @@ impl App {
                     run.steps = step_breakdown(&outcome, run.plan.len());
                 }
                 self.runs.awaiting_scores = None;
+                self.refresh_runs();
                 self.session_dirty = true;
             }
         }

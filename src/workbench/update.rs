@@ -234,12 +234,7 @@ impl App {
             }
             Action::Actions => self.overlay = Some(Overlay::Actions),
             Action::Corrupt => self.open_corrupt_picker(),
-            Action::History => {
-                self.overlay = Some(Overlay::Runs {
-                    selected: self.runs.history.len().saturating_sub(1),
-                    marked: None,
-                })
-            }
+            Action::History => self.open_runs(),
             Action::Accept
             | Action::Leave
             | Action::RunFromEditor

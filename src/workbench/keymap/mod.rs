@@ -40,8 +40,10 @@ pub enum Context {
     PathPrompt,
     /// The model form.
     ModelForm,
-    /// A view to read and close: the framed actions, two runs compared.
+    /// A view to read and close: the framed actions.
     Viewer,
+    /// The diff of two runs, scrolled.
+    RunDiff,
     /// The annotation screen, rating single plans or choosing between two.
     Annotate,
     /// The annotation screen rating single plans.
@@ -63,6 +65,7 @@ impl Context {
                 | Context::PathPrompt
                 | Context::ModelForm
                 | Context::Viewer
+                | Context::RunDiff
         )
     }
 
@@ -89,6 +92,7 @@ impl Context {
             Context::PathPrompt => Some("PATH"),
             Context::ModelForm => Some("MODEL"),
             Context::Viewer => Some("VIEW"),
+            Context::RunDiff => Some("DIFF"),
             _ => None,
         }
     }
@@ -184,7 +188,7 @@ pub enum Action {
     PreviousField,
     /// Mark the highlighted run for comparison, or unmark it.
     MarkRun,
-    /// Compare the marked run with the highlighted one.
+    /// Open the diff of the marked run (or the one before) and the highlighted one.
     CompareRuns,
     /// Choose how to corrupt the plan into a new run.
     Corrupt,

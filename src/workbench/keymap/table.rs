@@ -420,12 +420,12 @@ pub(super) const WORKBENCH: &[Binding] = &[
     hinted(
         bind(
             C::History,
-            &[(ch('c'), A::CompareRuns)],
-            "c (run history)",
-            "compare the marked run with this one",
+            &[(ch('c'), A::CompareRuns), (ch('d'), A::CompareRuns)],
+            "c d (run history)",
+            "diff the marked run (or the one before) with this one",
         ),
-        "c",
-        "compares",
+        "d",
+        "diffs",
     ),
     hinted(
         bind(
@@ -521,11 +521,52 @@ pub(super) const WORKBENCH: &[Binding] = &[
                 (ch('q'), A::Leave),
                 (key(KeyCode::Enter), A::Leave),
             ],
-            "Esc q Enter (actions, comparison)",
+            "Esc q Enter (actions)",
             "close",
         ),
         "Esc",
         "closes",
+    ),
+    hinted(
+        bind(
+            C::RunDiff,
+            &[
+                (key(KeyCode::Up), A::Move(-1)),
+                (key(KeyCode::Down), A::Move(1)),
+                (ch('k'), A::Move(-1)),
+                (ch('j'), A::Move(1)),
+            ],
+            "↑↓ j k (run diff)",
+            "scroll a line",
+        ),
+        "↑↓",
+        "scroll",
+    ),
+    hinted(
+        bind(
+            C::RunDiff,
+            &[
+                (key(KeyCode::PageUp), A::Move(-10)),
+                (key(KeyCode::PageDown), A::Move(10)),
+                (ch(' '), A::Move(10)),
+                (key(KeyCode::Home), A::Move(isize::MIN)),
+                (key(KeyCode::End), A::Move(isize::MAX)),
+            ],
+            "PgUp PgDn space Home End (run diff)",
+            "scroll a page, to the top or the end",
+        ),
+        "PgDn",
+        "pages",
+    ),
+    hinted(
+        bind(
+            C::RunDiff,
+            &[(key(KeyCode::Esc), A::Leave), (ch('q'), A::Leave)],
+            "Esc q (run diff)",
+            "back to the run history",
+        ),
+        "Esc",
+        "back",
     ),
     bind(
         C::Panes,

@@ -1,5 +1,6 @@
 //! The modal views over the panes, each in its own module: help, pickers,
-//! the model form, the run history and comparison, the framed actions.
+//! the model form, the run history and the diff of two runs, the framed
+//! actions.
 
 pub mod actions;
 pub mod corrupt;
@@ -38,20 +39,8 @@ pub enum Overlay {
     StepFilePath(Box<TextArea<'static>>),
     /// Provider, model, temperature and token limit of an agent.
     ModelForm(ModelForm),
-    /// The history of runs.
-    Runs {
-        /// The highlighted run.
-        selected: usize,
-        /// A run marked for comparison.
-        marked: Option<usize>,
-    },
-    /// Two runs side by side.
-    Compare {
-        /// Index of the left run.
-        left: usize,
-        /// Index of the right run.
-        right: usize,
-    },
+    /// The history of runs and the diff of two.
+    Runs(Box<runs::RunsOverlay>),
     /// The framed actions and their matches.
     Actions,
     /// Choose how to corrupt the plan into a new run.
@@ -72,8 +61,8 @@ impl Overlay {
             }
             Overlay::StepFilePath(_) => Some(Context::PathPrompt),
             Overlay::ModelForm(_) => Some(Context::ModelForm),
-            Overlay::Runs { .. } => Some(Context::History),
-            Overlay::Compare { .. } | Overlay::Actions => Some(Context::Viewer),
+            Overlay::Runs(view) => Some(view.context()),
+            Overlay::Actions => Some(Context::Viewer),
         }
     }
 }
@@ -100,7 +89,7 @@ impl App {
                 let Close = component::dispatch(&mut Help, &key);
                 Vec::new()
             }
-            Overlay::Actions | Overlay::Compare { .. } => {
+            Overlay::Actions => {
                 if action != Some(Action::Leave) {
                     self.overlay = Some(overlay);
                 }
@@ -110,7 +99,10 @@ impl App {
             Overlay::CorruptPicker { selected } => self.on_corrupt_picker_key(selected, action),
             Overlay::StepFilePath(editor) => self.on_path_key(editor, action, key),
             Overlay::ModelForm(form) => self.on_model_form_key(form, key),
-            Overlay::Runs { selected, marked } => self.on_history_key(selected, marked, action),
+            Overlay::Runs(mut view) => {
+                let outcome = component::dispatch(view.as_mut(), &key);
+                self.on_runs_outcome(view, outcome)
+            }
         }
     }
 }
@@ -195,8 +187,7 @@ pub(crate) fn render_overlay(frame: &mut Frame, app: &App, area: Rect) {
             frame.render_widget(editor.as_ref(), inner);
         }
         Overlay::ModelForm(form) => form.draw(frame, area, t),
-        Overlay::Runs { selected, marked } => runs::draw(frame, app, area, *selected, *marked),
-        Overlay::Compare { left, right } => runs::draw_compare(frame, app, area, *left, *right),
+        Overlay::Runs(view) => view.draw(frame, area, t),
         Overlay::Actions => actions::draw(frame, app, area),
         Overlay::CorruptPicker { selected } => corrupt::draw(frame, app, area, *selected),
     }

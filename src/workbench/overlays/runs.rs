@@ -1,350 +1,609 @@
-//! The run history and the comparison of two runs.
+//! The run history and the diff of two runs: one overlay that owns a copy
+//! of the history, its selection and mark, and the open diff with its
+//! scroll position; its keys are the `History` and `RunDiff` rows of the
+//! key table.
 
+use std::cell::Cell;
+
+use crossterm::event::KeyEvent;
 use ratatui::layout::{Constraint, Layout, Rect};
+use ratatui::style::{Modifier, Style};
 use ratatui::text::{Line, Span};
-use ratatui::widgets::{Paragraph, Sparkline, Wrap};
+use ratatui::widgets::{Clear, Paragraph, Sparkline};
 use ratatui::Frame;
+use unicode_width::UnicodeWidthChar;
 
-use crate::agents::cost::{dollars, Billing, PriceTable};
-use crate::agents::pipeline::AgentRecord;
+use crate::agents::cost::PriceTable;
 use crate::workbench::app::{App, Severity};
-use crate::workbench::keymap::Action;
+use crate::workbench::component::Component;
+use crate::workbench::keymap::{Action, Context};
 use crate::workbench::message::Cmd;
-use crate::workbench::overlays::{fmt_score, moved, open_box, Overlay};
+use crate::workbench::overlays::{centred, fmt_score, moved, themed_box, Overlay};
+use crate::workbench::panes::list_window;
+use crate::workbench::run_diff::{
+    agent_cost, changed_lines, cost_text, run_cost, AgentSide, DiffLine, Judgement, Piece, RunDiff,
+    StepChange, StepSide, Verdict,
+};
 use crate::workbench::session::{PlanSource, RunRecord};
+use crate::workbench::theme::Theme;
+
+/// The samples a user is told to ask for when a run has too few to judge.
+const SAMPLES_ADVISED: usize = 5;
+
+/// Unchanged lines kept around each changed line of a prompt or output.
+const CONTEXT_LINES: usize = 1;
+
+/// The run history, and the diff of two of its runs when one is open.
+#[derive(Debug, Clone)]
+pub struct RunsOverlay {
+    runs: Vec<RunRecord>,
+    prices: PriceTable,
+    selected: usize,
+    marked: Option<usize>,
+    diff: Option<DiffPage>,
+}
+
+/// An open diff and how far it is scrolled.
+#[derive(Debug, Clone)]
+struct DiffPage {
+    diff: RunDiff,
+    scroll: usize,
+    /// The wrapped lines and the rows shown at the last draw, so that
+    /// scrolling stops at the end.
+    extent: Cell<(usize, usize)>,
+}
+
+/// What a key in the overlay asks of the app.
+#[derive(Debug, Clone, PartialEq, Eq)]
+pub enum RunsOutcome {
+    /// Keep the overlay open.
+    Stay,
+    /// Close it.
+    Close,
+    /// Close it and load the plan of the run at this index of the history.
+    Load(usize),
+    /// Keep it open and show this line in the status bar.
+    Note(String),
+}
+
+impl RunsOverlay {
+    /// The history of `runs` (with costs at `prices`), the latest selected.
+    pub fn new(runs: &[RunRecord], prices: &PriceTable) -> Self {
+        RunsOverlay {
+            runs: runs.to_vec(),
+            prices: prices.clone(),
+            selected: runs.len().saturating_sub(1),
+            marked: None,
+            diff: None,
+        }
+    }
+
+    /// Takes the history again after a run was added or scored, keeping
+    /// the selection and an open diff.
+    pub fn set_runs(&mut self, runs: &[RunRecord]) {
+        self.runs = runs.to_vec();
+        self.selected = self.selected.min(runs.len().saturating_sub(1));
+        self.marked = self.marked.filter(|&m| m < runs.len());
+    }
+
+    /// The key context of what is shown: the history or the diff.
+    pub fn context(&self) -> Context {
+        if self.diff.is_some() {
+            Context::RunDiff
+        } else {
+            Context::History
+        }
+    }
+
+    /// The diff shown, if one is open.
+    pub fn diff(&self) -> Option<&RunDiff> {
+        self.diff.as_ref().map(|d| &d.diff)
+    }
+
+    /// Opens the diff of the marked run (else the one before the selected)
+    /// and the selected one, the older first.
+    fn open_diff(&mut self) -> RunsOutcome {
+        let other = self.marked.unwrap_or(self.selected.saturating_sub(1));
+        let (first, second) = (other.min(self.selected), other.max(self.selected));
+        match (self.runs.get(first), self.runs.get(second)) {
+            (Some(a), Some(b)) if first != second => {
+                self.diff = Some(DiffPage {
+                    diff: RunDiff::between(a, b, &self.prices),
+                    scroll: 0,
+                    extent: Cell::new((0, 0)),
+                });
+                RunsOutcome::Stay
+            }
+            _ => RunsOutcome::Note(
+                "a diff needs two runs: mark one with space, select another, press d".into(),
+            ),
+        }
+    }
+
+    fn on_history_action(&mut self, action: Action) -> RunsOutcome {
+        match action {
+            Action::Leave => RunsOutcome::Close,
+            Action::MarkRun => {
+                self.marked = (self.marked != Some(self.selected)).then_some(self.selected);
+                RunsOutcome::Stay
+            }
+            Action::CompareRuns => self.open_diff(),
+            Action::Accept if self.selected < self.runs.len() => RunsOutcome::Load(self.selected),
+            Action::Move(delta) => {
+                self.selected = moved(self.selected, delta, self.runs.len());
+                RunsOutcome::Stay
+            }
+            _ => RunsOutcome::Stay,
+        }
+    }
+
+    fn draw_history(&self, frame: &mut Frame, area: Rect, t: &Theme) {
+        let rect = centred(area, 100, 26);
+        frame.render_widget(Clear, rect);
+        let block = themed_box(t, "Runs (space marks, d diffs, Enter loads the plan)");
+        let inner = block.inner(rect);
+        frame.render_widget(block, rect);
+        let Some(current) = self.runs.get(self.selected) else {
+            frame.render_widget(Paragraph::new(Span::styled("No runs yet.", t.muted)), inner);
+            return;
+        };
+        let detail = current.agents.len() as u16 + 1;
+        let [spark, table, agents] = Layout::vertical([
+            Constraint::Length(3),
+            Constraint::Min(2),
+            Constraint::Length(detail),
+        ])
+        .areas(inner);
+        let data: Vec<u64> = self
+            .runs
+            .iter()
+            .map(|r| {
+                r.scores
+                    .and_then(|s| s.pg2s.or(s.kas))
+                    .map_or(0, |v| (v * 100.0).round() as u64)
+            })
+            .collect();
+        frame.render_widget(
+            Sparkline::default().data(&data).max(100).style(t.accent),
+            spark,
+        );
+        let mut lines = vec![Line::from(Span::styled(
+            "   run  approach       PG2S   S_plan S_goal KAS     ms      tokens  steps       cost",
+            t.muted,
+        ))];
+        let (first, count) = list_window(
+            self.selected,
+            self.runs.len(),
+            1,
+            usize::from(table.height.saturating_sub(1)),
+        );
+        for (i, r) in self.runs.iter().enumerate().skip(first).take(count) {
+            let s = r.scores.unwrap_or_default();
+            let mark = if self.marked == Some(i) { "●" } else { " " };
+            let style = if i == self.selected {
+                t.selection
+            } else {
+                t.base
+            };
+            lines.push(Line::from(Span::styled(
+                format!(
+                    "{mark}  #{:<3} {:<14} {:<6} {:<6} {:<6} {:<6} {:>6} {:>8} {:>6} {:>10}{}",
+                    r.id,
+                    r.approach.name(),
+                    fmt_score(s.pg2s),
+                    fmt_score(s.s_plan),
+                    fmt_score(s.s_goal),
+                    fmt_score(s.kas),
+                    r.total_ms(),
+                    r.total_tokens(),
+                    r.plan.len(),
+                    cost_text(run_cost(&self.prices, r)),
+                    if r.cancelled { " cancelled" } else { "" }
+                ),
+                style,
+            )));
+        }
+        frame.render_widget(Paragraph::new(lines), table);
+        let mut per_agent = vec![Line::from(Span::styled(
+            format!("run #{} per agent:", current.id),
+            t.muted,
+        ))];
+        per_agent.extend(current.agents.iter().map(|a| {
+            Line::from(vec![
+                Span::styled(format!("  {:<8}", a.role.label()), t.accent),
+                Span::styled(
+                    format!(
+                        "{}/{} · {} ms · {}+{} tok · {}{}",
+                        a.settings.provider,
+                        a.settings.model,
+                        a.elapsed_ms,
+                        a.usage.input_tokens,
+                        a.usage.output_tokens,
+                        cost_text(agent_cost(&self.prices, a)),
+                        if a.cached { " (cached)" } else { "" }
+                    ),
+                    t.base,
+                ),
+            ])
+        }));
+        frame.render_widget(Paragraph::new(per_agent), agents);
+    }
+}
+
+impl Component for RunsOverlay {
+    type Outcome = RunsOutcome;
+
+    fn contexts(&self) -> Vec<Context> {
+        vec![self.context()]
+    }
+
+    fn on_action(&mut self, action: Action) -> RunsOutcome {
+        let Some(page) = &mut self.diff else {
+            return self.on_history_action(action);
+        };
+        match action {
+            Action::Leave => self.diff = None,
+            Action::Move(delta) => {
+                // Past the end stops at the end once a draw has measured it.
+                let last = match page.extent.get() {
+                    (0, 0) => usize::MAX,
+                    (total, shown) => total.saturating_sub(shown),
+                };
+                page.scroll = page.scroll.min(last).saturating_add_signed(delta).min(last);
+            }
+            _ => {}
+        }
+        RunsOutcome::Stay
+    }
+
+    fn on_other_key(&mut self, _key: KeyEvent) -> RunsOutcome {
+        RunsOutcome::Stay
+    }
+
+    fn draw(&self, frame: &mut Frame, area: Rect, theme: &Theme) {
+        let Some(page) = &self.diff else {
+            return self.draw_history(frame, area, theme);
+        };
+        // The whole screen but a margin, so the status bar shows the keys.
+        let area = centred(area, area.width, area.height);
+        frame.render_widget(Clear, area);
+        let [a, b] = page.diff.ids;
+        let inner = themed_box(theme, "").inner(area);
+        let lines = wrap(diff_lines(&page.diff, theme), usize::from(inner.width));
+        let shown = usize::from(inner.height);
+        page.extent.set((lines.len(), shown));
+        let first = page.scroll.min(lines.len().saturating_sub(shown));
+        let title = format!(
+            "Diff run #{a} → #{b} · lines {}–{} of {}",
+            first + 1,
+            (first + shown).min(lines.len()),
+            lines.len()
+        );
+        frame.render_widget(themed_box(theme, &title), area);
+        let visible: Vec<Line> = lines.into_iter().skip(first).take(shown).collect();
+        frame.render_widget(Paragraph::new(visible), inner);
+    }
+}
 
 impl App {
-    /// A key of the run history.
-    pub(crate) fn on_history_key(
+    /// Opens the run history, the latest run selected.
+    pub(crate) fn open_runs(&mut self) {
+        let view = RunsOverlay::new(&self.runs.history, &self.prices);
+        self.overlay = Some(Overlay::Runs(Box::new(view)));
+    }
+
+    /// Gives an open run history the runs again, after one was added or scored.
+    pub(crate) fn refresh_runs(&mut self) {
+        if let Some(Overlay::Runs(view)) = &mut self.overlay {
+            view.set_runs(&self.runs.history);
+        }
+    }
+
+    /// Carries out what a key in the run history asked for.
+    pub(crate) fn on_runs_outcome(
         &mut self,
-        selected: usize,
-        marked: Option<usize>,
-        action: Option<Action>,
+        view: Box<RunsOverlay>,
+        outcome: RunsOutcome,
     ) -> Vec<Cmd> {
-        let mut next = Overlay::Runs { selected, marked };
-        match action {
-            Some(Action::Leave) => return Vec::new(),
-            Some(Action::MarkRun) => {
-                next = Overlay::Runs {
-                    selected,
-                    marked: (marked != Some(selected)).then_some(selected),
-                };
+        match outcome {
+            RunsOutcome::Stay => self.overlay = Some(Overlay::Runs(view)),
+            RunsOutcome::Close => {}
+            RunsOutcome::Note(note) => {
+                self.set_status(note, Severity::Info);
+                self.overlay = Some(Overlay::Runs(view));
             }
-            Some(Action::CompareRuns) => {
-                let left = marked.unwrap_or(selected.saturating_sub(1));
-                if self.runs.history.len() >= 2 && left != selected {
-                    next = Overlay::Compare {
-                        left,
-                        right: selected,
-                    };
-                } else {
-                    self.set_status(
-                        "mark a run with space, select another, then press c",
-                        Severity::Info,
-                    );
-                }
-            }
-            Some(Action::Accept) => {
-                if let Some(run) = self.runs.history.get(selected) {
+            RunsOutcome::Load(index) => {
+                if let Some(run) = self.runs.history.get(index) {
                     self.plan.replace(run.plan.clone());
                     self.plan_source = PlanSource::Run { run: run.id };
                     let id = run.id;
                     self.set_status(format!("plan of run {id} loaded"), Severity::Info);
                     return vec![self.rescore()];
                 }
-                return Vec::new();
             }
-            Some(Action::Move(delta)) => {
-                next = Overlay::Runs {
-                    selected: moved(selected, delta, self.runs.history.len()),
-                    marked,
-                };
-            }
-            _ => {}
         }
-        self.overlay = Some(next);
         Vec::new()
     }
 }
 
-pub(crate) fn draw(
-    frame: &mut Frame,
-    app: &App,
-    area: Rect,
-    selected: usize,
-    marked: Option<usize>,
-) {
-    let t = &app.theme;
-    let inner = open_box(
-        frame,
-        app,
-        area,
-        (100, 24),
-        "Runs (space marks, c compares, Enter loads the plan)",
-    );
-    if app.runs.history.is_empty() {
-        frame.render_widget(Paragraph::new(Span::styled("No runs yet.", t.muted)), inner);
-        return;
+/// A change in a metric as the diff shows it: `+0.079`, or `–`.
+fn signed(change: Option<f64>) -> String {
+    change.map_or("–".to_string(), |c| format!("{c:+.3}"))
+}
+
+/// The verdict's one line: the metric, the means, the change, and whether
+/// it exceeds the spread of the samples.
+fn verdict_line(v: &Verdict, t: &Theme) -> Line<'static> {
+    let [n, m] = v.samples;
+    let (judged, style) = match v.judgement {
+        Judgement::Beyond { p } => (
+            format!("exceeds the spread of {n}+{m} samples (p {p:.3})"),
+            t.good.add_modifier(Modifier::BOLD),
+        ),
+        Judgement::Within { p } => (
+            format!("within the spread of {n}+{m} samples (p {p:.3}): noise"),
+            t.warn,
+        ),
+        Judgement::TooFewSamples => (
+            format!("{n}+{m} samples: cannot tell a change from noise"),
+            t.warn,
+        ),
+        Judgement::Missing => ("not scored in both runs".to_string(), t.muted),
+    };
+    Line::from(vec![
+        Span::styled(format!("{:<7}", v.metric), t.accent),
+        Span::styled(
+            format!(
+                "{} → {} {:>7}  ",
+                fmt_score(v.before),
+                fmt_score(v.after),
+                signed(v.change())
+            ),
+            t.base,
+        ),
+        Span::styled(judged, style),
+    ])
+}
+
+/// An agent's tokens and cost in one run, or that it did not run.
+fn side_text(side: Option<AgentSide>, other: u64) -> String {
+    match side {
+        Some(s) => format!(
+            "{}+{} tok {}{}",
+            s.usage.input_tokens,
+            s.usage.output_tokens,
+            cost_text(s.usd),
+            if s.cached { " (cached)" } else { "" }
+        ),
+        None => format!("did not run (the output of #{other} was reused)"),
     }
-    let [spark, table] = Layout::vertical([Constraint::Length(3), Constraint::Min(1)]).areas(inner);
-    let data: Vec<u64> = app
-        .runs
-        .history
+}
+
+/// The spans of word-diff pieces: removed text as `[-…-]` and added text as
+/// `{+…+}`, so the change reads without colour too.
+fn piece_spans(pieces: &[Piece], t: &Theme) -> Vec<Span<'static>> {
+    pieces
         .iter()
-        .map(|r| {
-            r.scores
-                .and_then(|s| s.pg2s.or(s.kas))
-                .map_or(0, |v| (v * 100.0).round() as u64)
+        .map(|p| match p {
+            Piece::Same(text) => Span::styled(text.clone(), t.base),
+            Piece::Removed(text) => Span::styled(
+                format!("[-{text}-]"),
+                t.bad.add_modifier(Modifier::CROSSED_OUT),
+            ),
+            Piece::Added(text) => {
+                Span::styled(format!("{{+{text}+}}"), t.good.add_modifier(Modifier::BOLD))
+            }
         })
-        .collect();
-    frame.render_widget(
-        Sparkline::default().data(&data).max(100).style(t.accent),
-        spark,
-    );
-    let mut lines = vec![Line::from(Span::styled(
-        "   run  approach       PG2S   S_plan S_goal KAS     ms      tokens  steps       cost",
-        t.muted,
-    ))];
-    let (first, count) = super::list_window(
-        selected,
-        app.runs.history.len(),
-        1,
-        table.height as usize - 1,
-    );
-    for (i, r) in app.runs.history.iter().enumerate().skip(first).take(count) {
-        let s = r.scores.unwrap_or_default();
-        let mark = if marked == Some(i) { "●" } else { " " };
-        let (ms, tokens) = (r.total_ms(), r.total_tokens());
-        let style = if i == selected { t.selection } else { t.base };
+        .collect()
+}
+
+/// A prompt or output diff under its `label`, changed lines with context.
+fn text_diff(lines: &mut Vec<Line<'static>>, label: &str, pieces: &[Piece], t: &Theme) {
+    lines.push(Line::from(Span::styled(format!("  {label}:"), t.muted)));
+    for line in changed_lines(pieces, CONTEXT_LINES) {
+        lines.push(match line {
+            DiffLine::Text(pieces) => {
+                let mut spans = vec![Span::raw("    ")];
+                spans.extend(piece_spans(&pieces, t));
+                Line::from(spans)
+            }
+            DiffLine::Unchanged(n) => Line::from(Span::styled(
+                format!("    ⋯ {n} unchanged line(s)"),
+                t.muted,
+            )),
+        });
+    }
+}
+
+/// A step's score in one run: its KAS and its PG2S match.
+fn step_score(side: Option<&StepSide>) -> String {
+    let Some(side) = side else {
+        return "absent".to_string();
+    };
+    let kas = side
+        .score
+        .kas
+        .map_or("KAS –".to_string(), |k| format!("KAS {k:.2}"));
+    match side.score.matched {
+        Some((gt, cos)) => format!("{kas}, GT {} cos {cos:.3}", gt + 1),
+        None => format!("{kas}, unmatched"),
+    }
+}
+
+/// Every line of the diff, before wrapping.
+fn diff_lines(diff: &RunDiff, t: &Theme) -> Vec<Line<'static>> {
+    let [a, b] = diff.ids;
+    let heading = |text: String| Line::from(Span::styled(text, t.title));
+    let mut lines = vec![heading("Verdict per metric (mean of the samples):".into())];
+    lines.extend(diff.verdicts.iter().map(|v| verdict_line(v, t)));
+    if diff
+        .verdicts
+        .iter()
+        .any(|v| v.judgement == Judgement::TooFewSamples)
+    {
         lines.push(Line::from(Span::styled(
             format!(
-                "{mark}  #{:<3} {:<14} {:<6} {:<6} {:<6} {:<6} {:>6} {:>8} {:>6} {:>10}{}",
-                r.id,
-                r.approach.name(),
-                fmt_score(s.pg2s),
-                fmt_score(s.s_plan),
-                fmt_score(s.s_goal),
-                fmt_score(s.kas),
-                ms,
-                tokens,
-                r.plan.len(),
-                cost_text(run_cost(&app.prices, r)),
-                if r.cancelled { " cancelled" } else { "" }
+                "  One sample cannot tell a change from noise: set samples to {SAMPLES_ADVISED} \
+                 (the samples setting, --samples {SAMPLES_ADVISED}) and run both again."
             ),
-            style,
+            t.warn,
         )));
     }
-    frame.render_widget(Paragraph::new(lines), table);
-}
-
-/// What one agent's answer cost in US dollars at `prices`: nothing when it
-/// came from the response cache, `None` when its model has no price (the
-/// demo's `replay` agents among them).
-fn agent_cost(prices: &PriceTable, agent: &AgentRecord) -> Option<f64> {
-    let billing = if agent.cached {
-        Billing::Cached
-    } else {
-        Billing::Interactive
-    };
-    prices.cost(
-        agent.settings.provider,
-        &agent.settings.model,
-        agent.usage,
-        billing,
-    )
-}
-
-/// What a whole run cost: the sum over its agents, `None` when any of them
-/// has no price (a partial sum would read as the whole).
-fn run_cost(prices: &PriceTable, run: &RunRecord) -> Option<f64> {
-    run.agents.iter().map(|a| agent_cost(prices, a)).sum()
-}
-
-/// A cost as the run history shows it: `$0.0123`, or `no price`.
-fn cost_text(usd: Option<f64>) -> String {
-    match usd {
-        Some(_) => format!("${}", dollars(usd)),
-        None => dollars(None),
-    }
-}
-
-pub(crate) fn run_lines<'a>(app: &App, run: &'a RunRecord, other: &RunRecord) -> Vec<Line<'a>> {
-    let t = &app.theme;
-    let s = run.scores.unwrap_or_default();
-    let mut lines = vec![
-        Line::from(Span::styled(
-            format!("run #{} · {}", run.id, run.approach.name()),
-            t.title,
-        )),
-        Line::from(Span::styled(
+    lines.push(Line::from(vec![
+        Span::styled("Cost    ", t.accent),
+        Span::styled(
             format!(
-                "PG2S {} · S_plan {} · S_goal {} · KAS {}",
-                fmt_score(s.pg2s),
-                fmt_score(s.s_plan),
-                fmt_score(s.s_goal),
-                fmt_score(s.kas)
+                "#{a} {} → #{b} {}",
+                cost_text(diff.costs[0]),
+                cost_text(diff.costs[1])
             ),
-            t.accent,
-        )),
-        Line::from(Span::styled(
-            format!(
-                "{} ms · {} tok · {}",
-                run.total_ms(),
-                run.total_tokens(),
-                cost_text(run_cost(&app.prices, run))
-            ),
-            t.muted,
-        )),
-    ];
-    for a in &run.agents {
-        let same_prompt = other
-            .agents
-            .iter()
-            .any(|b| b.role == a.role && b.prompt_hash == a.prompt_hash);
+            t.base,
+        ),
+    ]));
+    for change in &diff.run_changes {
         lines.push(Line::from(vec![
-            Span::styled(format!("{} ", a.role), t.accent),
-            Span::styled(
-                format!(
-                    "{}/{} t={} · {} ms · {}+{} tok · {}",
-                    a.settings.provider,
-                    a.settings.model,
-                    a.settings.temperature,
-                    a.elapsed_ms,
-                    a.usage.input_tokens,
-                    a.usage.output_tokens,
-                    cost_text(agent_cost(&app.prices, a))
-                ),
-                t.muted,
-            ),
-            Span::styled(
-                if same_prompt {
-                    ""
-                } else {
-                    " · prompt differs"
-                },
-                t.warn,
-            ),
+            Span::styled(format!("{} changed: ", change.name), t.warn),
+            Span::styled(format!("{} → {}", change.before, change.after), t.base),
         ]));
     }
-    lines.push(Line::from(Span::styled("plan:", t.muted)));
-    for (i, step) in run.plan.iter().enumerate() {
-        let differs = other.plan.get(i) != Some(step);
+    for agent in &diff.agents {
+        lines.push(Line::default());
+        lines.push(heading(format!("── {} ──", agent.agent.label())));
         lines.push(Line::from(Span::styled(
-            format!("{:>2}. {step}", i + 1),
-            if differs { t.warn } else { t.base },
+            format!(
+                "  #{a} {} → #{b} {}",
+                side_text(agent.sides[0], b),
+                side_text(agent.sides[1], a)
+            ),
+            t.muted,
+        )));
+        for s in &agent.settings {
+            lines.push(Line::from(Span::styled(
+                format!("  {}: {} → {}", s.name, s.before, s.after),
+                t.warn,
+            )));
+        }
+        let ran_in_both = agent.sides.iter().all(Option::is_some);
+        match &agent.prompt {
+            Some(pieces) => text_diff(&mut lines, "prompt", pieces, t),
+            None if ran_in_both => {
+                lines.push(Line::from(Span::styled("  prompt unchanged", t.muted)))
+            }
+            None => {}
+        }
+        match &agent.output {
+            Some(pieces) => text_diff(&mut lines, "output", pieces, t),
+            None if ran_in_both => {
+                lines.push(Line::from(Span::styled("  output unchanged", t.muted)))
+            }
+            None => {}
+        }
+    }
+    lines.push(Line::default());
+    lines.push(heading(format!(
+        "── Plan: #{a} → #{b}, each step's score ──"
+    )));
+    for row in &diff.steps {
+        let number = row
+            .after
+            .as_ref()
+            .or(row.before.as_ref())
+            .map_or(0, |s| s.index + 1);
+        let (mark, text): (&str, Vec<Span<'static>>) = match &row.change {
+            StepChange::Same => (" ", vec![Span::styled(step_text(row), t.base)]),
+            StepChange::Removed => ("-", piece_spans(&[Piece::Removed(step_text(row))], t)),
+            StepChange::Added => ("+", piece_spans(&[Piece::Added(step_text(row))], t)),
+            StepChange::Changed(pieces) => ("~", piece_spans(pieces, t)),
+        };
+        let mut spans = vec![Span::styled(format!("{mark}{number:>3}. "), t.accent)];
+        spans.extend(text);
+        lines.push(Line::from(spans));
+        let (before, after) = (row.before.as_ref(), row.after.as_ref());
+        let changed = before.map(|s| s.score) != after.map(|s| s.score);
+        lines.push(Line::from(Span::styled(
+            format!("       {} → {}", step_score(before), step_score(after)),
+            if changed { t.warn } else { t.muted },
         )));
     }
     lines
 }
 
-pub(crate) fn draw_compare(frame: &mut Frame, app: &App, area: Rect, left: usize, right: usize) {
-    let inner = open_box(
-        frame,
-        app,
-        area,
-        (area.width, area.height),
-        "Compare runs (Esc closes; differences highlighted)",
-    );
-    let (Some(a), Some(b)) = (app.runs.history.get(left), app.runs.history.get(right)) else {
-        return;
-    };
-    let [l, r] =
-        Layout::horizontal([Constraint::Percentage(50), Constraint::Percentage(50)]).areas(inner);
-    frame.render_widget(
-        Paragraph::new(run_lines(app, a, b)).wrap(Wrap { trim: false }),
-        l,
-    );
-    frame.render_widget(
-        Paragraph::new(run_lines(app, b, a)).wrap(Wrap { trim: false }),
-        r,
-    );
+/// The text of a step in either plan.
+fn step_text(row: &crate::workbench::run_diff::StepRow) -> String {
+    row.after
+        .as_ref()
+        .or(row.before.as_ref())
+        .map(|s| s.text.clone())
+        .unwrap_or_default()
+}
+
+/// `lines` wrapped to `width` columns: a long line breaks after its last
+/// space that fits (mid-word only for a word longer than the width), so the
+/// `[-…-]` and `{+…+}` marks stay whole where they can.
+fn wrap(lines: Vec<Line<'static>>, width: usize) -> Vec<Line<'static>> {
+    let width = width.max(1);
+    let mut out = Vec::new();
+    for line in lines {
+        let cells: Vec<(char, Style)> = line
+            .spans
+            .iter()
+            .flat_map(|span| span.content.chars().map(move |c| (c, span.style)))
+            .collect();
+        let mut start = 0;
+        loop {
+            let mut end = start;
+            let mut used = 0;
+            while end < cells.len() && used + cells[end].0.width().unwrap_or(0) <= width {
+                used += cells[end].0.width().unwrap_or(0);
+                end += 1;
+            }
+            if end < cells.len() {
+                if let Some(space) = cells[start..end].iter().rposition(|(c, _)| *c == ' ') {
+                    end = (start + space + 1).max(start + 1);
+                }
+            }
+            out.push(styled_line(
+                &cells[start..end.max(start + 1).min(cells.len())],
+            ));
+            start = end.max(start + 1);
+            if start >= cells.len() {
+                break;
+            }
+        }
+    }
+    out
+}
+
+/// The spans of `cells`, one per run of a style.
+fn styled_line(cells: &[(char, Style)]) -> Line<'static> {
+    let mut spans: Vec<Span<'static>> = Vec::new();
+    for &(c, style) in cells {
+        match spans.last_mut() {
+            Some(last) if last.style == style => last.content.to_mut().push(c),
+            _ => spans.push(Span::styled(c.to_string(), style)),
+        }
+    }
+    Line::from(spans)
 }
 
 #[cfg(test)]
 mod tests {
     use super::*;
-    use crate::agents::config::AgentSettings;
-    use crate::agents::config::ConfigFile;
-    use crate::agents::ProviderKind;
-    use crate::agents::{AgentRole, Approach, Usage};
-
-    /// gpt-4o at $2.50 in and $10 out per million tokens, as a config
-    /// file writes it; nothing else.
-    fn prices() -> PriceTable {
-        let file: ConfigFile = toml::from_str(
-            "[prices.openai.\"gpt-4o\"]\ninput_per_million = 2.5\noutput_per_million = 10.0\n",
-        )
-        .unwrap();
-        PriceTable::from_config(&file.prices).unwrap()
-    }
-
-    fn agent(provider: &str, model: &str, cached: bool) -> AgentRecord {
-        let provider: ProviderKind = provider.parse().unwrap();
-        AgentRecord {
-            usage: Usage {
-                input_tokens: 1_000,
-                output_tokens: 200,
-            },
-            cached,
-            ..AgentRecord::blank(
-                AgentRole::Planner,
-                &AgentSettings::new(provider, model, 0.0, 512),
-                "multi-image-planner",
-                "",
-            )
-        }
-    }
-
-    fn run(agents: Vec<AgentRecord>) -> RunRecord {
-        RunRecord {
-            id: 1,
-            started_unix: 0,
-            approach: Approach::MultiImage,
-            task: String::new(),
-            agents,
-            prompts: Default::default(),
-            plan: Vec::new(),
-            ground_truth: Vec::new(),
-            scores: None,
-            cancelled: false,
-            corrupted: None,
-            steps: Vec::new(),
-        }
-    }
 
     #[test]
-    fn a_priced_answer_costs_its_tokens_a_cached_one_nothing_an_unpriced_one_no_figure() {
-        let p = prices();
-        // 1,000 × $2.50 / 1e6 + 200 × $10 / 1e6 = $0.0045.
-        let cases = [
-            (("openai", "gpt-4o", false), "$0.0045"),
-            (("openai", "gpt-4o", true), "$0.0000"),
-            (("openai", "gpt-4.1", false), "no price"),
-            (("replay", "demo-recording", false), "no price"),
-        ];
-        for ((provider, model, cached), shown) in cases {
-            let a = agent(provider, model, cached);
-            assert_eq!(cost_text(agent_cost(&p, &a)), shown, "{provider}/{model}");
-        }
-    }
-
-    #[test]
-    fn a_run_costs_the_sum_of_its_agents_and_nothing_when_one_has_no_price() {
-        let p = prices();
-        let paid = || agent("openai", "gpt-4o", false);
-        assert_eq!(
-            cost_text(run_cost(
-                &p,
-                &run(vec![paid(), paid(), agent("openai", "gpt-4o", true)])
-            )),
-            "$0.0090"
-        );
-        assert_eq!(
-            cost_text(run_cost(
-                &p,
-                &run(vec![paid(), agent("anthropic", "claude", false)])
-            )),
-            "no price"
-        );
+    fn long_lines_wrap_at_the_width_and_keep_their_styles() {
+        let style = Style::default().add_modifier(Modifier::BOLD);
+        let lines = vec![Line::from(vec![
+            Span::raw("abcd"),
+            Span::styled("efgh", style),
+        ])];
+        let wrapped = wrap(lines, 3);
+        let texts: Vec<String> = wrapped.iter().map(|l| l.to_string()).collect();
+        assert_eq!(texts, ["abc", "def", "gh"]);
+        assert_eq!(wrapped[1].spans[1].style, style);
+        let words = wrap(vec![Line::from("one {+two three+} four")], 12);
+        let texts: Vec<String> = words.iter().map(|l| l.to_string()).collect();
+        assert_eq!(texts, ["one {+two ", "three+} four"]);
+        assert_eq!(wrap(vec![Line::default()], 5).len(), 1);
     }
 }
