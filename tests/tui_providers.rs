@@ -119,7 +119,7 @@ fn the_first_key_r_on_a_dataset_task_runs_every_agent_on_the_configured_server()
         .as_array()
         .unwrap()
         .iter()
-        .map(|a| a["settings"]["provider"].as_str().unwrap_or_default())
+        .map(|a| a["provider"].as_str().unwrap_or_default())
         .collect();
     assert_eq!(providers, ["openai"; 3], "{run}");
 }
@@ -200,4 +200,11 @@ fn eval_with_a_saved_prompt_set_sends_its_prompts_and_records_their_versions() {
     let skm_record = agents.iter().find(|a| a["role"] == "skm").unwrap();
     assert_eq!(&skm_record["prompt_hash"], hash.as_str(), "{skm_record}");
     assert_ne!(hash, &skm.hash, "the edited prompt is another version");
+    let manifest: serde_json::Value =
+        serde_json::from_str(&std::fs::read_to_string(out.join("manifest.json")).unwrap()).unwrap();
+    let recorded = &manifest["prompts"]["multi-image-skm"];
+    assert_eq!(&recorded["hash"], hash.as_str(), "{manifest}");
+    let file = dir.join("multi-image-skm.txt");
+    assert_eq!(recorded["source"], file.display().to_string());
+    assert_eq!(manifest["prompts"].as_object().map(|m| m.len()), Some(3));
 }

@@ -10,9 +10,9 @@ use std::time::{Duration, Instant};
 use serde::{Deserialize, Serialize};
 use tokio_util::sync::CancellationToken;
 
-use super::cache::{write_atomic, CachedAnswer};
-use super::provider::{cancellable, ChatRequest, Completion, TokenSink};
-use super::AgentError;
+use super::cache::{request_key, write_atomic, CachedAnswer};
+use super::provider::{cancellable, BoxFuture, ChatRequest, Completion, Provider, TokenSink};
+use super::{AgentError, ProviderKind};
 
 /// Bumped when the layout of a recording changes.
 const FORMAT: u32 = 1;
@@ -78,17 +78,22 @@ pub enum Pace {
     Every(Duration),
 }
 
-/// A provider that answers from a recording, by request key.
+/// A provider that answers from a recording.
 #[derive(Debug, Clone)]
 pub struct ReplayProvider {
     recording: Arc<Recording>,
+    provider: ProviderKind,
     pace: Pace,
 }
 
 impl ReplayProvider {
-    /// Serves `recording` at `pace`.
-    pub fn new(recording: Arc<Recording>, pace: Pace) -> Self {
-        Self { recording, pace }
+    /// Serves `recording` in place of `provider` (part of the request key).
+    pub fn new(recording: Arc<Recording>, provider: ProviderKind, pace: Pace) -> Self {
+        Self {
+            recording,
+            provider,
+            pace,
+        }
     }
 
     /// Serves the recorded answer keyed `key`: sample `sample` of `request`
@@ -126,5 +131,19 @@ impl ReplayProvider {
             on_token(&chunk.text);
         }
         Ok(answer.completion.clone())
+    }
+}
+
+impl Provider for ReplayProvider {
+    fn complete<'a>(
+        &'a self,
+        request: &'a ChatRequest,
+        on_token: TokenSink<'a>,
+        cancel: &'a CancellationToken,
+    ) -> BoxFuture<'a, Result<Completion, AgentError>> {
+        Box::pin(async move {
+            let key = request_key(self.provider, request);
+            self.replay(&key, 0, request, on_token, cancel).await
+        })
     }
 }
