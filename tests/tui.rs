@@ -611,6 +611,12 @@ fn open_overlay(h: &mut Harness, context: Context, warm: bool) {
             }
         }
         Context::ModelForm => h.key(KeyCode::Char('m')),
+        Context::SetName => {
+            while h.app.focus != Pane::Prompt {
+                h.key(KeyCode::Tab);
+            }
+            h.key(KeyCode::Char('S'));
+        }
         Context::Viewer => h.key(KeyCode::Char('f')),
         _ => return,
     }
@@ -624,18 +630,19 @@ fn open_overlay(h: &mut Harness, context: Context, warm: bool) {
     );
 }
 
-const OVERLAYS: [Context; 6] = [
+const OVERLAYS: [Context; 7] = [
     Context::Picker,
     Context::History,
     Context::PathPrompt,
     Context::ModelForm,
+    Context::SetName,
     Context::Viewer,
     Context::RunDiff,
 ];
 
 #[test]
 fn a_key_missing_from_the_key_table_does_nothing_in_an_overlay() {
-    // The path prompt and the model form type every other key.
+    // The path prompt, the model form and the set name type every other key.
     for context in [
         Context::Picker,
         Context::History,

@@ -1,7 +1,7 @@
-//! Configured providers by default, end to end: a user's config file sends
-//! the agents to a local OpenAI-compatible server (wiremock, in this test
-//! process), and the real binary runs against it, in tmux for the
-//! workbench.
+//! Configured providers by default and prompt sets, end to end: a user's
+//! config file sends the agents to a local OpenAI-compatible server
+//! (wiremock, in this test process), and the real binary runs against it,
+//! in tmux for the workbench.
 
 mod common;
 
@@ -122,4 +122,89 @@ fn the_first_key_r_on_a_dataset_task_runs_every_agent_on_the_configured_server()
         .map(|a| a["settings"]["provider"].as_str().unwrap_or_default())
         .collect();
     assert_eq!(providers, ["openai"; 3], "{run}");
+}
+
+#[test]
+fn eval_with_a_saved_prompt_set_sends_its_prompts_and_records_their_versions() {
+    use mapvlm::agents::prompt_sets;
+    use mapvlm::agents::prompts::{PromptSet, Template};
+    use mapvlm::agents::Approach;
+
+    let server = LocalServer::start();
+    let home = UserHome::new();
+    home.point_at(&server);
+    let shipped = PromptSet::load(None).unwrap();
+    let skm = shipped.get(Approach::MultiImage, AgentRole::Skm).unwrap();
+    let text = format!("{}\nName every towel.", skm.text());
+    let edited = shipped
+        .clone()
+        .with(Template::parse(&skm.name, "test", &text).unwrap());
+    let root = home.config_home().join("mapvlm/prompt-sets");
+    let dir = prompt_sets::save(&root, "towels", &edited).unwrap();
+    let saved = prompt_sets::load(&root, "towels").unwrap();
+    let hash = &saved
+        .get(Approach::MultiImage, AgentRole::Skm)
+        .unwrap()
+        .hash;
+
+    let first = std::fs::read_to_string(common::shared().join("data/alfred30/tasks.jsonl"))
+        .unwrap()
+        .lines()
+        .next()
+        .unwrap()
+        .to_string();
+    let mut task: serde_json::Value = serde_json::from_str(&first).unwrap();
+    let image = common::shared()
+        .join("data/alfred30")
+        .join(task["image"].as_str().unwrap());
+    task["image"] = image.display().to_string().into();
+    let data = home.path().join("data");
+    std::fs::create_dir_all(&data).unwrap();
+    std::fs::write(data.join("tasks.jsonl"), format!("{task}\n")).unwrap();
+    let out = home.path().join("out");
+    let run = home
+        .command()
+        .args([
+            "eval",
+            "--approaches",
+            "multi-image",
+            "--metrics",
+            "kas",
+            "--dataset",
+        ])
+        .arg(&data)
+        .arg("--out")
+        .arg(&out)
+        .arg("--prompts")
+        .arg(&dir)
+        .output()
+        .unwrap();
+    assert!(run.status.success(), "{}", common::stderr(&run));
+
+    let requests = server.requests();
+    assert_eq!(server::roles(&requests).len(), 3);
+    assert!(server::only(&requests, AgentRole::Skm)
+        .text()
+        .contains("Name every towel."));
+    assert!(!server::only(&requests, AgentRole::Gkm)
+        .text()
+        .contains("Name every towel."));
+    let results: Vec<serde_json::Value> = std::fs::read_dir(out.join("tasks"))
+        .unwrap()
+        .map(|e| {
+            serde_json::from_str(&std::fs::read_to_string(e.unwrap().path()).unwrap()).unwrap()
+        })
+        .collect();
+    assert_eq!(results.len(), 1);
+    let agents = results[0]["record"]["agents"].as_array().unwrap();
+    let skm_record = agents.iter().find(|a| a["role"] == "skm").unwrap();
+    assert_eq!(&skm_record["prompt_hash"], hash.as_str(), "{skm_record}");
+    assert_ne!(hash, &skm.hash, "the edited prompt is another version");
+    let manifest: serde_json::Value =
+        serde_json::from_str(&std::fs::read_to_string(out.join("manifest.json")).unwrap()).unwrap();
+    let recorded = &manifest["prompts"]["multi-image-skm"];
+    assert_eq!(&recorded["hash"], hash.as_str(), "{manifest}");
+    let file = dir.join("multi-image-skm.txt");
+    assert_eq!(recorded["source"], file.display().to_string());
+    assert_eq!(manifest["prompts"].as_object().map(|m| m.len()), Some(3));
 }

@@ -11,6 +11,7 @@ pub mod graph;
 pub mod images;
 pub mod openai;
 pub mod pipeline;
+pub mod prompt_sets;
 pub mod prompts;
 pub mod provider;
 pub mod replay;

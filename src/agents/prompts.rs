@@ -229,6 +229,23 @@ impl PromptSet {
         self
     }
 
+    /// The set with each template named in `texts` replaced by its text
+    /// there (parsed; `source` names where the texts came from in errors),
+    /// e.g. the workbench's edited prompts. Names of no template are left out.
+    pub fn with_texts(
+        mut self,
+        texts: &BTreeMap<String, String>,
+        source: &str,
+    ) -> Result<Self, AgentError> {
+        for (name, text) in texts {
+            if self.templates.contains_key(name) {
+                let template = Template::parse(name, source, text)?;
+                self.templates.insert(name.clone(), template);
+            }
+        }
+        Ok(self)
+    }
+
     /// Every template.
     pub fn iter(&self) -> impl Iterator<Item = &Template> {
         self.templates.values()

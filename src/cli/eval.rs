@@ -133,6 +133,7 @@ pub fn run(args: &EvalArgs) -> anyhow::Result<ExitCode> {
     } else {
         args.approaches.clone()
     };
+    let prompt_set = args.agents.prompt_set()?;
     let scorer = pg2s_scorer(args)?;
     let mut done = Finished {
         scorer: scorer.as_deref(),
@@ -174,7 +175,9 @@ pub fn run(args: &EvalArgs) -> anyhow::Result<ExitCode> {
     let order: Vec<String> = dataset.tasks.iter().map(|t| t.id.clone()).collect();
     write_tables(&args.out, &order, &approaches, &mut results)?;
     let failures = failed.len();
+    let prompts = super::merge::prompt_versions(&prompt_set, &approaches);
     super::merge::Manifest::new(dataset_tasks, approaches, shard, &results, failed)
+        .with_prompts(prompts)
         .write(&args.out)?;
     eprintln!(
         "mapvlm: {} plans scored, {skipped} without input or plan, {failures} failed; tables in {}",

@@ -16,6 +16,7 @@ use serde::{Deserialize, Serialize};
 
 use super::eval::{result_file, write_tables, TaskResult};
 use crate::agents::cache::write_atomic;
+use crate::agents::prompts::PromptSet;
 use crate::agents::Approach;
 use crate::shard::Shard;
 
@@ -46,6 +47,43 @@ pub struct Manifest {
     pub results: Vec<String>,
     /// `ID APPROACH` of every task that failed in this run.
     pub failed: Vec<String>,
+    /// The prompt templates of the approaches, by name: which version ran
+    /// (`--prompts DIR`, the user folder or the shipped ones).
+    #[serde(default)]
+    pub prompts: BTreeMap<String, PromptVersion>,
+}
+
+/// Which version of a prompt template a run used.
+#[derive(Debug, Clone, PartialEq, Eq, Serialize, Deserialize)]
+pub struct PromptVersion {
+    /// The template's content hash ([`crate::agents::prompts::Template::hash`]).
+    pub hash: String,
+    /// Where it was read from: a file, or `built-in`.
+    pub source: String,
+}
+
+/// The version of every template `approaches` use in `set`.
+pub fn prompt_versions(
+    set: &PromptSet,
+    approaches: &[Approach],
+) -> BTreeMap<String, PromptVersion> {
+    approaches
+        .iter()
+        .flat_map(|&approach| {
+            approach
+                .roles()
+                .iter()
+                .map(move |&role| set.get(approach, role))
+        })
+        .flatten()
+        .map(|t| {
+            let version = PromptVersion {
+                hash: t.hash.clone(),
+                source: t.source.clone(),
+            };
+            (t.name.clone(), version)
+        })
+        .collect()
 }
 
 impl Manifest {
@@ -66,7 +104,13 @@ impl Manifest {
                 .map(|r| result_file(&r.id, r.approach))
                 .collect(),
             failed,
+            prompts: BTreeMap::new(),
         }
+    }
+
+    /// The manifest with the prompt versions the run used.
+    pub fn with_prompts(self, prompts: BTreeMap<String, PromptVersion>) -> Self {
+        Manifest { prompts, ..self }
     }
 
     /// Writes the manifest as `OUT/manifest.json`, atomically.
@@ -103,9 +147,10 @@ pub fn run(args: &MergeArgs) -> anyhow::Result<ExitCode> {
         if manifest.dataset_tasks != first.dataset_tasks
             || manifest.approaches != first.approaches
             || manifest.shard.count != first.shard.count
+            || manifest.prompts != first.prompts
         {
             bail!(
-                "{} and {} are not shards of one eval (other tasks, approaches or shard count)",
+                "{} and {} are not shards of one eval (other tasks, approaches, prompts or shard count)",
                 first_dir.display(),
                 dir.display()
             );
@@ -171,6 +216,7 @@ pub fn run(args: &MergeArgs) -> anyhow::Result<ExitCode> {
         &results,
         Vec::new(),
     )
+    .with_prompts(first.prompts.clone())
     .write(&args.out)?;
     eprintln!(
         "mapvlm: {} shards, {} plans merged; tables in {}",

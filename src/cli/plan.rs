@@ -82,6 +82,13 @@ pub struct AgentArgs {
 }
 
 impl AgentArgs {
+    /// The prompt templates these options name: `--prompts DIR`, else the
+    /// user folder, over the shipped ones.
+    pub fn prompt_set(&self) -> anyhow::Result<PromptSet> {
+        let prompt_dir = self.prompts.clone().or_else(PromptSet::default_dir);
+        Ok(PromptSet::load(prompt_dir.as_deref())?)
+    }
+
     /// The runner these options describe, and the recording being made.
     pub fn runner(&self) -> anyhow::Result<(Runner, Option<Arc<Mutex<Recording>>>)> {
         if let Some(path) = &self.record {
@@ -107,8 +114,7 @@ impl AgentArgs {
         }
         let mut settings = Settings::resolve(&file, &env, &flags)?;
         settings.http.notify = Some(Notifier(Arc::new(|line| eprintln!("mapvlm: {line}"))));
-        let prompt_dir = self.prompts.clone().or_else(PromptSet::default_dir);
-        let prompts = PromptSet::load(prompt_dir.as_deref())?;
+        let prompts = self.prompt_set()?;
         let source = match &self.replay {
             Some(path) => {
                 let pace = if self.instant {

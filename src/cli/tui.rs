@@ -115,6 +115,7 @@ pub fn run(args: TuiArgs) -> anyhow::Result<ExitCode> {
             .then(ratatui_image::picker::Picker::halfblocks),
         prices,
         configured,
+        prompt_sets: crate::agents::prompt_sets::default_root(),
     };
     workbench::run(options)?;
     Ok(ExitCode::SUCCESS)

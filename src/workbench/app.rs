@@ -89,6 +89,10 @@ pub struct AppInit {
     /// configure ([`agents::ProviderConfig::configured_agents`]): on a
     /// user's task they start on these, the others on the demo's recording.
     pub configured: BTreeMap<AgentRole, AgentSettings>,
+    /// The folder of the named prompt sets
+    /// ([`crate::agents::prompt_sets::default_root`]); `None` when there is
+    /// no config folder.
+    pub prompt_sets: Option<PathBuf>,
 }
 
 impl AppInit {
@@ -108,6 +112,7 @@ impl AppInit {
                 .map(|set| agents::prompt_texts(&set))
                 .unwrap_or_default(),
             configured: BTreeMap::new(),
+            prompt_sets: None,
         }
     }
 }
@@ -145,6 +150,10 @@ pub struct App {
     pub prices: PriceTable,
     /// The Prompt pane: every template's text, and its editor.
     pub prompt: PromptPane,
+    /// The folder of the named prompt sets, if there is one.
+    pub prompt_sets: Option<PathBuf>,
+    /// The prompt set saved or loaded last (empty: none yet).
+    pub prompt_set: String,
     /// The plan steps.
     pub plan: Steps,
     /// Where the plan came from.
@@ -244,6 +253,8 @@ impl App {
             configured: init.configured,
             prices: PriceTable::default(),
             prompt: PromptPane::new(init.prompts),
+            prompt_sets: init.prompt_sets,
+            prompt_set: String::new(),
             plan: Steps::default(),
             plan_source: PlanSource::None,
             ground_truth: Steps::new(demo_ground_truth(0)),

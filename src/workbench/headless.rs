@@ -15,6 +15,7 @@ use super::corrupting::{corrupt_plan, CorruptionModels, STILL_LOADING};
 use super::message::{Cmd, Msg, ReadError};
 use super::scene_image;
 use super::scoring::{score_now, ModelSlot};
+use crate::agents::prompt_sets;
 
 /// Reads a step file off the loop: the text, or why not.
 pub fn read_step_file(path: &Path) -> Result<String, ReadError> {
@@ -81,6 +82,15 @@ impl<'a> Headless<'a> {
                     vec![Msg::StepFile(path, text)]
                 }
                 Cmd::LoadImage(path) => vec![Msg::SceneImage(scene_image::read(&path))],
+                Cmd::SavePromptSet { root, name, set } => {
+                    let saved = prompt_sets::save(&root, &name, &set);
+                    vec![Msg::PromptSetSaved(name, saved)]
+                }
+                Cmd::ListPromptSets(root) => vec![Msg::PromptSets(prompt_sets::list(&root))],
+                Cmd::LoadPromptSet { root, name } => {
+                    let loaded = prompt_sets::load(&root, &name);
+                    vec![Msg::PromptSetLoaded(name, loaded)]
+                }
                 Cmd::Corrupt(request) => {
                     let result = match &self.corruption {
                         Ok(models) => corrupt_plan(models, &request),

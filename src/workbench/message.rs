@@ -10,6 +10,8 @@ use ratatui::layout::Rect;
 use ratatui_image::protocol::Protocol;
 
 use crate::agents::pipeline::AgentEvent;
+use crate::agents::prompt_sets::PromptSetError;
+use crate::agents::prompts::PromptSet;
 use crate::dataset::DatasetError;
 use crate::workbench::agents::RunRequest;
 use crate::workbench::corrupting::{CorruptRequest, Corrupted};
@@ -56,6 +58,12 @@ pub enum Msg {
     Saved(Result<(), SessionError>),
     /// The plan was corrupted, or why not.
     Corrupted(Result<Corrupted, String>),
+    /// The prompt set of this name was saved in a folder, or why not.
+    PromptSetSaved(String, Result<PathBuf, PromptSetError>),
+    /// The names of the saved prompt sets, or why they cannot be listed.
+    PromptSets(Result<Vec<String>, PromptSetError>),
+    /// The prompt set of this name was read, or why not.
+    PromptSetLoaded(String, Result<PromptSet, PromptSetError>),
     /// The process was asked to stop (a signal).
     Quit,
 }
@@ -75,4 +83,22 @@ pub enum Cmd {
     LoadImage(PathBuf),
     /// Corrupt the plan into a new run.
     Corrupt(CorruptRequest),
+    /// Save `set` as the prompt set `name` under the folder `root`.
+    SavePromptSet {
+        /// The folder of the sets.
+        root: PathBuf,
+        /// The set's name (checked).
+        name: String,
+        /// Every template, as the workbench has it.
+        set: PromptSet,
+    },
+    /// List the prompt sets saved under this folder.
+    ListPromptSets(PathBuf),
+    /// Read the prompt set `name` from the folder `root`.
+    LoadPromptSet {
+        /// The folder of the sets.
+        root: PathBuf,
+        /// The set's name.
+        name: String,
+    },
 }

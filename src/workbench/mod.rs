@@ -82,6 +82,9 @@ pub struct Options {
     /// settings they start with on a user's task, or why the config cannot
     /// give them (shown once at the start; every agent then replays).
     pub configured: Result<BTreeMap<AgentRole, AgentSettings>, ConfigError>,
+    /// The folder of the named prompt sets
+    /// ([`crate::agents::prompt_sets::default_root`]).
+    pub prompt_sets: Option<PathBuf>,
 }
 
 /// Why the workbench could not run.

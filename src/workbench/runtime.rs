@@ -27,6 +27,7 @@ use super::app::{App, AppInit, Severity};
 use super::scoring::{ModelSlot, ScorerLoader, SharedModels};
 use super::session::{Restored, Session, SessionError};
 use crate::agents::pipeline::AgentEvent;
+use crate::agents::prompt_sets;
 use crate::dataset::Dataset;
 
 use super::corrupting::{self, SharedCorruptionModels};
@@ -137,6 +138,26 @@ impl Runtime {
                 let msgs = self.msgs.clone();
                 tokio::task::spawn_blocking(move || {
                     let _ = msgs.send(Msg::SceneImage(scene_image::read(&path)));
+                });
+            }
+            Cmd::SavePromptSet { root, name, set } => {
+                let msgs = self.msgs.clone();
+                tokio::task::spawn_blocking(move || {
+                    let saved = prompt_sets::save(&root, &name, &set);
+                    let _ = msgs.send(Msg::PromptSetSaved(name, saved));
+                });
+            }
+            Cmd::ListPromptSets(root) => {
+                let msgs = self.msgs.clone();
+                tokio::task::spawn_blocking(move || {
+                    let _ = msgs.send(Msg::PromptSets(prompt_sets::list(&root)));
+                });
+            }
+            Cmd::LoadPromptSet { root, name } => {
+                let msgs = self.msgs.clone();
+                tokio::task::spawn_blocking(move || {
+                    let loaded = prompt_sets::load(&root, &name);
+                    let _ = msgs.send(Msg::PromptSetLoaded(name, loaded));
                 });
             }
             Cmd::Corrupt(request) => {
@@ -322,6 +343,7 @@ async fn run_async(options: Options) -> Result<(), TuiError> {
             .ok()
             .cloned()
             .unwrap_or_default(),
+        prompt_sets: options.prompt_sets.clone(),
     });
     app.prices = options.prices.as_ref().ok().cloned().unwrap_or_default();
     terminal.draw(|f| render::render(f, &app))?;

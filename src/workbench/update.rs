@@ -75,6 +75,18 @@ impl App {
                 Vec::new()
             }
             Msg::Corrupted(result) => self.on_corrupted(result),
+            Msg::PromptSetSaved(name, saved) => {
+                self.on_prompt_set_saved(name, saved);
+                Vec::new()
+            }
+            Msg::PromptSets(listed) => {
+                self.on_prompt_sets(listed);
+                Vec::new()
+            }
+            Msg::PromptSetLoaded(name, loaded) => {
+                self.on_prompt_set_loaded(name, loaded);
+                Vec::new()
+            }
             Msg::ImageReady(rect, encoded) => {
                 if self.scene.requested != Some(rect) {
                     // For an image or an area since replaced.
@@ -214,6 +226,8 @@ impl App {
                 return vec![self.rescore()];
             }
             Action::ModelForm => self.open_model_form(),
+            Action::SavePromptSet => self.open_save_prompt_set(),
+            Action::LoadPromptSet => return self.list_prompt_sets(),
             Action::ToggleImage => {
                 self.scene.enabled = !self.scene.enabled;
                 self.session_dirty = true;

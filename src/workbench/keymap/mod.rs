@@ -40,6 +40,8 @@ pub enum Context {
     PathPrompt,
     /// The model form.
     ModelForm,
+    /// Typing the name of a prompt set to save.
+    SetName,
     /// A view to read and close: the framed actions.
     Viewer,
     /// The diff of two runs, scrolled.
@@ -64,6 +66,7 @@ impl Context {
                 | Context::History
                 | Context::PathPrompt
                 | Context::ModelForm
+                | Context::SetName
                 | Context::Viewer
                 | Context::RunDiff
         )
@@ -91,6 +94,7 @@ impl Context {
             Context::History => Some("RUNS"),
             Context::PathPrompt => Some("PATH"),
             Context::ModelForm => Some("MODEL"),
+            Context::SetName => Some("SAVE prompts"),
             Context::Viewer => Some("VIEW"),
             Context::RunDiff => Some("DIFF"),
             _ => None,
@@ -145,6 +149,10 @@ pub enum Action {
     CancelRun,
     /// Open the model form of an agent.
     ModelForm,
+    /// Save every prompt as a named prompt set.
+    SavePromptSet,
+    /// Choose a saved prompt set and load its prompts.
+    LoadPromptSet,
     /// In the model form: save for every agent, or for the form's agent
     /// alone (a toggle).
     EveryAgent,

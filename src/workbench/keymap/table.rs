@@ -206,6 +206,12 @@ pub(super) const WORKBENCH: &[Binding] = &[
         "Enter, e, 1 2 3, ←/→ (prompt)",
         "edit the prompt; the prompt of SKM, GKM, Planner; other agent",
     ),
+    bind(
+        C::Prompt,
+        &[(ch('S'), A::SavePromptSet), (ch('L'), A::LoadPromptSet)],
+        "S L (prompt)",
+        "save every prompt as a named prompt set; load a saved set",
+    ),
     hinted(
         bind(
             C::PromptEditor,
@@ -492,6 +498,26 @@ pub(super) const WORKBENCH: &[Binding] = &[
         ),
         "Enter",
         "saves",
+    ),
+    hinted(
+        bind(
+            C::SetName,
+            &[(key(KeyCode::Enter), A::Accept)],
+            "Enter (prompt set name)",
+            "save the prompts as this set",
+        ),
+        "Enter",
+        "saves",
+    ),
+    hinted(
+        bind(
+            C::SetName,
+            &[(key(KeyCode::Esc), A::Leave)],
+            "Esc (prompt set name)",
+            "cancel",
+        ),
+        "Esc",
+        "cancels",
     ),
     hinted(
         bind(

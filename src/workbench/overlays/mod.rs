@@ -7,6 +7,7 @@ pub mod corrupt;
 pub mod help;
 pub mod model_form;
 pub mod pickers;
+pub mod prompt_sets;
 pub mod runs;
 
 use crossterm::event::KeyEvent;
@@ -22,6 +23,7 @@ use crate::workbench::keymap::{self, Action, Context};
 use crate::workbench::message::Cmd;
 use crate::workbench::overlays::help::{Close, Help};
 use crate::workbench::overlays::model_form::ModelForm;
+use crate::workbench::overlays::prompt_sets::{SetName, SetPicker};
 use crate::workbench::panes::list_window;
 use crate::workbench::theme::Theme;
 
@@ -39,6 +41,10 @@ pub enum Overlay {
     StepFilePath(Box<TextArea<'static>>),
     /// Provider, model, temperature and token limit of an agent.
     ModelForm(ModelForm),
+    /// The name to save the prompts under as a prompt set.
+    PromptSetName(Box<SetName>),
+    /// The saved prompt sets, to load one.
+    PromptSetPicker(SetPicker),
     /// The history of runs and the diff of two.
     Runs(Box<runs::RunsOverlay>),
     /// The framed actions and their matches.
@@ -61,6 +67,8 @@ impl Overlay {
             }
             Overlay::StepFilePath(_) => Some(Context::PathPrompt),
             Overlay::ModelForm(_) => Some(Context::ModelForm),
+            Overlay::PromptSetName(_) => Some(Context::SetName),
+            Overlay::PromptSetPicker(_) => Some(Context::Picker),
             Overlay::Runs(view) => Some(view.context()),
             Overlay::Actions => Some(Context::Viewer),
         }
@@ -99,6 +107,8 @@ impl App {
             Overlay::CorruptPicker { selected } => self.on_corrupt_picker_key(selected, action),
             Overlay::StepFilePath(editor) => self.on_path_key(editor, action, key),
             Overlay::ModelForm(form) => self.on_model_form_key(form, key),
+            Overlay::PromptSetName(prompt) => self.on_set_name_key(prompt, key),
+            Overlay::PromptSetPicker(picker) => self.on_set_picker_key(picker, key),
             Overlay::Runs(mut view) => {
                 let outcome = component::dispatch(view.as_mut(), &key);
                 self.on_runs_outcome(view, outcome)
@@ -187,6 +197,8 @@ pub(crate) fn render_overlay(frame: &mut Frame, app: &App, area: Rect) {
             frame.render_widget(editor.as_ref(), inner);
         }
         Overlay::ModelForm(form) => form.draw(frame, area, t),
+        Overlay::PromptSetName(prompt) => prompt.draw(frame, area, t),
+        Overlay::PromptSetPicker(picker) => picker.draw(frame, area, t),
         Overlay::Runs(view) => view.draw(frame, area, t),
         Overlay::Actions => actions::draw(frame, app, area),
         Overlay::CorruptPicker { selected } => corrupt::draw(frame, app, area, *selected),

@@ -1,0 +1,413 @@
+//! Prompt sets from the workbench: `S` in the Prompt pane names the set the
+//! prompts are saved as ([`SetName`]), `L` chooses a saved set to load
+//! ([`SetPicker`]). The files are read and written by tasks of the runtime
+//! ([`Cmd::SavePromptSet`], [`Cmd::ListPromptSets`], [`Cmd::LoadPromptSet`]);
+//! their layout is [`crate::agents::prompt_sets`]'.
+
+use std::collections::BTreeMap;
+use std::path::PathBuf;
+
+use crossterm::event::KeyEvent;
+use ratatui::layout::{Constraint, Layout, Rect};
+use ratatui::text::{Line, Span};
+use ratatui::widgets::{Clear, Paragraph};
+use ratatui::Frame;
+use ratatui_textarea::TextArea;
+
+use crate::agents::prompt_sets::{check_name, PromptSetError};
+use crate::agents::prompts::PromptSet;
+use crate::workbench::agents::prompt_texts;
+use crate::workbench::app::{single_line_editor, App, Severity};
+use crate::workbench::component::{self, Component};
+use crate::workbench::keymap::{Action, Context};
+use crate::workbench::message::Cmd;
+use crate::workbench::overlays::{centred, moved, themed_box, Overlay};
+use crate::workbench::panes::list_window;
+use crate::workbench::theme::Theme;
+
+/// What a key in a prompt-set overlay asks of the workbench.
+#[derive(Debug, Clone, PartialEq, Eq)]
+pub enum SetOutcome {
+    /// The overlay stays open.
+    Open,
+    /// The overlay was closed.
+    Cancelled,
+    /// Save the prompts as, or load, the set of this name.
+    Chosen(String),
+}
+
+/// The name to save the prompts under, being typed.
+#[derive(Debug, Clone)]
+pub struct SetName {
+    editor: TextArea<'static>,
+    problem: Option<String>,
+}
+
+impl SetName {
+    /// The prompt, filled with `name` (e.g. the set loaded last).
+    pub fn new(name: &str) -> SetName {
+        SetName {
+            editor: single_line_editor(name),
+            problem: None,
+        }
+    }
+}
+
+impl Component for SetName {
+    type Outcome = SetOutcome;
+
+    fn contexts(&self) -> Vec<Context> {
+        vec![Context::SetName]
+    }
+
+    fn on_action(&mut self, action: Action) -> SetOutcome {
+        match action {
+            Action::Leave => SetOutcome::Cancelled,
+            Action::Accept => {
+                let name = self.editor.lines().join("").trim().to_string();
+                match check_name(&name) {
+                    Ok(()) => SetOutcome::Chosen(name),
+                    Err(e) => {
+                        self.problem = Some(e.to_string());
+                        SetOutcome::Open
+                    }
+                }
+            }
+            _ => SetOutcome::Open,
+        }
+    }
+
+    fn on_other_key(&mut self, key: KeyEvent) -> SetOutcome {
+        self.editor.input(key);
+        self.problem = None;
+        SetOutcome::Open
+    }
+
+    fn draw(&self, frame: &mut Frame, area: Rect, theme: &Theme) {
+        let rect = centred(area, 80, 4);
+        frame.render_widget(Clear, rect);
+        let block = themed_box(
+            theme,
+            "Save the prompts as the set (Enter saves, Esc cancels)",
+        );
+        let inner = block.inner(rect);
+        frame.render_widget(block, rect);
+        let [field, problem] = Layout::vertical([Constraint::Length(1); 2]).areas(inner);
+        frame.render_widget(&self.editor, field);
+        if let Some(text) = &self.problem {
+            let line = Paragraph::new(Span::styled(text.as_str(), theme.warn));
+            frame.render_widget(line, problem);
+        }
+    }
+}
+
+/// The saved sets to choose one from.
+#[derive(Debug, Clone)]
+pub struct SetPicker {
+    names: Vec<String>,
+    selected: usize,
+}
+
+impl SetPicker {
+    /// A picker over `names` (at least one), on the first.
+    pub fn new(names: Vec<String>) -> SetPicker {
+        SetPicker { names, selected: 0 }
+    }
+}
+
+impl Component for SetPicker {
+    type Outcome = SetOutcome;
+
+    fn contexts(&self) -> Vec<Context> {
+        vec![Context::Picker]
+    }
+
+    fn on_action(&mut self, action: Action) -> SetOutcome {
+        match action {
+            Action::Leave => SetOutcome::Cancelled,
+            Action::Move(delta) => {
+                self.selected = moved(self.selected, delta, self.names.len());
+                SetOutcome::Open
+            }
+            Action::Accept => self
+                .names
+                .get(self.selected)
+                .map_or(SetOutcome::Cancelled, |n| SetOutcome::Chosen(n.clone())),
+            _ => SetOutcome::Open,
+        }
+    }
+
+    fn on_other_key(&mut self, _key: KeyEvent) -> SetOutcome {
+        SetOutcome::Open
+    }
+
+    fn draw(&self, frame: &mut Frame, area: Rect, theme: &Theme) {
+        let rect = centred(area, 60, self.names.len() as u16 + 2);
+        frame.render_widget(Clear, rect);
+        let block = themed_box(theme, "Load a prompt set (Enter loads)");
+        let inner = block.inner(rect);
+        frame.render_widget(block, rect);
+        let (first, count) = list_window(self.selected, self.names.len(), 1, inner.height.into());
+        let lines: Vec<Line> = self
+            .names
+            .iter()
+            .enumerate()
+            .skip(first)
+            .take(count)
+            .map(|(i, name)| {
+                let style = if i == self.selected {
+                    theme.selection
+                } else {
+                    theme.base
+                };
+                Line::from(Span::styled(name.as_str(), style))
+            })
+            .collect();
+        frame.render_widget(Paragraph::new(lines), inner);
+    }
+}
+
+impl App {
+    /// `S`: asks for the name to save the prompts under.
+    pub(crate) fn open_save_prompt_set(&mut self) {
+        self.overlay = Some(Overlay::PromptSetName(Box::new(SetName::new(
+            &self.prompt_set,
+        ))));
+    }
+
+    /// `L`: lists the saved sets, to choose one from.
+    pub(crate) fn list_prompt_sets(&mut self) -> Vec<Cmd> {
+        match self.prompt_sets.clone() {
+            Some(root) => vec![Cmd::ListPromptSets(root)],
+            None => {
+                self.set_status(PromptSetError::NoFolder.to_string(), Severity::Warn);
+                Vec::new()
+            }
+        }
+    }
+
+    /// A key of the open name prompt.
+    pub(crate) fn on_set_name_key(&mut self, mut prompt: Box<SetName>, key: KeyEvent) -> Vec<Cmd> {
+        match component::dispatch(prompt.as_mut(), &key) {
+            SetOutcome::Open => self.overlay = Some(Overlay::PromptSetName(prompt)),
+            SetOutcome::Cancelled => {}
+            SetOutcome::Chosen(name) => return self.save_prompt_set(name),
+        }
+        Vec::new()
+    }
+
+    /// A key of the open set picker.
+    pub(crate) fn on_set_picker_key(&mut self, mut picker: SetPicker, key: KeyEvent) -> Vec<Cmd> {
+        match component::dispatch(&mut picker, &key) {
+            SetOutcome::Open => self.overlay = Some(Overlay::PromptSetPicker(picker)),
+            SetOutcome::Cancelled => {}
+            SetOutcome::Chosen(name) => {
+                if let Some(root) = self.prompt_sets.clone() {
+                    return vec![Cmd::LoadPromptSet { root, name }];
+                }
+            }
+        }
+        Vec::new()
+    }
+
+    fn save_prompt_set(&mut self, name: String) -> Vec<Cmd> {
+        let Some(root) = self.prompt_sets.clone() else {
+            self.set_status(PromptSetError::NoFolder.to_string(), Severity::Warn);
+            return Vec::new();
+        };
+        let set = PromptSet::load(None)
+            .and_then(|set| set.with_texts(&self.prompt.texts, "the workbench"));
+        match set {
+            Ok(set) => vec![Cmd::SavePromptSet { root, name, set }],
+            Err(e) => {
+                self.set_status(format!("prompt set {name} not saved: {e}"), Severity::Warn);
+                Vec::new()
+            }
+        }
+    }
+
+    /// The sets saved so far arrived: a picker over them, or why not.
+    pub(crate) fn on_prompt_sets(&mut self, listed: Result<Vec<String>, PromptSetError>) {
+        match listed {
+            Ok(names) if names.is_empty() => {
+                let root = self.prompt_sets.clone().unwrap_or_default();
+                self.set_status(
+                    format!(
+                        "no prompt set in {} yet: S in the Prompt pane saves one",
+                        root.display()
+                    ),
+                    Severity::Info,
+                );
+            }
+            Ok(names) => self.overlay = Some(Overlay::PromptSetPicker(SetPicker::new(names))),
+            Err(e) => self.set_status(e.to_string(), Severity::Warn),
+        }
+    }
+
+    /// A set was saved in `dir`, or why not.
+    pub(crate) fn on_prompt_set_saved(
+        &mut self,
+        name: String,
+        saved: Result<PathBuf, PromptSetError>,
+    ) {
+        match saved {
+            Ok(dir) => {
+                self.set_status(
+                    format!(
+                        "prompt set {name} saved in {} (eval --prompts that folder runs it)",
+                        dir.display()
+                    ),
+                    Severity::Info,
+                );
+                self.prompt_set = name;
+            }
+            Err(e) => self.set_status(format!("prompt set {name} not saved: {e}"), Severity::Error),
+        }
+    }
+
+    /// A set was read: its templates replace the workbench's prompts.
+    pub(crate) fn on_prompt_set_loaded(
+        &mut self,
+        name: String,
+        loaded: Result<PromptSet, PromptSetError>,
+    ) {
+        match loaded {
+            Ok(set) => {
+                let texts: BTreeMap<String, String> = prompt_texts(&set);
+                for (template, text) in texts {
+                    self.prompt.texts.insert(template, text);
+                }
+                self.load_prompt_editor();
+                self.session_dirty = true;
+                self.set_status(
+                    format!("prompt set {name} loaded (r runs what changed)"),
+                    Severity::Info,
+                );
+                self.prompt_set = name;
+            }
+            Err(e) => self.set_status(format!("prompt set {name} not loaded: {e}"), Severity::Warn),
+        }
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::agents::replay::Pace;
+    use crate::workbench::agents::AgentsPipeline;
+    use crate::workbench::app::AppInit;
+    use crate::workbench::headless::Headless;
+    use crate::workbench::message::Msg;
+    use crate::workbench::panes::Pane;
+    use crate::workbench::scoring::ModelSlot;
+    use crossterm::event::{KeyCode, KeyModifiers};
+
+    struct Bench {
+        app: App,
+        pipeline: AgentsPipeline,
+    }
+
+    impl Bench {
+        fn new(root: &std::path::Path) -> Bench {
+            let (app, _) = App::new(AppInit {
+                prompt_sets: Some(root.to_path_buf()),
+                ..AppInit::demo((160, 50), "no models in this test")
+            });
+            let pipeline = AgentsPipeline::offline(Pace::Instant).unwrap();
+            Bench { app, pipeline }
+        }
+
+        fn key(&mut self, code: KeyCode) {
+            let cmds = self
+                .app
+                .update(Msg::Key(KeyEvent::new(code, KeyModifiers::NONE)));
+            let models = ModelSlot::Unavailable("none".into());
+            Headless::new(&self.pipeline, models).run(&mut self.app, cmds, &mut |_| {});
+        }
+
+        fn keys(&mut self, text: &str) {
+            text.chars().for_each(|c| self.key(KeyCode::Char(c)));
+        }
+
+        fn status(&self) -> String {
+            self.app.status.clone().map(|(s, _)| s).unwrap_or_default()
+        }
+    }
+
+    const SKM: &str = "multi-image-skm";
+
+    #[test]
+    fn prompts_saved_as_a_set_load_back_from_the_picker() {
+        let root = tempfile::tempdir().unwrap();
+        let mut b = Bench::new(root.path());
+        while b.app.focus != Pane::Prompt {
+            b.key(KeyCode::Tab);
+        }
+        b.key(KeyCode::Char('L'));
+        assert!(
+            b.status().starts_with("no prompt set in "),
+            "{}",
+            b.status()
+        );
+        let shipped = b.app.prompt.texts[SKM].clone();
+        b.key(KeyCode::Enter);
+        b.key(KeyCode::End);
+        b.keys(" Name every towel.");
+        b.key(KeyCode::Esc);
+        let edited = b.app.prompt.texts[SKM].clone();
+        assert!(edited.ends_with("Name every towel."), "{edited}");
+
+        b.key(KeyCode::Char('S'));
+        b.keys("my/x");
+        b.key(KeyCode::Enter);
+        let Some(Overlay::PromptSetName(prompt)) = &b.app.overlay else {
+            panic!("a bad name keeps the prompt open");
+        };
+        assert!(prompt
+            .problem
+            .as_deref()
+            .is_some_and(|p| p.contains("`my/x` has a character")));
+        for _ in 0..4 {
+            b.key(KeyCode::Backspace);
+        }
+        b.keys("towels");
+        b.key(KeyCode::Enter);
+        assert!(b.app.overlay.is_none());
+        let dir = root.path().join("towels");
+        assert!(
+            b.status().contains(&format!("saved in {}", dir.display())),
+            "{}",
+            b.status()
+        );
+        let file = std::fs::read_to_string(dir.join(format!("{SKM}.txt"))).unwrap();
+        assert!(file.trim_end().ends_with("Name every towel."), "{file}");
+        assert_eq!(
+            std::fs::read_dir(&dir).unwrap().count(),
+            8,
+            "every template"
+        );
+
+        b.app.prompt.texts.insert(SKM.into(), shipped);
+        b.key(KeyCode::Char('L'));
+        assert!(matches!(b.app.overlay, Some(Overlay::PromptSetPicker(_))));
+        b.key(KeyCode::Enter);
+        assert_eq!(b.status(), "prompt set towels loaded (r runs what changed)");
+        assert_eq!(b.app.prompt.texts[SKM], edited);
+        assert_eq!(
+            b.app.agents_to_run(false).first(),
+            Some(&crate::agents::AgentRole::Skm)
+        );
+
+        std::fs::write(dir.join(format!("{SKM}.txt")), "no sections").unwrap();
+        b.key(KeyCode::Char('L'));
+        b.key(KeyCode::Enter);
+        let status = b.status();
+        assert!(
+            status.starts_with("prompt set towels not loaded: ")
+                && status.contains(&format!("{SKM}.txt"))
+                && !status.contains('\n'),
+            "{status}"
+        );
+        assert_eq!(b.app.prompt.texts[SKM], edited, "nothing lost");
+    }
+}
