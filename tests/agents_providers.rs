@@ -62,6 +62,7 @@ async fn requests_carry_the_image_the_settings_and_the_key() {
                         with_image += 1;
                     }
                 }
+                ProviderKind::Replay => panic!("the recording is not served over HTTP"),
             }
             assert!(text.contains("Place a wet sponge inside the bathtub"));
         }

@@ -286,25 +286,7 @@ fn echo(provider: ProviderKind, stream: bool) -> wiremock::ResponseTemplate {
 
 /// The session the workbench would save after `record`'s run.
 fn session_of(record: &mapvlm::agents::pipeline::PlanRecord) -> Session {
-    let agents: Vec<session::AgentRecord> = record
-        .agents
-        .iter()
-        .map(|a| session::AgentRecord {
-            agent: a.role,
-            settings: session::AgentSettings {
-                provider: a.provider.name().into(),
-                model: a.model.clone(),
-                temperature: a.temperature,
-                max_tokens: a.max_tokens,
-            },
-            prompt: a.prompt.clone(),
-            output: a.output.clone().unwrap_or_default(),
-            duration_ms: a.elapsed_ms,
-            usage: mapvlm::agents::Usage::default(),
-            cached: a.cached,
-            error: a.error.clone(),
-        })
-        .collect();
+    let agents = record.agents.clone();
     Session {
         version: SESSION_VERSION,
         task_id: None,
@@ -316,9 +298,12 @@ fn session_of(record: &mapvlm::agents::pipeline::PlanRecord) -> Session {
         prompts: BTreeMap::new(),
         settings: agents
             .iter()
-            .map(|a| (a.agent, a.settings.clone()))
+            .map(|a| (a.role, a.settings.clone()))
             .collect(),
-        outputs: agents.iter().map(|a| (a.agent, a.output.clone())).collect(),
+        outputs: agents
+            .iter()
+            .map(|a| (a.role, a.output_text().to_string()))
+            .collect(),
         ran_with: BTreeMap::new(),
         theme: "dark".into(),
         image: true,
@@ -328,6 +313,7 @@ fn session_of(record: &mapvlm::agents::pipeline::PlanRecord) -> Session {
             approach: record.approach,
             task: record.task.clone(),
             agents,
+            prompts: BTreeMap::new(),
             plan: record.steps.clone(),
             ground_truth: vec!["Walk to the sink.".into()],
             scores: None,

@@ -754,13 +754,13 @@ fn run_history_shows_each_agent_and_run_cost_from_the_price_table() {
         PriceTable::from_config(&BTreeMap::from([("openai".to_string(), models)])).unwrap();
     let mut paid = h.app.runs.history[0].clone();
     for a in &mut paid.agents {
-        a.settings.provider = "openai".into();
+        a.settings.provider = mapvlm::agents::ProviderKind::Openai;
         a.settings.model = "gpt-4o".into();
         a.usage = Usage {
             input_tokens: 1_000,
             output_tokens: 200,
         };
-        a.cached = a.agent == AgentRole::Planner;
+        a.cached = a.role == AgentRole::Planner;
     }
     let mut unpriced = paid.clone();
     unpriced.id = paid.id + 1;
@@ -810,23 +810,12 @@ fn the_run_diff_shows_the_prompt_change_and_each_steps_score_change() {
     let mut second = first.clone();
     second.id = first.id + 1;
     let planner = second
-        .agents
-        .iter_mut()
-        .find(|a| a.agent == AgentRole::Planner)
+        .prompts
+        .get_mut(&AgentRole::Planner)
         .expect("the demo runs a Planner");
-    planner.prompt = planner
-        .prompt
-        .replacen("atomic action", "short, atomic action", 1);
-    assert_ne!(
-        planner.prompt,
-        first
-            .agents
-            .iter()
-            .find(|a| a.agent == AgentRole::Planner)
-            .map(|a| a.prompt.clone())
-            .unwrap_or_default()
-    );
-    second.agents.retain(|a| a.agent == AgentRole::Planner);
+    *planner = planner.replacen("atomic action", "short, atomic action", 1);
+    assert_ne!(Some(&*planner), first.prompts.get(&AgentRole::Planner));
+    second.agents.retain(|a| a.role == AgentRole::Planner);
     second.plan[1] = format!("{} carefully", second.plan[1].trim_end_matches('.'));
     let mut scores = second.scores.expect("the demo run was scored");
     scores.kas = scores.kas.map(|k| k + 0.1);

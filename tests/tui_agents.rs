@@ -11,7 +11,7 @@ use std::sync::{Arc, Mutex};
 use agents_support::*;
 use crossterm::event::{KeyCode, KeyEvent, KeyModifiers};
 use mapvlm::agents::cache::ResponseCache;
-use mapvlm::agents::config::{ConfigFile, Settings};
+use mapvlm::agents::config::{AgentSettings, ConfigFile, Settings};
 use mapvlm::agents::images::DEFAULT_MAX_EDGE;
 use mapvlm::agents::pipeline::{AgentEvent, PlanInput, Runner, Source};
 use mapvlm::agents::prompts::PromptSet;
@@ -21,8 +21,7 @@ use mapvlm::agents::{AgentRole, Approach, ProviderKind};
 use mapvlm::demo;
 use mapvlm::plan::parse_steps;
 use mapvlm::workbench::agents::{
-    demo_scene_file, replay_settings, run_blocking, AgentsPipeline, Pipeline, ProviderConfig,
-    DEMO_MODEL,
+    demo_scene_file, run_blocking, AgentsPipeline, Pipeline, ProviderConfig,
 };
 use mapvlm::workbench::app::{App, AppInit};
 use mapvlm::workbench::headless::Headless;
@@ -30,7 +29,6 @@ use mapvlm::workbench::message::{Cmd, Msg};
 use mapvlm::workbench::panes::Pane;
 use mapvlm::workbench::runs::AgentStatus;
 use mapvlm::workbench::scoring::ModelSlot;
-use mapvlm::workbench::session::AgentSettings;
 use serde_json::Value;
 use tokio_util::sync::CancellationToken;
 use wiremock::{MockServer, Request, Respond, ResponseTemplate};
@@ -88,8 +86,14 @@ fn record_demo() -> Recording {
             .await;
         let mut agents = BTreeMap::new();
         for role in AgentRole::ALL {
-            let mut settings = replay_settings(DEMO_MODEL, 0.0, 1024);
-            settings.base_url = format!("{}/v1", server.uri());
+            // The recording's own settings, over the OpenAI-compatible API
+            // its requests are keyed as, at a local server.
+            let settings = AgentSettings {
+                provider: ProviderKind::Openai,
+                base_url: format!("{}/v1", server.uri()),
+                json_output: false,
+                ..AgentSettings::demo_recording()
+            };
             agents.insert(role, settings);
         }
         let settings = Settings {
@@ -244,12 +248,7 @@ fn editing_a_demo_prompt_says_which_provider_to_set() {
     let mut live = request.clone();
     live.settings.insert(
         AgentRole::Planner,
-        AgentSettings {
-            provider: "openai".into(),
-            model: "gpt-4o".into(),
-            temperature: 0.0,
-            max_tokens: 512,
-        },
+        AgentSettings::new(ProviderKind::Openai, "gpt-4o", 0.0, 512),
     );
     let reason = pipeline.check(&live).unwrap_err().to_string();
     assert!(
@@ -261,12 +260,7 @@ fn editing_a_demo_prompt_says_which_provider_to_set() {
 }
 
 fn live_settings() -> AgentSettings {
-    AgentSettings {
-        provider: "openai".into(),
-        model: "test-model".into(),
-        temperature: 0.0,
-        max_tokens: 321,
-    }
+    AgentSettings::new(ProviderKind::Openai, "test-model", 0.0, 321)
 }
 
 #[test]
@@ -278,6 +272,7 @@ fn a_live_run_streams_into_the_panes_and_an_edited_planner_prompt_asks_once() {
         Default::default(),
     ));
     let uri = format!("{}/v1", server.uri());
+    let served = uri.clone();
     let cache_dir = tempfile::tempdir().unwrap();
     let pipeline = AgentsPipeline::new(
         ProviderConfig {
@@ -311,7 +306,12 @@ fn a_live_run_streams_into_the_panes_and_an_edited_planner_prompt_asks_once() {
         panic!("no run: {:?}", app.status)
     };
     let run = request.run;
-    let events = run_blocking(&pipeline, request).unwrap();
+    let (settings, events) = run_blocking(&pipeline, request).unwrap();
+    // What the config layers resolved is what the workbench keeps: the
+    // base URL from the environment, never the key.
+    assert_eq!(settings[&AgentRole::Planner].base_url, served);
+    assert!(settings.values().all(|s| s.api_key.is_none()));
+    app.run_accepted(run, settings);
     let mut plan_sizes = Vec::new();
     for event in events.clone() {
         let planner_token = matches!(
@@ -357,4 +357,12 @@ fn a_live_run_streams_into_the_panes_and_an_edited_planner_prompt_asks_once() {
     assert_eq!(finished(&events)[&AgentRole::Skm], SKM_TEXT);
     assert_eq!(app.runs.history.len(), 3);
     assert_eq!(app.plan.items, parse_steps(PLAN_TEXT));
+    let planner = app.runs.history[1].agents.last().unwrap();
+    assert_eq!(
+        (planner.role, planner.settings.base_url.as_str()),
+        (AgentRole::Planner, served.as_str())
+    );
+    assert!(app.runs.history[1].prompts[&AgentRole::Planner].contains(PLANNER_MARK));
+    let saved = serde_json::to_string(&app.runs.history).unwrap();
+    assert!(!saved.contains(KEY), "no key in the run history");
 }

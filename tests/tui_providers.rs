@@ -119,7 +119,7 @@ fn the_first_key_r_on_a_dataset_task_runs_every_agent_on_the_configured_server()
         .as_array()
         .unwrap()
         .iter()
-        .map(|a| a["settings"]["provider"].as_str().unwrap_or_default())
+        .map(|a| a["provider"].as_str().unwrap_or_default())
         .collect();
     assert_eq!(providers, ["openai"; 3], "{run}");
 }

@@ -30,12 +30,13 @@ pub struct CachedAnswer {
 
 /// The content address of a request: a SHA-256 over the provider, model,
 /// temperature, token limit, schema, prompts and image hashes. The endpoint
-/// is left out, so that a recording replays whichever server it came from.
+/// is left out, so that a recording replays whichever server it came from;
+/// the provider is the one it is keyed as ([`ProviderKind::keyed_as`]).
 pub fn request_key(provider: ProviderKind, request: &ChatRequest) -> String {
     let images: Vec<&str> = request.images.iter().map(|i| i.sha256.as_str()).collect();
     let canonical = json!({
         "format": FORMAT,
-        "provider": provider.name(),
+        "provider": provider.keyed_as().name(),
         "model": request.model,
         "temperature": request.temperature,
         "max_tokens": request.max_tokens,

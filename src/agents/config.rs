@@ -7,12 +7,12 @@ use std::collections::BTreeMap;
 use std::path::{Path, PathBuf};
 use std::time::Duration;
 
-use serde::Deserialize;
+use serde::{Deserialize, Serialize};
 
 use super::cost::Price;
 use super::images::DEFAULT_MAX_EDGE;
 use super::provider::HttpSettings;
-use super::{anthropic, openai, AgentRole, ProviderKind, Secret};
+use super::{AgentRole, ProviderKind, Secret};
 
 /// A configuration that could not be used.
 #[derive(Debug, thiserror::Error)]
@@ -35,7 +35,7 @@ pub enum ConfigError {
 #[derive(Debug, Clone, Default, Deserialize)]
 #[serde(deny_unknown_fields)]
 pub struct AgentLayer {
-    /// `openai` or `anthropic`.
+    /// `openai`, `anthropic` or `replay` (the demo's recording).
     pub provider: Option<ProviderKind>,
     /// The endpoint's base URL.
     pub base_url: Option<String>,
@@ -201,16 +201,20 @@ impl FlagLayers {
     }
 }
 
-/// The resolved settings of one agent.
-#[derive(Debug, Clone, PartialEq)]
+/// The resolved settings of one agent: what a run uses, what the workbench
+/// shows and saves in its session, and what every record keeps. The API key
+/// is never written: it is skipped when saving and comes back from the
+/// config file or the environment when settings are resolved again.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
 pub struct AgentSettings {
-    /// The wire protocol.
+    /// Where the answers come from.
     pub provider: ProviderKind,
     /// The endpoint's base URL.
     pub base_url: String,
     /// The model name.
     pub model: String,
-    /// The API key, if any (local servers often need none).
+    /// The API key, if any (local servers often need none); never saved.
+    #[serde(skip)]
     pub api_key: Option<Secret>,
     /// Sampling temperature (the paper used 0).
     pub temperature: f32,
@@ -220,6 +224,53 @@ pub struct AgentSettings {
     pub stream: bool,
     /// Whether to ask for JSON-schema output where the agent has a schema.
     pub json_output: bool,
+}
+
+impl AgentSettings {
+    /// `provider` with `model`, `temperature` and `max_tokens`, and the
+    /// provider's defaults for the rest (no key).
+    pub fn new(provider: ProviderKind, model: &str, temperature: f32, max_tokens: u32) -> Self {
+        Self {
+            provider,
+            base_url: provider.default_base_url().to_string(),
+            model: model.to_string(),
+            api_key: None,
+            temperature,
+            max_tokens,
+            stream: true,
+            json_output: true,
+        }
+    }
+
+    /// The settings the demo's answers were recorded with: the agents of the
+    /// demo start with them and replay its recording.
+    pub fn demo_recording() -> Self {
+        Self::new(
+            ProviderKind::Replay,
+            super::DEMO_MODEL,
+            0.0,
+            DEFAULT_MAX_TOKENS,
+        )
+    }
+
+    /// Whether the demo's recording can answer an agent with these
+    /// settings: the recording, at the model, temperature and token limit it
+    /// was made with (the parts of a request key settings decide).
+    pub fn is_demo_recording(&self) -> bool {
+        let demo = Self::demo_recording();
+        self.provider == demo.provider
+            && self.model == demo.model
+            && self.temperature == demo.temperature
+            && self.max_tokens == demo.max_tokens
+    }
+
+    /// The same settings without the API key, to keep or show.
+    pub fn without_key(&self) -> Self {
+        Self {
+            api_key: None,
+            ..self.clone()
+        }
+    }
 }
 
 /// Everything the agents need to reach their models.
@@ -255,13 +306,14 @@ impl Settings {
                 .or(from_file.provider)
                 .or(file.defaults.provider)
                 .unwrap_or(ProviderKind::Openai);
-            let (default_url, default_model) = match provider {
-                ProviderKind::Openai => (openai::DEFAULT_BASE_URL, "gpt-4o"),
-                ProviderKind::Anthropic => (anthropic::DEFAULT_BASE_URL, "claude-sonnet-4-5"),
-            };
+            let (default_url, default_model) =
+                (provider.default_base_url(), provider.default_model());
             let from_env = AgentLayer {
-                api_key: env(provider.key_variable()).and_then(Secret::new),
-                base_url: env(provider.base_url_variable()).filter(|v| !v.trim().is_empty()),
+                api_key: provider.key_variable().and_then(env).and_then(Secret::new),
+                base_url: provider
+                    .base_url_variable()
+                    .and_then(env)
+                    .filter(|v| !v.trim().is_empty()),
                 ..AgentLayer::default()
             };
             let merged = file

@@ -204,8 +204,8 @@ impl Ledger {
         agent.output.as_ref()?;
         Some(self.add_answer(
             agent.role,
-            agent.provider,
-            &agent.model,
+            agent.settings.provider,
+            &agent.settings.model,
             agent.usage,
             billing,
         ))

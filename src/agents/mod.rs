@@ -53,7 +53,8 @@ impl fmt::Debug for Secret {
     }
 }
 
-/// Which wire protocol an agent's provider speaks.
+/// Where an agent's answers come from: a provider's wire protocol, or the
+/// demo's recording.
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Hash, PartialOrd, Ord, Serialize, Deserialize)]
 #[serde(rename_all = "lowercase")]
 pub enum ProviderKind {
@@ -62,6 +63,9 @@ pub enum ProviderKind {
     Openai,
     /// Anthropic's Messages API.
     Anthropic,
+    /// The demo's recorded answers: no key, no network. A request it has no
+    /// answer for fails, naming what to set instead.
+    Replay,
 }
 
 impl ProviderKind {
@@ -70,27 +74,69 @@ impl ProviderKind {
         match self {
             Self::Openai => "openai",
             Self::Anthropic => "anthropic",
+            Self::Replay => "replay",
         }
     }
 
     /// The environment variable holding this provider's API key: the one
     /// place its name is written, for the configuration and for messages
-    /// that tell the user what to set.
-    pub fn key_variable(self) -> &'static str {
+    /// that tell the user what to set. The recording needs none.
+    pub fn key_variable(self) -> Option<&'static str> {
         match self {
-            Self::Openai => "OPENAI_API_KEY",
-            Self::Anthropic => "ANTHROPIC_API_KEY",
+            Self::Openai => Some("OPENAI_API_KEY"),
+            Self::Anthropic => Some("ANTHROPIC_API_KEY"),
+            Self::Replay => None,
         }
     }
 
-    /// The environment variable holding this provider's base URL.
-    pub fn base_url_variable(self) -> &'static str {
+    /// The environment variable holding this provider's base URL (none for
+    /// the recording).
+    pub fn base_url_variable(self) -> Option<&'static str> {
         match self {
-            Self::Openai => "OPENAI_BASE_URL",
-            Self::Anthropic => "ANTHROPIC_BASE_URL",
+            Self::Openai => Some("OPENAI_BASE_URL"),
+            Self::Anthropic => Some("ANTHROPIC_BASE_URL"),
+            Self::Replay => None,
+        }
+    }
+
+    /// The endpoint used when none is configured. The recording's is a host
+    /// that never resolves: nothing is ever sent there.
+    pub fn default_base_url(self) -> &'static str {
+        match self {
+            Self::Openai => openai::DEFAULT_BASE_URL,
+            Self::Anthropic => anthropic::DEFAULT_BASE_URL,
+            Self::Replay => "http://replay.invalid/v1",
+        }
+    }
+
+    /// The model used when none is configured.
+    pub fn default_model(self) -> &'static str {
+        match self {
+            Self::Openai => "gpt-4o",
+            Self::Anthropic => "claude-sonnet-4-5",
+            Self::Replay => DEMO_MODEL,
+        }
+    }
+
+    /// The provider whose request keys this one's requests get: the demo's
+    /// recording was made over the OpenAI-compatible API, so its answers
+    /// are keyed as that API's requests (see [`cache::request_key`]).
+    pub fn keyed_as(self) -> ProviderKind {
+        match self {
+            Self::Replay => Self::Openai,
+            other => other,
         }
     }
 }
+
+impl fmt::Display for ProviderKind {
+    fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
+        f.write_str(self.name())
+    }
+}
+
+/// The model name the demo's answers are recorded under.
+pub const DEMO_MODEL: &str = "demo-recording";
 
 impl FromStr for ProviderKind {
     type Err = String;
@@ -98,8 +144,9 @@ impl FromStr for ProviderKind {
         match s.trim().to_ascii_lowercase().as_str() {
             "openai" => Ok(Self::Openai),
             "anthropic" => Ok(Self::Anthropic),
+            "replay" => Ok(Self::Replay),
             other => Err(format!(
-                "unknown provider `{other}`: use `openai` or `anthropic`"
+                "unknown provider `{other}`: use `openai`, `anthropic` or `replay` (the demo's recording)"
             )),
         }
     }
@@ -392,6 +439,7 @@ pub fn key_variable(provider: &str) -> &'static str {
         .parse::<ProviderKind>()
         .unwrap_or(ProviderKind::Openai)
         .key_variable()
+        .unwrap_or("the provider's API key variable")
 }
 
 /// The SHA-256 of `bytes`, as lowercase hex.

@@ -75,26 +75,24 @@ pub struct PlanInput {
     pub table: Option<PathBuf>,
 }
 
-/// One agent's part of a run.
+/// One agent's part of a run: kept in `plan` and `eval` records and in the
+/// workbench's run history alike.
 #[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
 pub struct AgentRecord {
     /// Which agent.
     pub role: AgentRole,
-    /// The provider it used.
-    pub provider: ProviderKind,
-    /// The model it used.
-    pub model: String,
-    /// Its temperature.
-    pub temperature: f32,
-    /// Its token limit.
-    pub max_tokens: u32,
+    /// The settings it ran with (never the API key), written beside the
+    /// other fields (`provider`, `model`, `temperature`…).
+    #[serde(flatten)]
+    pub settings: AgentSettings,
     /// The prompt template's name.
     pub prompt: String,
     /// The template's content hash: which version of the prompt ran.
     pub prompt_hash: String,
-    /// The request's cache key.
+    /// The request's cache key (empty when the run does not know it).
     pub request_key: String,
-    /// The raw answer, when it succeeded.
+    /// The raw answer, when it succeeded (possibly partial when the run
+    /// was cancelled).
     pub output: Option<String>,
     /// Why it failed, when it did.
     pub error: Option<String>,
@@ -102,8 +100,38 @@ pub struct AgentRecord {
     pub usage: Usage,
     /// Milliseconds from start to finish.
     pub elapsed_ms: u64,
-    /// Whether the answer came from the cache.
+    /// Whether the answer cost nothing: it came from the response cache or
+    /// from a recording.
     pub cached: bool,
+}
+
+impl AgentRecord {
+    /// The record of `role` before it has run: `settings` (the key left
+    /// out) and the template named `prompt` with content hash `prompt_hash`.
+    pub fn blank(
+        role: AgentRole,
+        settings: &AgentSettings,
+        prompt: &str,
+        prompt_hash: &str,
+    ) -> Self {
+        Self {
+            role,
+            settings: settings.without_key(),
+            prompt: prompt.to_string(),
+            prompt_hash: prompt_hash.to_string(),
+            request_key: String::new(),
+            output: None,
+            error: None,
+            usage: Usage::default(),
+            elapsed_ms: 0,
+            cached: false,
+        }
+    }
+
+    /// What it wrote, or nothing.
+    pub fn output_text(&self) -> &str {
+        self.output.as_deref().unwrap_or_default()
+    }
 }
 
 /// Everything a run produced.
@@ -397,14 +425,10 @@ impl Runner {
             role,
             error: error.clone(),
         });
-        Ok(blank_record(
-            role,
-            settings,
-            &template.name,
-            &template.hash,
-            String::new(),
-            Some(error),
-        ))
+        Ok(AgentRecord {
+            error: Some(error),
+            ..AgentRecord::blank(role, settings, &template.name, &template.hash)
+        })
     }
 
     async fn run_agent(
@@ -423,11 +447,17 @@ impl Runner {
                     role,
                     error: error.clone(),
                 });
-                return blank_record(role, settings, "", "", String::new(), Some(error));
+                return AgentRecord {
+                    error: Some(error),
+                    ..AgentRecord::blank(role, settings, "", "")
+                };
             }
         };
         let key = request_key(settings.provider, &request);
-        let mut record = blank_record(role, settings, &prompt, &prompt_hash, key.clone(), None);
+        let mut record = AgentRecord {
+            request_key: key.clone(),
+            ..AgentRecord::blank(role, settings, &prompt, &prompt_hash)
+        };
         let start = Instant::now();
         let _ = events.send(AgentEvent::Started { role });
         let sink = |text: &str| {
@@ -591,6 +621,17 @@ impl Runner {
             (Source::Live, ProviderKind::Anthropic) => {
                 Arc::new(Anthropic::new(&settings.base_url, key, http)?)
             }
+            (Source::Live, ProviderKind::Replay) => {
+                let recording = self.answers.as_ref().map_or_else(
+                    || Arc::new(Recording::new("no recording")),
+                    |(recording, _)| recording.clone(),
+                );
+                Arc::new(ReplayProvider::new(
+                    recording,
+                    ProviderKind::Replay,
+                    Pace::Instant,
+                ))
+            }
         })
     }
 
@@ -647,31 +688,6 @@ fn planner_values<'a>(
         values.insert("gkm", text.to_string());
     }
     (values, triples)
-}
-
-fn blank_record(
-    role: AgentRole,
-    settings: &AgentSettings,
-    prompt: &str,
-    prompt_hash: &str,
-    request_key: String,
-    error: Option<String>,
-) -> AgentRecord {
-    AgentRecord {
-        role,
-        provider: settings.provider,
-        model: settings.model.clone(),
-        temperature: settings.temperature,
-        max_tokens: settings.max_tokens,
-        prompt: prompt.to_string(),
-        prompt_hash: prompt_hash.to_string(),
-        request_key,
-        output: None,
-        error,
-        usage: Usage::default(),
-        elapsed_ms: 0,
-        cached: false,
-    }
 }
 
 fn missing(approach: Approach, what: &'static str) -> AgentError {

@@ -52,6 +52,11 @@ pub fn template_name(approach: Approach, role: AgentRole) -> String {
     format!("{}-{}", approach.name(), role.name())
 }
 
+/// The content hash of a template's text: which version of a prompt ran.
+pub fn prompt_hash(text: &str) -> String {
+    sha256_hex(text.as_bytes())[..16].to_string()
+}
+
 /// One prompt template: a system part and a user part with `{{variable}}`s.
 #[derive(Debug, Clone, PartialEq, Eq)]
 pub struct Template {
@@ -111,7 +116,7 @@ impl Template {
             source: source.to_string(),
             system: system.trim().to_string(),
             user: user.trim().to_string(),
-            hash: sha256_hex(text.as_bytes())[..16].to_string(),
+            hash: prompt_hash(text),
         };
         for part in [&template.system, &template.user] {
             for variable in variables_in(part) {

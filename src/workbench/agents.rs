@@ -2,7 +2,7 @@
 //! events are the agents' own [`AgentEvent`]s), and [`AgentsPipeline`], which runs
 //! a request with [`crate::agents::pipeline::Runner`]: live providers from
 //! the config file and the environment, the response cache, and the demo's
-//! recording for the agents set to the `replay` provider.
+//! recording for the agents set to [`ProviderKind::Replay`].
 
 use std::collections::BTreeMap;
 use std::path::PathBuf;
@@ -13,13 +13,14 @@ use tokio::task::JoinHandle;
 use tokio_util::sync::CancellationToken;
 
 use crate::agents::cache::{write_atomic, ResponseCache};
-use crate::agents::config::{self, AgentLayer, ConfigError, ConfigFile, FlagLayers, Settings};
+use crate::agents::config::{
+    AgentLayer, AgentSettings, ConfigError, ConfigFile, FlagLayers, Settings,
+};
 use crate::agents::pipeline::{AgentEvent, PlanInput, Runner, Source};
 use crate::agents::prompts::{template_name, PromptSet, Template};
 use crate::agents::replay::{Pace, Recording};
-use crate::agents::{anthropic, openai, AgentError, AgentRole, Approach, ProviderKind};
+use crate::agents::{AgentError, AgentRole, Approach, ProviderKind, DEMO_MODEL};
 use crate::demo;
-use crate::workbench::session::AgentSettings;
 
 /// Why a run cannot start, or stopped before its agents could report: the
 /// words the status bar shows, each saying what to do.
@@ -56,14 +57,6 @@ pub enum RunError {
         section: &'static str,
         /// The config file, as named to the user.
         file: String,
-    },
-    /// The model form names a provider that does not exist.
-    #[error("{agent}: {reason}, or `{REPLAY_PROVIDER}` for the demo's recording")]
-    UnknownProvider {
-        /// The agent, as the workbench names it.
-        agent: &'static str,
-        /// Why the name is not a provider.
-        reason: String,
     },
     /// The config file and the environment do not make settings.
     #[error(transparent)]
@@ -114,8 +107,11 @@ pub struct RunRequest {
 
 /// Runs agents in the background and reports [`AgentEvent`]s.
 pub trait Pipeline: Send + Sync {
-    /// Why the request cannot run, in words a user can act on; `Ok` when it can.
-    fn check(&self, request: &RunRequest) -> Result<(), RunError>;
+    /// Why the request cannot run, in words a user can act on; when it can,
+    /// the settings each agent of its approach will run with, as
+    /// [`crate::agents::config`] resolves them (the keys left out): what
+    /// the workbench shows and keeps.
+    fn check(&self, request: &RunRequest) -> Result<BTreeMap<AgentRole, AgentSettings>, RunError>;
     /// Starts the run on the current tokio runtime; aborting the handle
     /// cancels it.
     fn spawn(
@@ -123,41 +119,6 @@ pub trait Pipeline: Send + Sync {
         request: RunRequest,
         events: UnboundedSender<(u64, AgentEvent)>,
     ) -> JoinHandle<()>;
-}
-
-/// The provider name of the demo's recorded answers.
-pub const REPLAY_PROVIDER: &str = "replay";
-
-/// The model name the demo's answers are recorded under.
-pub const DEMO_MODEL: &str = "demo-recording";
-
-/// Where a `replay` agent would be sent if its answer were not recorded
-/// ([`AgentsPipeline`] refuses such runs first): a host that never resolves.
-const REPLAY_BASE_URL: &str = "http://replay.invalid/v1";
-
-/// The settings the demo's agents start with: its recording.
-pub fn demo_settings() -> AgentSettings {
-    AgentSettings {
-        provider: REPLAY_PROVIDER.to_string(),
-        model: DEMO_MODEL.to_string(),
-        temperature: 0.0,
-        max_tokens: 1024,
-    }
-}
-
-/// The run settings of an agent answered from a recording: the request
-/// keys are those of the recording, whichever endpoint made it.
-pub fn replay_settings(model: &str, temperature: f32, max_tokens: u32) -> config::AgentSettings {
-    config::AgentSettings {
-        provider: ProviderKind::Openai,
-        base_url: REPLAY_BASE_URL.to_string(),
-        model: model.to_string(),
-        api_key: None,
-        temperature,
-        max_tokens,
-        stream: true,
-        json_output: false,
-    }
 }
 
 /// The text of every template of `set`, by template name, as the prompt
@@ -192,16 +153,21 @@ pub fn provider_needed(agent: AgentRole, why: &str) -> RunError {
     RunError::ProviderNeeded {
         agent: agent.label(),
         why: why.to_string(),
-        example_key: ProviderKind::Openai.key_variable(),
+        example_key: ProviderKind::Openai.key_variable().unwrap_or_default(),
     }
 }
 
-fn key_needed(role: AgentRole, provider: ProviderKind, config_path: Option<&PathBuf>) -> RunError {
+fn key_needed(
+    role: AgentRole,
+    provider: ProviderKind,
+    (key_var, url_var): (&'static str, &'static str),
+    config_path: Option<&PathBuf>,
+) -> RunError {
     RunError::KeyNeeded {
         agent: role.label(),
         provider: provider.name(),
-        key_var: provider.key_variable(),
-        url_var: provider.base_url_variable(),
+        key_var,
+        url_var,
         section: role.name(),
         file: config_path.map_or_else(
             || "the config file".to_string(),
@@ -226,8 +192,8 @@ pub struct ProviderConfig {
 
 impl ProviderConfig {
     /// The settings each configured agent starts with on a user's task:
-    /// the provider, model, temperature and token limit the config file and
-    /// the environment give it. An agent is configured when the config file
+    /// what the config file and the environment resolve for it (the key
+    /// left out). An agent is configured when the config file
     /// names a provider, base URL or model under `[agents.ROLE]` or
     /// `[defaults]`, or when its provider's key or base-URL variable (e.g.
     /// `OPENAI_API_KEY`, `OPENAI_BASE_URL`) is set; the others are left out
@@ -244,18 +210,10 @@ impl ProviderConfig {
             .filter(|(role, agent)| {
                 names(self.file.agents.get(role.name()))
                     || names(Some(&self.file.defaults))
-                    || set(agent.provider.key_variable())
-                    || set(agent.provider.base_url_variable())
+                    || agent.provider.key_variable().is_some_and(set)
+                    || agent.provider.base_url_variable().is_some_and(set)
             })
-            .map(|(&role, agent)| {
-                let chosen = AgentSettings {
-                    provider: agent.provider.name().to_string(),
-                    model: agent.model.clone(),
-                    temperature: agent.temperature,
-                    max_tokens: agent.max_tokens,
-                };
-                (role, chosen)
-            })
+            .map(|(&role, agent)| (role, agent.without_key()))
             .collect())
     }
 }
@@ -306,25 +264,18 @@ impl AgentsPipeline {
         request
             .settings
             .get(&role)
-            .is_none_or(|s| s.provider == REPLAY_PROVIDER)
+            .is_none_or(|s| s.provider == ProviderKind::Replay)
     }
 
+    /// The request's provider, model, temperature and token limit on top of
+    /// the config file and the environment.
     fn settings(&self, request: &RunRequest) -> Result<Settings, RunError> {
         let mut flags = FlagLayers::default();
         for (&role, chosen) in &request.settings {
-            if chosen.provider == REPLAY_PROVIDER {
-                continue;
-            }
-            let provider = chosen.provider.parse::<ProviderKind>().map_err(|reason| {
-                RunError::UnknownProvider {
-                    agent: role.label(),
-                    reason,
-                }
-            })?;
             flags.per_agent.insert(
                 role,
                 AgentLayer {
-                    provider: Some(provider),
+                    provider: Some(chosen.provider),
                     model: Some(chosen.model.clone()),
                     temperature: Some(f64::from(chosen.temperature)),
                     max_tokens: Some(chosen.max_tokens),
@@ -332,16 +283,11 @@ impl AgentsPipeline {
                 },
             );
         }
-        let mut settings = Settings::resolve(&self.config.file, &*self.config.env, &flags)?;
-        for (&role, chosen) in &request.settings {
-            if chosen.provider == REPLAY_PROVIDER {
-                settings.agents.insert(
-                    role,
-                    replay_settings(&chosen.model, chosen.temperature, chosen.max_tokens),
-                );
-            }
-        }
-        Ok(settings)
+        Ok(Settings::resolve(
+            &self.config.file,
+            &*self.config.env,
+            &flags,
+        )?)
     }
 
     fn prompts(request: &RunRequest) -> Result<PromptSet, RunError> {
@@ -364,7 +310,11 @@ impl AgentsPipeline {
                 "the demo was recorded with the multi-image approach, not {}",
                 request.approach
             )
-        } else if request.settings.get(&role) != Some(&demo_settings()) {
+        } else if !request
+            .settings
+            .get(&role)
+            .is_some_and(AgentSettings::is_demo_recording)
+        {
             format!(
                 "the demo was recorded with {DEMO_MODEL}, temperature 0 and 1024 tokens, not {}'s settings",
                 role.label()
@@ -393,24 +343,34 @@ impl AgentsPipeline {
 }
 
 impl Pipeline for AgentsPipeline {
-    fn check(&self, request: &RunRequest) -> Result<(), RunError> {
+    fn check(&self, request: &RunRequest) -> Result<BTreeMap<AgentRole, AgentSettings>, RunError> {
         Self::prompts(request)?;
         let settings = self.settings(request)?;
+        let mut resolved = BTreeMap::new();
         for &role in request.approach.roles() {
+            let agent = settings.agent(role);
+            resolved.insert(role, agent.without_key());
             if Self::is_replay(request, role) {
                 Self::check_replay(request, role)?;
                 continue;
             }
-            let agent = settings.agent(role);
-            let default_url = match agent.provider {
-                ProviderKind::Openai => openai::DEFAULT_BASE_URL,
-                ProviderKind::Anthropic => anthropic::DEFAULT_BASE_URL,
-            };
-            if agent.api_key.is_none() && agent.base_url.trim_end_matches('/') == default_url {
-                return Err(key_needed(role, agent.provider, self.config.path.as_ref()));
+            let variables = agent
+                .provider
+                .key_variable()
+                .zip(agent.provider.base_url_variable());
+            if let Some(variables) = variables.filter(|_| {
+                agent.api_key.is_none()
+                    && agent.base_url.trim_end_matches('/') == agent.provider.default_base_url()
+            }) {
+                return Err(key_needed(
+                    role,
+                    agent.provider,
+                    variables,
+                    self.config.path.as_ref(),
+                ));
             }
         }
-        Ok(())
+        Ok(resolved)
     }
 
     fn spawn(
@@ -481,12 +441,13 @@ impl Pipeline for AgentsPipeline {
 }
 
 /// Checks and runs `request` to its end on a runtime of its own, returning
-/// its events in order: for headless use, tests and benchmarks.
+/// the settings its agents ran with ([`Pipeline::check`]) and its events in
+/// order: for headless use, tests and benchmarks.
 pub fn run_blocking(
     pipeline: &dyn Pipeline,
     request: RunRequest,
-) -> Result<Vec<AgentEvent>, RunError> {
-    pipeline.check(&request)?;
+) -> Result<(BTreeMap<AgentRole, AgentSettings>, Vec<AgentEvent>), RunError> {
+    let settings = pipeline.check(&request)?;
     let runtime = tokio::runtime::Builder::new_current_thread()
         .enable_all()
         .build()
@@ -499,7 +460,7 @@ pub fn run_blocking(
     while let Ok((_, event)) = rx.try_recv() {
         events.push(event);
     }
-    Ok(events)
+    Ok((settings, events))
 }
 
 /// Puts what a user must do in the place of a `replay` agent's failure:

@@ -8,8 +8,9 @@ use std::path::PathBuf;
 
 use ratatui_textarea::TextArea;
 
+use crate::agents::config::AgentSettings;
 use crate::agents::cost::PriceTable;
-use crate::agents::{AgentRole, Approach};
+use crate::agents::{AgentRole, Approach, ProviderKind};
 use crate::dataset::{Dataset, Task};
 use crate::demo;
 use crate::workbench::agents;
@@ -25,9 +26,7 @@ use crate::workbench::panes::Pane;
 use crate::workbench::persist::Persist;
 use crate::workbench::runs::{AgentStatus, Runs};
 use crate::workbench::scoring::{ModelSlot, ScoreOutcome, ScoreRequest};
-use crate::workbench::session::{
-    AgentSettings, GroundTruthSource, PlanSource, Session, SessionError,
-};
+use crate::workbench::session::{GroundTruthSource, PlanSource, Session, SessionError};
 use crate::workbench::theme::Theme;
 
 /// The order the approaches cycle in.
@@ -344,7 +343,7 @@ impl App {
         }
         for (role, view) in self.runs.agents.iter_mut() {
             if let Some(chosen) = self.configured.get(role) {
-                if view.settings.provider == agents::REPLAY_PROVIDER {
+                if view.settings.provider == ProviderKind::Replay {
                     view.settings = chosen.clone();
                 }
             }
@@ -443,18 +442,13 @@ mod tests {
     use super::*;
 
     fn configured_planner() -> BTreeMap<AgentRole, AgentSettings> {
-        let live = AgentSettings {
-            provider: "openai".into(),
-            model: "local".into(),
-            temperature: 0.0,
-            max_tokens: 512,
-        };
+        let live = AgentSettings::new(ProviderKind::Openai, "local", 0.0, 512);
         BTreeMap::from([(AgentRole::Planner, live)])
     }
 
     fn providers(app: &App) -> Vec<String> {
         [AgentRole::Skm, AgentRole::Gkm, AgentRole::Planner]
-            .map(|r| app.runs.agents[&r].settings.provider.clone())
+            .map(|r| app.runs.agents[&r].settings.provider.to_string())
             .to_vec()
     }
 

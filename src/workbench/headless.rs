@@ -68,7 +68,10 @@ impl<'a> Headless<'a> {
                 Cmd::StartRun(request) => {
                     let run = request.run;
                     match run_blocking(self.pipeline, request) {
-                        Ok(events) => events.into_iter().map(|e| Msg::Agent(run, e)).collect(),
+                        Ok((settings, events)) => {
+                            app.run_accepted(run, settings);
+                            events.into_iter().map(|e| Msg::Agent(run, e)).collect()
+                        }
                         Err(reason) => {
                             app.run_refused(run, reason);
                             Vec::new()

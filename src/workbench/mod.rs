@@ -43,12 +43,11 @@ use std::time::Duration;
 
 use ratatui_image::picker::Picker;
 
-use crate::agents::config::ConfigError;
+use crate::agents::config::{AgentSettings, ConfigError};
 use crate::agents::cost::PriceTable;
 use crate::agents::AgentRole;
 use agents::Pipeline;
 use scoring::ScorerLoader;
-use session::AgentSettings;
 
 pub use headless::prepare_image;
 pub use runtime::run;

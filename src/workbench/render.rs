@@ -5,7 +5,7 @@ use ratatui::text::{Line, Span};
 use ratatui::widgets::{Block, Paragraph, Wrap};
 use ratatui::Frame;
 
-use crate::workbench::agents;
+use crate::agents::ProviderKind;
 use crate::workbench::app::{App, Severity};
 use crate::workbench::editing::Editing;
 use crate::workbench::keymap::{self};
@@ -86,8 +86,8 @@ pub fn providers_in_use(app: &App) -> String {
             continue;
         };
         let settings = &view.settings;
-        let provider = if settings.provider == agents::REPLAY_PROVIDER {
-            settings.provider.clone()
+        let provider = if settings.provider == ProviderKind::Replay {
+            settings.provider.to_string()
         } else {
             format!("{}/{}", settings.provider, settings.model)
         };

@@ -10,12 +10,14 @@
 
 use similar::{capture_diff_slices, Algorithm, ChangeTag, DiffOp, TextDiff};
 
+use crate::agents::config::AgentSettings;
 use crate::agents::cost::{dollars, Billing, PriceTable};
-use crate::agents::{AgentRole, ProviderKind, Usage};
+use crate::agents::pipeline::AgentRecord;
+use crate::agents::{AgentRole, Usage};
 use crate::stats::permutation::mean_difference;
 use crate::stats::summary::mean;
 use crate::workbench::runs::sample_scores;
-use crate::workbench::session::{AgentRecord, AgentSettings, RunRecord, ScoreRecord, StepScore};
+use crate::workbench::session::{RunRecord, ScoreRecord, StepScore};
 
 /// Permutations of the verdicts' test (enough for a p-value near 0.05 to
 /// be read to about ±0.005).
@@ -152,8 +154,9 @@ pub struct SettingChange {
 /// The settings of two agents that differ, in the model form's order.
 fn setting_changes(a: &AgentSettings, b: &AgentSettings) -> Vec<SettingChange> {
     let fields = [
-        ("provider", a.provider.clone(), b.provider.clone()),
+        ("provider", a.provider.to_string(), b.provider.to_string()),
         ("model", a.model.clone(), b.model.clone()),
+        ("base URL", a.base_url.clone(), b.base_url.clone()),
         (
             "temperature",
             a.temperature.to_string(),
@@ -207,13 +210,17 @@ pub struct AgentDiff {
 /// came from the response cache, `None` when its model has no price (the
 /// demo's `replay` agents among them).
 pub fn agent_cost(prices: &PriceTable, agent: &AgentRecord) -> Option<f64> {
-    let provider: ProviderKind = agent.settings.provider.parse().ok()?;
     let billing = if agent.cached {
         Billing::Cached
     } else {
         Billing::Interactive
     };
-    prices.cost(provider, &agent.settings.model, agent.usage, billing)
+    prices.cost(
+        agent.settings.provider,
+        &agent.settings.model,
+        agent.usage,
+        billing,
+    )
 }
 
 /// What a whole run cost: the sum over its agents, `None` when any of them
@@ -236,7 +243,8 @@ fn changed_text(old: &str, new: &str) -> Option<Vec<Piece>> {
 }
 
 fn agent_diff(agent: AgentRole, runs: [&RunRecord; 2], prices: &PriceTable) -> AgentDiff {
-    let records = runs.map(|r| r.agents.iter().find(|a| a.agent == agent));
+    let records = runs.map(|r| r.agents.iter().find(|a| a.role == agent));
+    let prompts = runs.map(|r| r.prompts.get(&agent).map_or("", String::as_str));
     let sides = records.map(|r| {
         r.map(|a| AgentSide {
             usage: a.usage,
@@ -247,8 +255,8 @@ fn agent_diff(agent: AgentRole, runs: [&RunRecord; 2], prices: &PriceTable) -> A
     let (settings, prompt, output) = match records {
         [Some(a), Some(b)] => (
             setting_changes(&a.settings, &b.settings),
-            changed_text(&a.prompt, &b.prompt),
-            changed_text(&a.output, &b.output),
+            changed_text(prompts[0], prompts[1]),
+            changed_text(a.output_text(), b.output_text()),
         ),
         _ => (Vec::new(), None, None),
     };
@@ -448,7 +456,7 @@ impl RunDiff {
             .into_iter()
             .filter(|role| {
                 runs.iter()
-                    .any(|r| r.agents.iter().any(|a| a.agent == *role))
+                    .any(|r| r.agents.iter().any(|a| a.role == *role))
             })
             .map(|role| agent_diff(role, runs, prices))
             .collect();
@@ -489,24 +497,19 @@ mod tests {
     use super::*;
     use crate::agents::Approach;
 
-    fn record(agent: AgentRole, prompt: &str, output: &str) -> AgentRecord {
+    fn record(agent: AgentRole, output: &str) -> AgentRecord {
         AgentRecord {
-            agent,
-            settings: AgentSettings {
-                provider: "openai".into(),
-                model: "gpt-4o".into(),
-                temperature: 0.0,
-                max_tokens: 512,
-            },
-            prompt: prompt.into(),
-            output: output.into(),
-            duration_ms: 0,
+            output: Some(output.into()),
             usage: Usage {
                 input_tokens: 1_000,
                 output_tokens: 200,
             },
-            cached: false,
-            error: None,
+            ..AgentRecord::blank(
+                agent,
+                &AgentSettings::new(crate::agents::ProviderKind::Openai, "gpt-4o", 0.0, 512),
+                "multi-image-planner",
+                "",
+            )
         }
     }
 
@@ -517,6 +520,7 @@ mod tests {
             approach: Approach::MultiImage,
             task: "Wash the mug.".into(),
             agents,
+            prompts: Default::default(),
             plan: plan.iter().map(|s| s.to_string()).collect(),
             ground_truth: vec!["Walk to the sink.".into()],
             scores: kas.map(|kas| ScoreRecord {
@@ -621,20 +625,20 @@ mod tests {
 
     #[test]
     fn agents_show_settings_prompt_and_output_changes_and_their_costs() {
-        let mut planner = record(AgentRole::Planner, "Plan the task.", "1. Go.");
-        let a = run(
+        let mut planner = record(AgentRole::Planner, "1. Go.");
+        let mut a = run(
             1,
-            vec![
-                record(AgentRole::Skm, "Mine.", "(a, on, b)"),
-                planner.clone(),
-            ],
+            vec![record(AgentRole::Skm, "(a, on, b)"), planner.clone()],
             &[],
             None,
         );
-        planner.prompt = "Plan the task in short steps.".into();
         planner.settings.temperature = 0.7;
         planner.cached = true;
-        let b = run(2, vec![planner], &[], None);
+        let mut b = run(2, vec![planner], &[], None);
+        a.prompts
+            .insert(AgentRole::Planner, "Plan the task.".into());
+        b.prompts
+            .insert(AgentRole::Planner, "Plan the task in short steps.".into());
         let prices = PriceTable::from_config(
             &toml::from_str(
                 "[openai.\"gpt-4o\"]\ninput_per_million = 2.5\noutput_per_million = 10.0\n",
@@ -678,13 +682,13 @@ mod tests {
             .unwrap(),
         )
         .unwrap();
-        let paid = || record(AgentRole::Skm, "", "");
+        let paid = || record(AgentRole::Skm, "");
         let mut cached = paid();
         cached.cached = true;
         let mut unpriced = paid();
         unpriced.settings.model = "gpt-4.1".into();
         let mut replay = paid();
-        replay.settings.provider = "replay".into();
+        replay.settings.provider = crate::agents::ProviderKind::Replay;
         assert_eq!(cost_text(agent_cost(&prices, &paid())), "$0.0045");
         assert_eq!(cost_text(agent_cost(&prices, &cached)), "$0.0000");
         assert_eq!(cost_text(agent_cost(&prices, &unpriced)), "no price");

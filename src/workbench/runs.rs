@@ -3,8 +3,10 @@
 
 use std::collections::BTreeMap;
 
-use crate::agents::pipeline::AgentEvent;
-use crate::agents::{AgentRole, Approach, Usage};
+use crate::agents::config::AgentSettings;
+use crate::agents::pipeline::{AgentEvent, AgentRecord};
+use crate::agents::prompts::{prompt_hash, template_name};
+use crate::agents::{AgentRole, Approach, ProviderKind, Usage};
 use crate::plan::parse_steps;
 use crate::workbench::agents::{self, RunError, RunRequest};
 use crate::workbench::app::{unix_now, App, Severity};
@@ -12,9 +14,7 @@ use crate::workbench::editing::Editing;
 use crate::workbench::message::Cmd;
 use crate::workbench::panes::steps::StepList;
 use crate::workbench::scoring::{Pg2sOutcome, ScoreOutcome};
-use crate::workbench::session::{
-    AgentRecord, AgentSettings, PlanSource, RunRecord, ScoreRecord, StepScore,
-};
+use crate::workbench::session::{PlanSource, RunRecord, ScoreRecord, StepScore};
 
 /// Every sample's scores of `run`, in sample order: the one place the run
 /// diff's verdicts read a run's samples from. A run holds one sample today,
@@ -65,7 +65,8 @@ pub struct AgentView {
     pub status: AgentStatus,
     /// Its latest output (growing while it runs).
     pub output: String,
-    /// Its provider and model.
+    /// Its settings: as chosen, then as the pipeline resolved them for
+    /// its latest run (never with a key).
     pub settings: AgentSettings,
     /// The prompt and settings its output was made with.
     pub ran_with: Option<(String, AgentSettings)>,
@@ -127,7 +128,7 @@ fn fresh_agents() -> BTreeMap<AgentRole, AgentView> {
                 AgentView {
                     status: AgentStatus::Idle,
                     output: String::new(),
-                    settings: agents::demo_settings(),
+                    settings: AgentSettings::demo_recording(),
                     ran_with: None,
                     usage: Usage::default(),
                     duration_ms: 0,
@@ -172,7 +173,7 @@ impl App {
         } else {
             "this prompt was edited and the demo's recording has no answer for it"
         };
-        (view.settings.provider == agents::REPLAY_PROVIDER
+        (view.settings.provider == ProviderKind::Replay
             && !self.prompt.is_recorded(self.approach, agent, &prompt))
         .then(|| agents::provider_needed(agent, why).to_string())
     }
@@ -228,6 +229,21 @@ impl App {
         vec![Cmd::StartRun(request)]
     }
 
+    /// Takes the settings the pipeline resolved for a run it accepted
+    /// (provider defaults, config file and environment applied; no keys),
+    /// so that the views, the session and the run's records show what ran;
+    /// called by the runtime.
+    pub fn run_accepted(&mut self, run: u64, settings: BTreeMap<AgentRole, AgentSettings>) {
+        if self.runs.active.as_ref().is_none_or(|r| r.id != run) {
+            return;
+        }
+        for (agent, resolved) in settings {
+            if let Some(v) = self.runs.agents.get_mut(&agent) {
+                v.settings = resolved.without_key();
+            }
+        }
+    }
+
     /// Refuses a run the pipeline cannot do; called by the runtime.
     pub fn run_refused(&mut self, run: u64, reason: RunError) {
         if self.runs.active.as_ref().is_some_and(|r| r.id == run) {
@@ -246,32 +262,38 @@ impl App {
         let Some(active) = self.runs.active.take() else {
             return Vec::new();
         };
-        let agents = active
-            .agents
-            .iter()
-            .filter_map(|a| {
-                let v = self.runs.agents.get(a)?;
-                Some(AgentRecord {
-                    agent: *a,
-                    settings: v.settings.clone(),
-                    prompt: self.prompt_of(*a),
-                    output: v.output.clone(),
-                    duration_ms: v.duration_ms,
-                    usage: v.usage,
-                    cached: v.cached,
-                    error: match &v.status {
-                        AgentStatus::Failed(e) => Some(e.clone()),
-                        _ => None,
-                    },
-                })
-            })
-            .collect();
+        let mut prompts = BTreeMap::new();
+        let mut agents = Vec::new();
+        for &a in &active.agents {
+            let Some(v) = self.runs.agents.get(&a) else {
+                continue;
+            };
+            let prompt = self.prompt_of(a);
+            agents.push(AgentRecord {
+                output: Some(v.output.clone()),
+                error: match &v.status {
+                    AgentStatus::Failed(e) => Some(e.clone()),
+                    _ => None,
+                },
+                usage: v.usage,
+                elapsed_ms: v.duration_ms,
+                cached: v.cached,
+                ..AgentRecord::blank(
+                    a,
+                    &v.settings,
+                    &template_name(self.approach, a),
+                    &prompt_hash(&prompt),
+                )
+            });
+            prompts.insert(a, prompt);
+        }
         self.runs.history.push(RunRecord {
             id: active.id,
             started_unix: active.started_unix,
             approach: self.approach,
             task: self.task.text.clone(),
             agents,
+            prompts,
             plan: self.plan.items.clone(),
             ground_truth: self.ground_truth.items.clone(),
             scores: None,

@@ -106,11 +106,11 @@ impl Runtime {
     fn execute(&mut self, app: &mut App, cmd: Cmd) {
         match cmd {
             Cmd::StartRun(request) => {
-                if let Err(reason) = self.pipeline.check(&request) {
-                    app.run_refused(request.run, reason);
-                    return;
-                }
                 let run = request.run;
+                match self.pipeline.check(&request) {
+                    Ok(settings) => app.run_accepted(run, settings),
+                    Err(reason) => return app.run_refused(run, reason),
+                }
                 let handle = self.pipeline.spawn(request, self.agent_events.clone());
                 self.runs.insert(run, handle);
             }

@@ -9,26 +9,16 @@ use std::path::{Path, PathBuf};
 
 use serde::{Deserialize, Serialize};
 
-use crate::agents::{AgentRole, Approach, Usage};
+use crate::agents::config::AgentSettings;
+use crate::agents::pipeline::AgentRecord;
+use crate::agents::{AgentRole, Approach};
 use crate::dataset::Corruption;
 
+mod migrate;
 mod repair;
 
 /// The format version written into every session file.
-pub const SESSION_VERSION: u32 = 2;
-
-/// The provider, model and sampling settings of one agent.
-#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
-pub struct AgentSettings {
-    /// Provider name, e.g. `replay` or `openai`.
-    pub provider: String,
-    /// Model name at that provider.
-    pub model: String,
-    /// Sampling temperature (the paper used 0).
-    pub temperature: f32,
-    /// The most tokens the agent may write.
-    pub max_tokens: u32,
-}
+pub const SESSION_VERSION: u32 = 3;
 
 /// Where the ground truth in use came from.
 #[derive(Debug, Clone, PartialEq, Eq, Serialize, Deserialize)]
@@ -73,29 +63,6 @@ pub enum PlanSource {
     },
 }
 
-/// One agent's part of a run.
-#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
-pub struct AgentRecord {
-    /// The agent.
-    pub agent: AgentRole,
-    /// Its settings for this run.
-    pub settings: AgentSettings,
-    /// The prompt template it was given.
-    pub prompt: String,
-    /// What it wrote (possibly partial when the run was cancelled).
-    pub output: String,
-    /// Wall time in milliseconds.
-    pub duration_ms: u64,
-    /// Token use.
-    pub usage: Usage,
-    /// Whether its answer came from the response cache or the demo's
-    /// recording, so that it cost nothing (absent in older sessions: paid).
-    #[serde(default)]
-    pub cached: bool,
-    /// Why it failed, when it did.
-    pub error: Option<String>,
-}
-
 /// The scores of a plan against a ground truth.
 #[derive(Debug, Clone, Copy, Default, PartialEq, Serialize, Deserialize)]
 pub struct ScoreRecord {
@@ -122,6 +89,9 @@ pub struct RunRecord {
     pub task: String,
     /// The agents it ran.
     pub agents: Vec<AgentRecord>,
+    /// The prompt template text each agent ran with, as the compare and
+    /// diff views show it (a record keeps the template's name and hash).
+    pub prompts: BTreeMap<AgentRole, String>,
     /// The plan it produced.
     pub plan: Vec<String>,
     /// The ground truth it was scored against.
@@ -166,7 +136,7 @@ pub struct CorruptedFrom {
 impl RunRecord {
     /// The wall time of all its agents, in milliseconds.
     pub fn total_ms(&self) -> u64 {
-        self.agents.iter().map(|a| a.duration_ms).sum()
+        self.agents.iter().map(|a| a.elapsed_ms).sum()
     }
 
     /// The tokens all its agents sent and wrote.
@@ -324,55 +294,8 @@ pub fn save(path: &Path, session: &Session) -> Result<(), SessionError> {
     Ok(())
 }
 
-/// Brings a session file's JSON saved by an earlier version up to
-/// [`SESSION_VERSION`], one version at a time, so an upgrade keeps the
-/// user's run history. A file from a newer version is refused.
-fn migrate(mut value: serde_json::Value) -> Result<serde_json::Value, DecodeError> {
-    let version = value.get("version").and_then(serde_json::Value::as_u64);
-    let Some(mut version) = version else {
-        return Err(DecodeError::NoVersion);
-    };
-    if version > u64::from(SESSION_VERSION) {
-        return Err(DecodeError::Newer(version));
-    }
-    while version < u64::from(SESSION_VERSION) {
-        match version {
-            1 => v1_to_v2(&mut value),
-            _ => return Err(DecodeError::TooOld(version)),
-        }
-        version += 1;
-        value["version"] = version.into();
-    }
-    Ok(value)
-}
-
-/// Version 2 counts tokens as the providers do (`input_tokens`,
-/// `output_tokens`), where version 1 had `input` and `output`.
-fn v1_to_v2(value: &mut serde_json::Value) {
-    let runs = value
-        .get_mut("runs")
-        .and_then(serde_json::Value::as_array_mut);
-    for run in runs.into_iter().flatten() {
-        let agents = run
-            .get_mut("agents")
-            .and_then(serde_json::Value::as_array_mut);
-        for agent in agents.into_iter().flatten() {
-            if let Some(usage) = agent
-                .get_mut("usage")
-                .and_then(serde_json::Value::as_object_mut)
-            {
-                for (old, new) in [("input", "input_tokens"), ("output", "output_tokens")] {
-                    if let Some(count) = usage.remove(old) {
-                        usage.insert(new.to_string(), count);
-                    }
-                }
-            }
-        }
-    }
-}
-
 /// The session in the bytes of a session file, brought up to this version
-/// ([`migrate`]), with a notice for each number that was out of range and
+/// ([`migrate::migrate`]), with a notice for each number that was out of range and
 /// put back to its default (the rest of the session, its run history
 /// included, is kept); or why the bytes are not a session. The part of
 /// [`restore`] that reads, kept apart from the file so that it can be
@@ -380,14 +303,14 @@ fn v1_to_v2(value: &mut serde_json::Value) {
 pub fn decode(bytes: &[u8]) -> Result<(Session, Vec<String>), DecodeError> {
     let not_session = |e: serde_json::Error| DecodeError::NotSession(e.to_string());
     let value = serde_json::from_slice::<serde_json::Value>(bytes).map_err(not_session)?;
-    let mut value = migrate(value)?;
+    let mut value = migrate::migrate(value)?;
     let repaired = repair::repair_numbers(&mut value);
     let session = serde_json::from_value::<Session>(value).map_err(not_session)?;
     Ok((session, repaired))
 }
 
 /// Reads the session at `path`. A file that is not a session of this
-/// version (after [`migrate`]) is renamed to `<name>.corrupt-<unix seconds>` and reported.
+/// version (after [`migrate::migrate`]) is renamed to `<name>.corrupt-<unix seconds>` and reported.
 pub fn restore(path: &Path) -> Result<Restored, SessionError> {
     let bytes = match std::fs::read(path) {
         Ok(b) => b,
@@ -458,34 +381,6 @@ mod tests {
     }
 
     #[test]
-    fn a_session_saved_by_version_1_loads_with_its_run_history() {
-        let fixture = concat!(
-            env!("CARGO_MANIFEST_DIR"),
-            "/tests/fixtures/session-v1.json"
-        );
-        let old: serde_json::Value =
-            serde_json::from_str(&std::fs::read_to_string(fixture).unwrap()).unwrap();
-        assert_eq!(old["version"], 1);
-        let dir = tempfile::tempdir().unwrap();
-        let path = dir.path().join("session.json");
-        std::fs::copy(fixture, &path).unwrap();
-        let Restored::Loaded { session: s, .. } = restore(&path).unwrap() else {
-            panic!("the version 1 session was not loaded");
-        };
-        assert_eq!(s.version, SESSION_VERSION);
-        assert_eq!(s.runs.len(), old["runs"].as_array().unwrap().len());
-        assert!(s.runs.len() >= 2);
-        for (run, old_run) in s.runs.iter().zip(old["runs"].as_array().unwrap()) {
-            assert_eq!(run.plan.len(), old_run["plan"].as_array().unwrap().len());
-            for (agent, old_agent) in run.agents.iter().zip(old_run["agents"].as_array().unwrap()) {
-                assert_eq!(agent.usage.input_tokens, old_agent["usage"]["input"]);
-                assert_eq!(agent.usage.output_tokens, old_agent["usage"]["output"]);
-            }
-        }
-        assert!(path.exists(), "the file stays where it was");
-    }
-
-    #[test]
     fn a_session_from_a_newer_version_is_set_aside_with_the_reason() {
         let dir = tempfile::tempdir().unwrap();
         let path = dir.path().join("session.json");
@@ -505,12 +400,7 @@ mod tests {
     fn a_bad_number_falls_back_with_a_notice_and_the_history_is_kept() {
         let dir = tempfile::tempdir().unwrap();
         let path = dir.path().join("session.json");
-        let settings = AgentSettings {
-            provider: "openai".into(),
-            model: "gpt-4o".into(),
-            temperature: 0.5,
-            max_tokens: 300,
-        };
+        let settings = AgentSettings::new(crate::agents::ProviderKind::Openai, "gpt-4o", 0.5, 300);
         let mut saved = sample();
         saved.settings.insert(AgentRole::Planner, settings.clone());
         saved.runs.push(RunRecord {
@@ -519,15 +409,11 @@ mod tests {
             approach: Approach::MultiImage,
             task: "Wash the mug.".into(),
             agents: vec![AgentRecord {
-                agent: AgentRole::Planner,
-                settings,
-                prompt: "Plan.".into(),
-                output: "1. Wash the mug.".into(),
-                duration_ms: 1200,
-                usage: Usage::default(),
-                cached: false,
-                error: None,
+                output: Some("1. Wash the mug.".into()),
+                elapsed_ms: 1200,
+                ..AgentRecord::blank(AgentRole::Planner, &settings, "multi-image-planner", "0123")
             }],
+            prompts: BTreeMap::from([(AgentRole::Planner, "Plan.".to_string())]),
             plan: vec!["Wash the mug.".into()],
             ground_truth: vec!["Wash the mug.".into()],
             scores: None,
@@ -541,7 +427,7 @@ mod tests {
         // What an older mapvlm saved for a temperature of 1e300 (an f32
         // infinity is written as null), and a hand-edited token limit.
         json["settings"]["planner"]["temperature"] = serde_json::Value::Null;
-        json["runs"][0]["agents"][0]["settings"]["max_tokens"] = (-5).into();
+        json["runs"][0]["agents"][0]["max_tokens"] = (-5).into();
         std::fs::write(&path, serde_json::to_vec(&json).unwrap()).unwrap();
         let Restored::Loaded { session, repaired } = restore(&path).unwrap() else {
             panic!("the session was set aside");
@@ -557,7 +443,7 @@ mod tests {
             repaired[0].contains("settings.planner.temperature = null"),
             "{repaired:?}"
         );
-        assert!(repaired[1].contains("runs[0].agents[0].settings.max_tokens = -5"));
+        assert!(repaired[1].contains("runs[0].agents[0].max_tokens = -5"));
     }
 
     #[test]
@@ -593,17 +479,25 @@ mod tests {
 
         fn settings() -> impl Strategy<Value = AgentSettings> {
             (
-                "[a-z]{1,8}",
+                prop::sample::select(vec![
+                    crate::agents::ProviderKind::Openai,
+                    crate::agents::ProviderKind::Anthropic,
+                    crate::agents::ProviderKind::Replay,
+                ]),
                 "[a-z0-9.-]{1,12}",
                 0.0f32..=2.0,
                 crate::agents::config::MAX_TOKENS_RANGE,
+                any::<(bool, bool)>(),
             )
-                .prop_map(|(provider, model, temperature, max_tokens)| AgentSettings {
-                    provider,
-                    model,
-                    temperature,
-                    max_tokens,
-                })
+                .prop_map(
+                    |(provider, model, temperature, max_tokens, (stream, json_output))| {
+                        AgentSettings {
+                            stream,
+                            json_output,
+                            ..AgentSettings::new(provider, &model, temperature, max_tokens)
+                        }
+                    },
+                )
         }
 
         fn session() -> impl Strategy<Value = Session> {
@@ -639,7 +533,7 @@ mod tests {
                         plan: plans.1.clone(),
                         prompts: plans.2,
                         settings: agents.0.clone(),
-                        outputs: agents.1,
+                        outputs: agents.1.clone(),
                         ran_with: agents.2,
                         theme: "dark".into(),
                         image,
@@ -648,7 +542,20 @@ mod tests {
                             started_unix: run / 2,
                             approach: head.1,
                             task: "Do it.".into(),
-                            agents: Vec::new(),
+                            agents: agents
+                                .0
+                                .iter()
+                                .map(|(&role, settings)| AgentRecord {
+                                    output: Some("1. Go.".into()),
+                                    ..AgentRecord::blank(
+                                        role,
+                                        settings,
+                                        "multi-image-planner",
+                                        "0123",
+                                    )
+                                })
+                                .collect(),
+                            prompts: agents.1,
                             plan: plans.1,
                             ground_truth: plans.0,
                             scores: Some(ScoreRecord {

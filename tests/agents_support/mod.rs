@@ -30,6 +30,7 @@ pub fn endpoint(provider: ProviderKind) -> &'static str {
     match provider {
         ProviderKind::Openai => "/v1/chat/completions",
         ProviderKind::Anthropic => "/v1/messages",
+        ProviderKind::Replay => panic!("the recording is not served over HTTP"),
     }
 }
 
@@ -38,6 +39,7 @@ pub fn base_url(server: &MockServer, provider: ProviderKind) -> String {
     match provider {
         ProviderKind::Openai => format!("{}/v1", server.uri()),
         ProviderKind::Anthropic => server.uri(),
+        ProviderKind::Replay => panic!("the recording is not served over HTTP"),
     }
 }
 
@@ -90,6 +92,7 @@ pub fn whole(provider: ProviderKind, text: &str) -> ResponseTemplate {
             "stop_reason": "end_turn",
             "usage": {"input_tokens": 100, "output_tokens": 20}
         }),
+        ProviderKind::Replay => panic!("the recording is not served over HTTP"),
     };
     ResponseTemplate::new(200).set_body_json(body)
 }
@@ -126,6 +129,7 @@ pub fn stream_body(provider: ProviderKind, pieces: &[&str], complete: bool) -> S
                 body.push_str("event: message_stop\ndata: {\"type\": \"message_stop\"}\n\n");
             }
         }
+        ProviderKind::Replay => panic!("the recording is not served over HTTP"),
     }
     body
 }

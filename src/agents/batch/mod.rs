@@ -47,6 +47,10 @@ pub enum BatchError {
     /// A request to a provider failed.
     #[error(transparent)]
     Agent(#[from] AgentError),
+    /// An agent set to the recording has a request the recording cannot
+    /// answer, and a recording has no batches.
+    #[error("{0} is set to the replay provider, which has no batches and no answer for this request: give it a provider (openai or anthropic)")]
+    Replay(AgentRole),
     /// The runner has no response cache to put the answers in.
     #[error("--batch keeps the answers in the response cache: drop --no-cache")]
     NoCache,
@@ -213,6 +217,7 @@ pub async fn run_batches(
                 let id = match provider {
                     ProviderKind::Openai => openai::submit(&client, &chunk, cancel).await?,
                     ProviderKind::Anthropic => anthropic::submit(&client, &chunk, cancel).await?,
+                    ProviderKind::Replay => return Err(BatchError::Replay(role)),
                 };
                 let batch = SavedBatch {
                     provider,
@@ -323,6 +328,7 @@ async fn collect(
         let status = match batch.provider {
             ProviderKind::Openai => openai::status(&client, &batch.id, cancel).await?,
             ProviderKind::Anthropic => anthropic::status(&client, &batch.id, cancel).await?,
+            ProviderKind::Replay => return Err(BatchError::Replay(batch.role)),
         };
         on_event(BatchEvent::Polled(batch, &status));
         if status.ended {
@@ -335,6 +341,7 @@ async fn collect(
         ProviderKind::Anthropic => {
             anthropic::results(&client, &status, &batch.model, cancel).await?
         }
+        ProviderKind::Replay => return Err(BatchError::Replay(batch.role)),
     };
     let mut unanswered: HashSet<&str> = batch.keys.iter().map(String::as_str).collect();
     for (key, result) in results {

@@ -121,6 +121,7 @@ impl App {
             approach: self.approach,
             task: self.task.text.clone(),
             agents: Vec::new(),
+            prompts: Default::default(),
             plan: corrupted.plan.clone(),
             ground_truth: self.ground_truth.items.clone(),
             scores: None,

@@ -10,16 +10,14 @@ use ratatui::widgets::{Clear, Paragraph};
 use ratatui::Frame;
 use ratatui_textarea::TextArea;
 
-use crate::agents::config::{check_max_tokens, check_temperature};
+use crate::agents::config::{check_max_tokens, check_temperature, AgentSettings};
 use crate::agents::{AgentRole, ProviderKind};
-use crate::workbench::agents::REPLAY_PROVIDER;
 use crate::workbench::app::{single_line_editor, App, Severity};
 use crate::workbench::component::{self, Component};
 use crate::workbench::keymap::{Action, Context};
 use crate::workbench::message::Cmd;
 use crate::workbench::overlays::{centred, themed_box, Overlay};
 use crate::workbench::panes::Pane;
-use crate::workbench::session::AgentSettings;
 use crate::workbench::theme::Theme;
 
 /// The form's fields, in order.
@@ -34,6 +32,9 @@ pub struct ModelForm {
     focus: usize,
     every_agent: bool,
     problem: Option<String>,
+    /// The settings it opened with: a save on the same provider keeps
+    /// their endpoint and switches.
+    opened_with: AgentSettings,
 }
 
 /// What a key in the form asks of the workbench.
@@ -56,7 +57,7 @@ impl ModelForm {
     /// The form for `agent`, filled with its current `settings`.
     pub fn new(agent: AgentRole, settings: &AgentSettings) -> ModelForm {
         let values = [
-            settings.provider.clone(),
+            settings.provider.to_string(),
             settings.model.clone(),
             settings.temperature.to_string(),
             settings.max_tokens.to_string(),
@@ -67,6 +68,7 @@ impl ModelForm {
             focus: 0,
             every_agent: false,
             problem: None,
+            opened_with: settings.clone(),
         }
     }
 
@@ -94,11 +96,7 @@ impl ModelForm {
         if provider.is_empty() || model.is_empty() {
             return Err("provider and model must be set".into());
         }
-        if provider != REPLAY_PROVIDER {
-            provider
-                .parse::<ProviderKind>()
-                .map_err(|e| format!("{e}, or `{REPLAY_PROVIDER}` for the demo's recording"))?;
-        }
+        let provider = provider.parse::<ProviderKind>()?;
         let temperature = self
             .text(2)
             .parse::<f64>()
@@ -109,11 +107,16 @@ impl ModelForm {
             .parse::<u64>()
             .map_err(|_| format!("token limit `{}` is not a whole number", self.text(3)))
             .and_then(|n| check_max_tokens("token limit", n).map_err(|e| e.to_string()))?;
+        // Another provider starts from its defaults until a run resolves it.
+        let base = Some(&self.opened_with)
+            .filter(|b| b.provider == provider)
+            .cloned()
+            .unwrap_or_else(|| AgentSettings::new(provider, &model, temperature, max_tokens));
         Ok(AgentSettings {
-            provider,
             model,
             temperature,
             max_tokens,
+            ..base
         })
     }
 }
@@ -411,7 +414,7 @@ mod tests {
 
     #[test]
     fn the_form_draws_its_fields_scope_and_problem() {
-        let mut form = ModelForm::new(AgentRole::Skm, &crate::workbench::agents::demo_settings());
+        let mut form = ModelForm::new(AgentRole::Skm, &AgentSettings::demo_recording());
         form.on_action(Action::EveryAgent);
         form.on_action(Action::NextField);
         form.on_action(Action::NextField);

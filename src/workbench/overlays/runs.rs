@@ -210,13 +210,13 @@ impl RunsOverlay {
         ))];
         per_agent.extend(current.agents.iter().map(|a| {
             Line::from(vec![
-                Span::styled(format!("  {:<8}", a.agent.label()), t.accent),
+                Span::styled(format!("  {:<8}", a.role.label()), t.accent),
                 Span::styled(
                     format!(
                         "{}/{} · {} ms · {}+{} tok · {}{}",
                         a.settings.provider,
                         a.settings.model,
-                        a.duration_ms,
+                        a.elapsed_ms,
                         a.usage.input_tokens,
                         a.usage.output_tokens,
                         cost_text(agent_cost(&self.prices, a)),

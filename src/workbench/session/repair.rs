@@ -113,12 +113,8 @@ pub(super) fn repair_numbers(session: &mut Value) -> Vec<String> {
         let agents = run.get_mut("agents").and_then(Value::as_array_mut);
         for (j, agent) in agents.into_iter().flatten().enumerate() {
             let at = format!("{at}.agents[{j}]");
-            fix(Some(&mut *agent), &at, &[("duration_ms", Kind::Count)]);
-            fix(
-                agent.get_mut("settings"),
-                &format!("{at}.settings"),
-                &settings,
-            );
+            fix(Some(&mut *agent), &at, &[("elapsed_ms", Kind::Count)]);
+            fix(Some(&mut *agent), &at, &settings);
             let usage = [
                 ("input_tokens", Kind::Count),
                 ("output_tokens", Kind::Count),
@@ -166,7 +162,7 @@ mod tests {
         let mut session = serde_json::json!({
             "settings": {"planner": {"temperature": 2.0, "max_tokens": 1_000_000}},
             "runs": [{"id": 3, "started_unix": 0, "scores": {"kas": null, "pg2s": -0.5},
-                      "agents": [{"duration_ms": 7, "usage": {"input_tokens": 1, "output_tokens": 0}}]}],
+                      "agents": [{"elapsed_ms": 7, "usage": {"input_tokens": 1, "output_tokens": 0}}]}],
         });
         let before = session.clone();
         assert!(repair_numbers(&mut session).is_empty());
@@ -182,7 +178,7 @@ mod tests {
             "draft": {"index": -1},
             "plan_source": {"kind": "run", "run": 1.5},
             "runs": [{"id": -2, "started_unix": 1e300, "scores": {"kas": "high"},
-                      "agents": [{"duration_ms": null, "settings": {"temperature": 3, "max_tokens": 5},
+                      "agents": [{"elapsed_ms": null, "temperature": 3, "max_tokens": 5,
                                   "usage": {"input_tokens": -1, "output_tokens": 2}}]}],
         });
         let notices = repair_numbers(&mut session);
@@ -200,7 +196,7 @@ mod tests {
             DEFAULT_MAX_TOKENS
         );
         assert_eq!(session["runs"][0]["scores"]["kas"], Value::Null);
-        assert_eq!(session["runs"][0]["agents"][0]["settings"]["max_tokens"], 5);
+        assert_eq!(session["runs"][0]["agents"][0]["max_tokens"], 5);
         assert_eq!(session["runs"][0]["agents"][0]["usage"]["output_tokens"], 2);
         assert!(
             repair_numbers(&mut session).is_empty(),
