@@ -467,39 +467,6 @@ fn a_start_notice_stays_until_dismissed() {
     assert!(!h.screen().contains(moved_to));
 }
 
-/// Every key a user might press: printable characters, Ctrl+letter and the
-/// named keys.
-fn every_key() -> Vec<KeyEvent> {
-    let mut keys: Vec<KeyEvent> = (' '..='~')
-        .map(|c| KeyEvent::new(KeyCode::Char(c), KeyModifiers::NONE))
-        .chain(('a'..='z').map(|c| KeyEvent::new(KeyCode::Char(c), KeyModifiers::CONTROL)))
-        .collect();
-    let named = [
-        KeyCode::Enter,
-        KeyCode::Esc,
-        KeyCode::Tab,
-        KeyCode::BackTab,
-        KeyCode::Backspace,
-        KeyCode::Delete,
-        KeyCode::Insert,
-        KeyCode::Up,
-        KeyCode::Down,
-        KeyCode::Left,
-        KeyCode::Right,
-        KeyCode::Home,
-        KeyCode::End,
-        KeyCode::PageUp,
-        KeyCode::PageDown,
-    ];
-    keys.extend(
-        named
-            .into_iter()
-            .chain((1..=12).map(KeyCode::F))
-            .map(|code| KeyEvent::new(code, KeyModifiers::NONE)),
-    );
-    keys
-}
-
 impl Harness {
     fn focus(&mut self, pane: Pane) {
         for _ in 0..Pane::ALL.len() {
@@ -531,7 +498,7 @@ fn a_key_missing_from_the_key_table_does_nothing_in_any_pane() {
             .into_iter()
             .chain(h.app.pane_contexts())
             .collect();
-        for key in every_key() {
+        for key in mapvlm::workbench::keymap::pressable_keys() {
             if keymap::action(&contexts, &key).is_some() {
                 continue;
             }
@@ -651,7 +618,7 @@ fn a_key_missing_from_the_key_table_does_nothing_in_an_overlay() {
     ] {
         let mut h = Harness::new((200, 60), None, false, unavailable());
         open_overlay(&mut h, context, false);
-        for key in every_key() {
+        for key in mapvlm::workbench::keymap::pressable_keys() {
             if keymap::action(&[Context::Always, context], &key).is_some() {
                 continue;
             }

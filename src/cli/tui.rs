@@ -17,7 +17,7 @@ use crate::corrupt::{user_vocabulary_dir, Vocabulary};
 use crate::metrics::pg2s::Pg2sSettings;
 use crate::workbench::agents::{prompt_texts, AgentsPipeline, ProviderConfig};
 use crate::workbench::corrupting::CorruptionModels;
-use crate::workbench::scoring::Loaded;
+use crate::workbench::scoring::{LoadError, Loaded};
 use crate::workbench::{self, Options};
 
 /// Arguments of the workbench.
@@ -94,7 +94,9 @@ pub fn run(args: TuiArgs) -> anyhow::Result<ExitCode> {
                 progress,
                 &crate::models::Progress::hidden(),
             )
-            .map_err(|e| format!("{e:#}"))?;
+            .map_err(|e| LoadError::Models {
+                reason: format!("{e:#}"),
+            })?;
             // Without the vocabularies only the corruptions are off.
             let vocabulary = Vocabulary::load(user_vocabulary_dir().as_deref());
             Ok(Loaded {

@@ -72,9 +72,23 @@ pub struct Loaded {
     pub corruption: Result<CorruptionModels, String>,
 }
 
+/// Why the PG2S models could not be loaded: the Scores pane shows it and
+/// scoring waits (KAS still scores).
+#[derive(Debug, Clone, PartialEq, Eq, thiserror::Error)]
+pub enum LoadError {
+    /// The model pack could not be read or a model could not be built: the
+    /// loader's words, causes included, saying what to do.
+    #[error("{reason}")]
+    Models {
+        /// What went wrong.
+        reason: String,
+    },
+}
+
 /// Loads the PG2S scorer; called on a blocking thread, reporting progress
 /// lines through the callback.
-pub type ScorerLoader = Box<dyn FnOnce(&dyn Fn(String)) -> Result<Loaded, String> + Send + 'static>;
+pub type ScorerLoader =
+    Box<dyn FnOnce(&dyn Fn(String)) -> Result<Loaded, LoadError> + Send + 'static>;
 
 /// Scores one request now, with whatever models the slot holds.
 pub fn score_now(models: &ModelSlot, request: &ScoreRequest) -> ScoreOutcome {
@@ -139,7 +153,10 @@ pub fn spawn_loader(
         };
         let (slot, language) = match loader(&progress) {
             Ok(loaded) => (ModelSlot::Ready(Arc::new(loaded.scorer)), loaded.corruption),
-            Err(reason) => (ModelSlot::Unavailable(reason.clone()), Err(reason)),
+            Err(error) => (
+                ModelSlot::Unavailable(error.to_string()),
+                Err(error.to_string()),
+            ),
         };
         if let Ok(mut shared) = corruption.write() {
             *shared = language;

@@ -96,32 +96,6 @@ fn every_annotation_key_in_the_key_table_is_handled() {
     assert!(checked > 30, "only {checked} keys checked");
 }
 
-/// Every key a person can press without Ctrl, and Ctrl with each letter.
-fn every_key() -> Vec<KeyEvent> {
-    let codes = (' '..='~').map(KeyCode::Char).chain([
-        KeyCode::Enter,
-        KeyCode::Esc,
-        KeyCode::Tab,
-        KeyCode::BackTab,
-        KeyCode::Backspace,
-        KeyCode::Delete,
-        KeyCode::Insert,
-        KeyCode::Up,
-        KeyCode::Down,
-        KeyCode::Left,
-        KeyCode::Right,
-        KeyCode::Home,
-        KeyCode::End,
-        KeyCode::PageUp,
-        KeyCode::PageDown,
-    ]);
-    codes
-        .chain((1..=12).map(KeyCode::F))
-        .map(|code| event(code, false))
-        .chain(('a'..='z').map(|c| event(KeyCode::Char(c), true)))
-        .collect()
-}
-
 #[test]
 fn a_key_missing_from_the_key_table_does_nothing_on_the_annotation_screen() {
     // While writing a note every other key is typed; in the help any key
@@ -129,7 +103,7 @@ fn a_key_missing_from_the_key_table_does_nothing_on_the_annotation_screen() {
     for context in [Context::AnnotateRating, Context::AnnotatePairwise] {
         for warm in [false, true] {
             let mut s = state_for(context, warm);
-            for key in every_key() {
+            for key in crate::workbench::keymap::pressable_keys() {
                 if keymap::action(&s.contexts(), &key).is_some() {
                     continue;
                 }

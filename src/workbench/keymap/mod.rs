@@ -280,6 +280,40 @@ const fn joined<const N: usize>(first: &[Binding], second: &[Binding]) -> [Bindi
     out
 }
 
+/// Every key a person can press: the printable characters, Ctrl with each
+/// letter, and the named keys (F1 to F12 among them). The tests that press
+/// every key against the key table (workbench and annotation screen) use
+/// this one list, so that a key missing from one of them cannot hide.
+pub fn pressable_keys() -> Vec<KeyEvent> {
+    let named = [
+        KeyCode::Enter,
+        KeyCode::Esc,
+        KeyCode::Tab,
+        KeyCode::BackTab,
+        KeyCode::Backspace,
+        KeyCode::Delete,
+        KeyCode::Insert,
+        KeyCode::Up,
+        KeyCode::Down,
+        KeyCode::Left,
+        KeyCode::Right,
+        KeyCode::Home,
+        KeyCode::End,
+        KeyCode::PageUp,
+        KeyCode::PageDown,
+    ];
+    (' '..='~')
+        .map(|c| KeyEvent::new(KeyCode::Char(c), KeyModifiers::NONE))
+        .chain(('a'..='z').map(|c| KeyEvent::new(KeyCode::Char(c), KeyModifiers::CONTROL)))
+        .chain(
+            named
+                .into_iter()
+                .chain((1..=12).map(KeyCode::F))
+                .map(|code| KeyEvent::new(code, KeyModifiers::NONE)),
+        )
+        .collect()
+}
+
 /// The action `event` triggers in the first of `contexts` that binds it.
 pub fn action(contexts: &[Context], event: &KeyEvent) -> Option<Action> {
     contexts.iter().find_map(|&context| {
