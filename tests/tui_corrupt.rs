@@ -139,24 +139,14 @@ fn the_same_session_gives_the_same_corruption() {
     let mut two = demo_with_a_plan();
     corrupt(&mut one, Kind::ObjectSwap);
     corrupt(&mut two, Kind::ObjectSwap);
-    assert_eq!(
-        one.runs.history,
-        two.runs
-            .history
-            .iter()
-            .map(|r| {
-                let mut r = r.clone();
-                r.started_unix = one
-                    .runs
-                    .history
-                    .iter()
-                    .find(|o| o.id == r.id)
-                    .unwrap()
-                    .started_unix;
-                r
-            })
-            .collect::<Vec<_>>()
-    );
+    // What the corruption decides: the new run's plan, its recorded edits and
+    // its scores. (Start times and the replayed agents' timings may differ.)
+    let made = |app: &App| {
+        let run = app.runs.history.last().unwrap().clone();
+        (run.id, run.plan, run.corrupted, run.scores, run.steps)
+    };
+    assert!(made(&one).2.is_some(), "a corrupted run was made");
+    assert_eq!(made(&one), made(&two));
 }
 
 #[test]

@@ -10,7 +10,6 @@ use crate::workbench::editing::Editing;
 use crate::workbench::keymap::{self, Action, Context};
 use crate::workbench::layout::{pane_rects, Screen};
 use crate::workbench::message::{Cmd, Msg};
-use crate::workbench::overlays::pickers::GroundTruthChoice;
 use crate::workbench::overlays::Overlay;
 use crate::workbench::panes::steps::StepList;
 use crate::workbench::panes::{list_window, Pane};
@@ -200,24 +199,7 @@ impl App {
             Action::Run => return self.start_run(false),
             Action::RunAll => return self.start_run(true),
             Action::CancelRun => return self.cancel_run(),
-            Action::ChooseGroundTruth => {
-                let choices = self.ground_truth_choices();
-                let selected = choices
-                    .iter()
-                    .position(|(c, _)| match (c, &self.ground_truth_source) {
-                        (GroundTruthChoice::Demo(i), GroundTruthSource::Demo { index }) => {
-                            i == index
-                        }
-                        (GroundTruthChoice::Task(i), GroundTruthSource::Dataset { task }) => self
-                            .dataset
-                            .as_ref()
-                            .and_then(|d| d.tasks.get(*i))
-                            .is_some_and(|t| &t.id == task),
-                        _ => false,
-                    })
-                    .unwrap_or(0);
-                self.overlay = Some(Overlay::GroundTruthPicker { selected });
-            }
+            Action::ChooseGroundTruth => self.open_ground_truth_picker(),
             Action::NextApproach => return self.cycle_approach(),
             Action::NextSamples => self.next_samples(),
             Action::PublishedPlan => {

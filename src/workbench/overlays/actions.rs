@@ -13,7 +13,7 @@ pub(crate) fn draw(frame: &mut Frame, app: &App, area: Rect) {
     let t = &app.theme;
     let inner = open_box(
         frame,
-        app,
+        t,
         area,
         (110, 30),
         "Framed actions and their matches (Esc closes)",

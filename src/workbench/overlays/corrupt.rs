@@ -2,6 +2,7 @@
 //! corrupted on a blocking task into a new run, which is scored at once so
 //! the scores' reaction is seen.
 
+use crossterm::event::KeyEvent;
 use ratatui::layout::Rect;
 use ratatui::text::{Line, Span};
 use ratatui::widgets::{Clear, Paragraph};
@@ -9,11 +10,13 @@ use ratatui::Frame;
 
 use crate::corrupt::Kind;
 use crate::workbench::app::{unix_now, App, Severity};
+use crate::workbench::component::Component;
 use crate::workbench::corrupting::{CorruptRequest, Corrupted};
-use crate::workbench::keymap::Action;
+use crate::workbench::keymap::{Action, Context};
 use crate::workbench::message::Cmd;
-use crate::workbench::overlays::{centred, frame_box, moved, Overlay};
+use crate::workbench::overlays::{centred, moved, themed_box, Overlay, Picked};
 use crate::workbench::session::{CorruptedFrom, PlanSource, RunRecord};
+use crate::workbench::theme::Theme;
 
 /// What each kind does, as the picker says it.
 fn describe(kind: Kind) -> &'static str {
@@ -37,31 +40,14 @@ impl App {
         } else if self.runs.active.is_some() {
             self.set_status("a run is in flight: x cancels it", Severity::Warn);
         } else {
-            self.overlay = Some(Overlay::CorruptPicker { selected: 0 });
+            self.overlay = Some(Overlay::CorruptPicker(CorruptPicker::default()));
         }
     }
 
-    /// A key of the corruption picker: Enter asks for the chosen kind.
-    pub(crate) fn on_corrupt_picker_key(
-        &mut self,
-        selected: usize,
-        action: Option<Action>,
-    ) -> Vec<Cmd> {
-        match action {
-            Some(Action::Accept) => {
-                if let Some(&kind) = Kind::ALL.get(selected) {
-                    return vec![Cmd::Corrupt(self.corrupt_request(kind))];
-                }
-            }
-            Some(Action::Leave) => {}
-            Some(Action::Move(delta)) => {
-                self.overlay = Some(Overlay::CorruptPicker {
-                    selected: moved(selected, delta, Kind::ALL.len()),
-                });
-            }
-            _ => self.overlay = Some(Overlay::CorruptPicker { selected }),
-        }
-        Vec::new()
+    /// The kind the corruption picker chose: asks for the plan corrupted
+    /// with it.
+    pub(crate) fn corrupt_with(&mut self, kind: Kind) -> Vec<Cmd> {
+        vec![Cmd::Corrupt(self.corrupt_request(kind))]
     }
 
     /// The request for corrupting the plan with `kind` into the next run,
@@ -143,24 +129,78 @@ impl App {
     }
 }
 
-/// Draws the corruption picker: each kind and what it does.
-pub(crate) fn draw(frame: &mut Frame, app: &App, area: Rect, selected: usize) {
-    let t = &app.theme;
-    let lines: Vec<Line> = Kind::ALL
-        .iter()
-        .enumerate()
-        .map(|(i, &kind)| {
-            let style = if i == selected { t.selection } else { t.base };
-            Line::from(vec![
-                Span::styled(format!("{:<12}", kind.name()), style),
-                Span::styled(describe(kind), if i == selected { style } else { t.muted }),
-            ])
-        })
-        .collect();
-    let rect = centred(area, 80, lines.len() as u16 + 2);
-    frame.render_widget(Clear, rect);
-    frame.render_widget(
-        Paragraph::new(lines).block(frame_box(app, "Corrupt the plan into a new run")),
-        rect,
-    );
+/// The corruption picker (`c`): every kind and what it does, one
+/// highlighted.
+#[derive(Debug, Clone, Default)]
+pub struct CorruptPicker {
+    selected: usize,
+}
+
+impl Component for CorruptPicker {
+    type Outcome = Picked<Kind>;
+
+    fn contexts(&self) -> Vec<Context> {
+        vec![Context::Picker]
+    }
+
+    fn on_action(&mut self, action: Action) -> Self::Outcome {
+        match action {
+            Action::Accept => Kind::ALL
+                .get(self.selected)
+                .map_or(Picked::Cancelled, |&kind| Picked::Chosen(kind)),
+            Action::Leave => Picked::Cancelled,
+            Action::Move(delta) => {
+                self.selected = moved(self.selected, delta, Kind::ALL.len());
+                Picked::Open
+            }
+            _ => Picked::Open,
+        }
+    }
+
+    fn on_other_key(&mut self, _key: KeyEvent) -> Self::Outcome {
+        Picked::Open
+    }
+
+    fn draw(&self, frame: &mut Frame, area: Rect, theme: &Theme) {
+        let lines: Vec<Line> = Kind::ALL
+            .iter()
+            .enumerate()
+            .map(|(i, &kind)| {
+                let chosen = i == self.selected;
+                let style = if chosen { theme.selection } else { theme.base };
+                Line::from(vec![
+                    Span::styled(format!("{:<12}", kind.name()), style),
+                    Span::styled(describe(kind), if chosen { style } else { theme.muted }),
+                ])
+            })
+            .collect();
+        let rect = centred(area, 80, lines.len() as u16 + 2);
+        frame.render_widget(Clear, rect);
+        frame.render_widget(
+            Paragraph::new(lines).block(themed_box(theme, "Corrupt the plan into a new run")),
+            rect,
+        );
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use crossterm::event::{KeyCode, KeyModifiers};
+
+    use super::*;
+    use crate::workbench::component::dispatch;
+
+    #[test]
+    fn the_corrupt_picker_offers_every_kind_and_stops_at_the_last() {
+        let mut picker = CorruptPicker::default();
+        let down = KeyEvent::new(KeyCode::Char('j'), KeyModifiers::NONE);
+        for _ in 0..Kind::ALL.len() + 2 {
+            assert_eq!(dispatch(&mut picker, &down), Picked::Open);
+        }
+        let enter = KeyEvent::new(KeyCode::Enter, KeyModifiers::NONE);
+        assert_eq!(
+            dispatch(&mut picker, &enter),
+            Picked::Chosen(Kind::ALL[Kind::ALL.len() - 1])
+        );
+    }
 }

@@ -12,19 +12,19 @@ pub mod runs;
 
 use crossterm::event::KeyEvent;
 use ratatui::layout::Rect;
-use ratatui::text::{Line, Span};
-use ratatui::widgets::{Block, Borders, Clear, Paragraph};
+use ratatui::text::Span;
+use ratatui::widgets::{Block, Borders, Clear};
 use ratatui::Frame;
-use ratatui_textarea::TextArea;
 
 use crate::workbench::app::App;
 use crate::workbench::component::{self, Component};
 use crate::workbench::keymap::{self, Action, Context};
 use crate::workbench::message::Cmd;
+use crate::workbench::overlays::corrupt::CorruptPicker;
 use crate::workbench::overlays::help::{Close, Help};
 use crate::workbench::overlays::model_form::ModelForm;
+use crate::workbench::overlays::pickers::{GroundTruthPicker, PathPrompt};
 use crate::workbench::overlays::prompt_sets::{SetName, SetPicker};
-use crate::workbench::panes::list_window;
 use crate::workbench::theme::Theme;
 
 /// A modal view over the panes.
@@ -33,12 +33,9 @@ pub enum Overlay {
     /// Every key.
     Help,
     /// Choose a ground truth.
-    GroundTruthPicker {
-        /// The highlighted choice.
-        selected: usize,
-    },
+    GroundTruthPicker(GroundTruthPicker),
     /// Type the path of a step file.
-    StepFilePath(Box<TextArea<'static>>),
+    StepFilePath(Box<PathPrompt>),
     /// Provider, model, temperature and token limit of an agent.
     ModelForm(ModelForm),
     /// The name to save the prompts under as a prompt set.
@@ -50,10 +47,18 @@ pub enum Overlay {
     /// The framed actions and their matches.
     Actions,
     /// Choose how to corrupt the plan into a new run.
-    CorruptPicker {
-        /// The highlighted kind.
-        selected: usize,
-    },
+    CorruptPicker(CorruptPicker),
+}
+
+/// What a key in a picker or prompt asks of the workbench.
+#[derive(Debug, Clone, PartialEq, Eq)]
+pub enum Picked<T> {
+    /// The overlay stays open.
+    Open,
+    /// The overlay was closed.
+    Cancelled,
+    /// The overlay closed on this choice.
+    Chosen(T),
 }
 
 impl Overlay {
@@ -62,9 +67,7 @@ impl Overlay {
     pub fn context(&self) -> Option<Context> {
         match self {
             Overlay::Help => None,
-            Overlay::GroundTruthPicker { .. } | Overlay::CorruptPicker { .. } => {
-                Some(Context::Picker)
-            }
+            Overlay::GroundTruthPicker(_) | Overlay::CorruptPicker(_) => Some(Context::Picker),
             Overlay::StepFilePath(_) => Some(Context::PathPrompt),
             Overlay::ModelForm(_) => Some(Context::ModelForm),
             Overlay::PromptSetName(_) => Some(Context::SetName),
@@ -103,9 +106,23 @@ impl App {
                 }
                 Vec::new()
             }
-            Overlay::GroundTruthPicker { selected } => self.on_picker_key(selected, action),
-            Overlay::CorruptPicker { selected } => self.on_corrupt_picker_key(selected, action),
-            Overlay::StepFilePath(editor) => self.on_path_key(editor, action, key),
+            Overlay::GroundTruthPicker(picker) => {
+                match self.pick(picker, &key, Overlay::GroundTruthPicker) {
+                    Some(choice) => self.choose_ground_truth(choice),
+                    None => Vec::new(),
+                }
+            }
+            Overlay::CorruptPicker(picker) => match self.pick(picker, &key, Overlay::CorruptPicker)
+            {
+                Some(kind) => self.corrupt_with(kind),
+                None => Vec::new(),
+            },
+            Overlay::StepFilePath(prompt) => {
+                match self.pick(*prompt, &key, |p| Overlay::StepFilePath(Box::new(p))) {
+                    Some(path) => vec![Cmd::ReadStepFile(path)],
+                    None => Vec::new(),
+                }
+            }
             Overlay::ModelForm(form) => self.on_model_form_key(form, key),
             Overlay::PromptSetName(prompt) => self.on_set_name_key(prompt, key),
             Overlay::PromptSetPicker(picker) => self.on_set_picker_key(picker, key),
@@ -113,6 +130,28 @@ impl App {
                 let outcome = component::dispatch(view.as_mut(), &key);
                 self.on_runs_outcome(view, outcome)
             }
+        }
+    }
+
+    /// Hands `key` to the open picker or prompt `overlay`: puts it back
+    /// (made an [`Overlay`] by `reopen`) while it stays open, and returns
+    /// what it chose.
+    fn pick<C, T>(
+        &mut self,
+        mut overlay: C,
+        key: &KeyEvent,
+        reopen: impl FnOnce(C) -> Overlay,
+    ) -> Option<T>
+    where
+        C: Component<Outcome = Picked<T>>,
+    {
+        match component::dispatch(&mut overlay, key) {
+            Picked::Open => {
+                self.overlay = Some(reopen(overlay));
+                None
+            }
+            Picked::Cancelled => None,
+            Picked::Chosen(choice) => Some(choice),
         }
     }
 }
@@ -129,10 +168,6 @@ pub(crate) fn centred(area: Rect, width: u16, height: u16) -> Rect {
     )
 }
 
-pub(crate) fn frame_box<'a>(app: &App, title: &'a str) -> Block<'a> {
-    themed_box(&app.theme, title)
-}
-
 /// The frame of an overlay, titled `title`, in `theme`'s colours.
 pub(crate) fn themed_box<'a>(theme: &Theme, title: &'a str) -> Block<'a> {
     Block::default()
@@ -146,14 +181,14 @@ pub(crate) fn themed_box<'a>(theme: &Theme, title: &'a str) -> Block<'a> {
 /// and returns the area inside the frame.
 pub(crate) fn open_box(
     frame: &mut Frame,
-    app: &App,
+    theme: &Theme,
     area: Rect,
     size: (u16, u16),
     title: &str,
 ) -> Rect {
     let rect = centred(area, size.0, size.1);
     frame.render_widget(Clear, rect);
-    let block = frame_box(app, title);
+    let block = themed_box(theme, title);
     let inner = block.inner(rect);
     frame.render_widget(block, rect);
     inner
@@ -165,43 +200,14 @@ pub(crate) fn render_overlay(frame: &mut Frame, app: &App, area: Rect) {
     let t = &app.theme;
     match overlay {
         Overlay::Help => Help.draw(frame, area, t),
-        Overlay::GroundTruthPicker { selected } => {
-            let choices = app.ground_truth_choices();
-            let rect = centred(area, 90, choices.len() as u16 + 2);
-            let inner_height = rect.height.saturating_sub(2) as usize;
-            let (first, count) = list_window(*selected, choices.len(), 1, inner_height);
-            let lines: Vec<Line> = choices
-                .iter()
-                .enumerate()
-                .skip(first)
-                .take(count)
-                .map(|(i, (_, label))| {
-                    let style = if i == *selected { t.selection } else { t.base };
-                    Line::from(Span::styled(label.clone(), style))
-                })
-                .collect();
-            frame.render_widget(Clear, rect);
-            frame.render_widget(
-                Paragraph::new(lines).block(frame_box(app, "Ground truth (Enter chooses)")),
-                rect,
-            );
-        }
-        Overlay::StepFilePath(editor) => {
-            let inner = open_box(
-                frame,
-                app,
-                area,
-                (80, 3),
-                "Step file path (Enter loads, Esc cancels)",
-            );
-            frame.render_widget(editor.as_ref(), inner);
-        }
+        Overlay::GroundTruthPicker(picker) => picker.draw(frame, area, t),
+        Overlay::StepFilePath(prompt) => prompt.draw(frame, area, t),
         Overlay::ModelForm(form) => form.draw(frame, area, t),
         Overlay::PromptSetName(prompt) => prompt.draw(frame, area, t),
         Overlay::PromptSetPicker(picker) => picker.draw(frame, area, t),
         Overlay::Runs(view) => view.draw(frame, area, t),
         Overlay::Actions => actions::draw(frame, app, area),
-        Overlay::CorruptPicker { selected } => corrupt::draw(frame, app, area, *selected),
+        Overlay::CorruptPicker(picker) => picker.draw(frame, area, t),
     }
 }
 

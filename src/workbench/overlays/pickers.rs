@@ -1,18 +1,27 @@
-//! The ground-truth picker and the step-file path prompt.
+//! The ground-truth picker and the step-file path prompt, each a
+//! [`Component`] that owns what it shows: the picker the choices offered
+//! when it opened, the prompt the path being typed.
 
 use std::path::PathBuf;
 
 use crossterm::event::KeyEvent;
+use ratatui::layout::Rect;
+use ratatui::text::{Line, Span};
+use ratatui::widgets::{Clear, Paragraph};
+use ratatui::Frame;
 use ratatui_textarea::TextArea;
 
 use crate::workbench::app::App;
+use crate::workbench::component::Component;
 use crate::workbench::editing::Editing;
-use crate::workbench::keymap::Action;
+use crate::workbench::keymap::{Action, Context};
 use crate::workbench::message::Cmd;
-use crate::workbench::overlays::{moved, Overlay};
+use crate::workbench::overlays::{centred, moved, open_box, themed_box, Overlay, Picked};
+use crate::workbench::panes::list_window;
 use crate::workbench::panes::steps::{demo_ground_truth, StepList};
 use crate::workbench::panes::Pane;
 use crate::workbench::session::GroundTruthSource;
+use crate::workbench::theme::Theme;
 
 /// A ground truth the picker offers.
 #[derive(Debug, Clone, PartialEq, Eq)]
@@ -27,46 +36,133 @@ pub enum GroundTruthChoice {
     Typed,
 }
 
-impl App {
-    /// A key of the ground-truth picker.
-    pub(crate) fn on_picker_key(&mut self, selected: usize, action: Option<Action>) -> Vec<Cmd> {
-        let choices = self.ground_truth_choices();
-        match action {
-            Some(Action::Accept) => {
-                if let Some((choice, _)) = choices.get(selected) {
-                    return self.choose_ground_truth(choice.clone());
-                }
-            }
-            Some(Action::Leave) => {}
-            Some(Action::Move(delta)) => {
-                self.overlay = Some(Overlay::GroundTruthPicker {
-                    selected: moved(selected, delta, choices.len()),
-                });
-            }
-            _ => self.overlay = Some(Overlay::GroundTruthPicker { selected }),
-        }
-        Vec::new()
+/// The ground-truth picker (`g`): the choices with their labels, one
+/// highlighted.
+#[derive(Debug, Clone)]
+pub struct GroundTruthPicker {
+    choices: Vec<(GroundTruthChoice, String)>,
+    selected: usize,
+}
+
+impl GroundTruthPicker {
+    /// A picker over `choices`, on the one at `selected`.
+    pub fn new(choices: Vec<(GroundTruthChoice, String)>, selected: usize) -> GroundTruthPicker {
+        GroundTruthPicker { choices, selected }
+    }
+}
+
+impl Component for GroundTruthPicker {
+    type Outcome = Picked<GroundTruthChoice>;
+
+    fn contexts(&self) -> Vec<Context> {
+        vec![Context::Picker]
     }
 
-    /// A key of the step-file path prompt: other keys are typed.
-    pub(crate) fn on_path_key(
-        &mut self,
-        mut editor: Box<TextArea<'static>>,
-        action: Option<Action>,
-        key: KeyEvent,
-    ) -> Vec<Cmd> {
+    fn on_action(&mut self, action: Action) -> Self::Outcome {
         match action {
-            Some(Action::Accept) => {
-                let path = PathBuf::from(editor.lines().join("").trim());
-                vec![Cmd::ReadStepFile(path)]
+            Action::Accept => self
+                .choices
+                .get(self.selected)
+                .map_or(Picked::Cancelled, |(choice, _)| {
+                    Picked::Chosen(choice.clone())
+                }),
+            Action::Leave => Picked::Cancelled,
+            Action::Move(delta) => {
+                self.selected = moved(self.selected, delta, self.choices.len());
+                Picked::Open
             }
-            Some(Action::Leave) => Vec::new(),
-            _ => {
-                editor.input(key);
-                self.overlay = Some(Overlay::StepFilePath(editor));
-                Vec::new()
-            }
+            _ => Picked::Open,
         }
+    }
+
+    fn on_other_key(&mut self, _key: KeyEvent) -> Self::Outcome {
+        Picked::Open
+    }
+
+    fn draw(&self, frame: &mut Frame, area: Rect, theme: &Theme) {
+        let rect = centred(area, 90, self.choices.len() as u16 + 2);
+        let inner_height = rect.height.saturating_sub(2) as usize;
+        let (first, count) = list_window(self.selected, self.choices.len(), 1, inner_height);
+        let lines: Vec<Line> = self
+            .choices
+            .iter()
+            .enumerate()
+            .skip(first)
+            .take(count)
+            .map(|(i, (_, label))| {
+                let style = if i == self.selected {
+                    theme.selection
+                } else {
+                    theme.base
+                };
+                Line::from(Span::styled(label.clone(), style))
+            })
+            .collect();
+        frame.render_widget(Clear, rect);
+        frame.render_widget(
+            Paragraph::new(lines).block(themed_box(theme, "Ground truth (Enter chooses)")),
+            rect,
+        );
+    }
+}
+
+/// The step-file path prompt: the path being typed.
+#[derive(Debug, Clone, Default)]
+pub struct PathPrompt {
+    editor: TextArea<'static>,
+}
+
+impl Component for PathPrompt {
+    type Outcome = Picked<PathBuf>;
+
+    fn contexts(&self) -> Vec<Context> {
+        vec![Context::PathPrompt]
+    }
+
+    fn on_action(&mut self, action: Action) -> Self::Outcome {
+        match action {
+            Action::Accept => Picked::Chosen(PathBuf::from(self.editor.lines().join("").trim())),
+            Action::Leave => Picked::Cancelled,
+            _ => Picked::Open,
+        }
+    }
+
+    fn on_other_key(&mut self, key: KeyEvent) -> Self::Outcome {
+        self.editor.input(key);
+        Picked::Open
+    }
+
+    fn draw(&self, frame: &mut Frame, area: Rect, theme: &Theme) {
+        let inner = open_box(
+            frame,
+            theme,
+            area,
+            (80, 3),
+            "Step file path (Enter loads, Esc cancels)",
+        );
+        frame.render_widget(&self.editor, inner);
+    }
+}
+
+impl App {
+    /// `g`: opens the ground-truth picker on the ground truth in use.
+    pub(crate) fn open_ground_truth_picker(&mut self) {
+        let choices = self.ground_truth_choices();
+        let selected = choices
+            .iter()
+            .position(|(c, _)| match (c, &self.ground_truth_source) {
+                (GroundTruthChoice::Demo(i), GroundTruthSource::Demo { index }) => i == index,
+                (GroundTruthChoice::Task(i), GroundTruthSource::Dataset { task }) => self
+                    .dataset
+                    .as_ref()
+                    .and_then(|d| d.tasks.get(*i))
+                    .is_some_and(|t| &t.id == task),
+                _ => false,
+            })
+            .unwrap_or(0);
+        self.overlay = Some(Overlay::GroundTruthPicker(GroundTruthPicker::new(
+            choices, selected,
+        )));
     }
 
     /// The ground truths the picker offers, with their labels.
@@ -133,5 +229,60 @@ impl App {
         }
         self.ground_truth.selected = 0;
         vec![self.rescore()]
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use crossterm::event::{KeyCode, KeyEvent, KeyModifiers};
+
+    use super::*;
+    use crate::workbench::component::dispatch;
+
+    fn press(code: KeyCode) -> KeyEvent {
+        KeyEvent::new(code, KeyModifiers::NONE)
+    }
+
+    #[test]
+    fn the_picker_moves_within_its_choices_and_chooses_the_highlighted_one() {
+        let choices = vec![
+            (GroundTruthChoice::Demo(0), "A".to_string()),
+            (GroundTruthChoice::File, "file".to_string()),
+        ];
+        let mut picker = GroundTruthPicker::new(choices, 0);
+        for _ in 0..3 {
+            assert_eq!(dispatch(&mut picker, &press(KeyCode::Down)), Picked::Open);
+        }
+        assert_eq!(
+            dispatch(&mut picker, &press(KeyCode::Char('x'))),
+            Picked::Open
+        );
+        assert_eq!(
+            dispatch(&mut picker, &press(KeyCode::Enter)),
+            Picked::Chosen(GroundTruthChoice::File)
+        );
+        assert_eq!(
+            dispatch(&mut picker, &press(KeyCode::Esc)),
+            Picked::Cancelled
+        );
+    }
+
+    #[test]
+    fn the_path_prompt_types_keys_and_gives_the_trimmed_path() {
+        let mut prompt = PathPrompt::default();
+        for c in " a/b.txt ".chars() {
+            assert_eq!(
+                dispatch(&mut prompt, &press(KeyCode::Char(c))),
+                Picked::Open
+            );
+        }
+        assert_eq!(
+            dispatch(&mut prompt, &press(KeyCode::Enter)),
+            Picked::Chosen(PathBuf::from("a/b.txt"))
+        );
+        assert_eq!(
+            dispatch(&mut prompt, &press(KeyCode::Esc)),
+            Picked::Cancelled
+        );
     }
 }

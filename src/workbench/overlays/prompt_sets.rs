@@ -21,20 +21,13 @@ use crate::workbench::app::{single_line_editor, App, Severity};
 use crate::workbench::component::{self, Component};
 use crate::workbench::keymap::{Action, Context};
 use crate::workbench::message::Cmd;
-use crate::workbench::overlays::{centred, moved, themed_box, Overlay};
+use crate::workbench::overlays::{centred, moved, themed_box, Overlay, Picked};
 use crate::workbench::panes::list_window;
 use crate::workbench::theme::Theme;
 
-/// What a key in a prompt-set overlay asks of the workbench.
-#[derive(Debug, Clone, PartialEq, Eq)]
-pub enum SetOutcome {
-    /// The overlay stays open.
-    Open,
-    /// The overlay was closed.
-    Cancelled,
-    /// Save the prompts as, or load, the set of this name.
-    Chosen(String),
-}
+/// What a key in a prompt-set overlay asks of the workbench: the set's
+/// name when one is chosen.
+pub type SetOutcome = Picked<String>;
 
 /// The name to save the prompts under, being typed.
 #[derive(Debug, Clone)]

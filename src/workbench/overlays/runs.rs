@@ -341,7 +341,7 @@ fn verdict_line(v: &Verdict, t: &Theme) -> Line<'static> {
             t.good.add_modifier(Modifier::BOLD),
         ),
         Judgement::Within { p } => (
-            format!("within the spread of {n}+{m} samples (p {p:.3}): noise"),
+            format!("within the spread of {n}+{m} samples (p {p:.3}): may be noise"),
             t.warn,
         ),
         Judgement::TooFewSamples => (
