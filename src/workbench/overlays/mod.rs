@@ -4,6 +4,7 @@
 
 pub mod actions;
 pub mod corrupt;
+mod diff_page;
 pub mod help;
 pub mod model_form;
 pub mod pickers;

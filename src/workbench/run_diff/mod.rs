@@ -8,137 +8,20 @@
 //! table: it reads the scores the runs were given (per sample through
 //! [`sample_scores`], per step from [`RunRecord::steps`]) and never scores.
 
-use similar::{capture_diff_slices, Algorithm, ChangeTag, DiffOp, TextDiff};
+mod verdict;
+mod words;
+
+pub use verdict::{Judgement, ReadMetric, Verdict, METRICS, SIGNIFICANCE};
+pub use words::{changed_lines, word_diff, DiffLine, Piece};
+
+use similar::{capture_diff_slices, Algorithm, DiffOp};
 
 use crate::agents::config::AgentSettings;
 use crate::agents::cost::{dollars, Billing, PriceTable};
 use crate::agents::pipeline::AgentRecord;
 use crate::agents::{AgentRole, Usage};
-use crate::stats::permutation::mean_difference;
-use crate::stats::summary::mean;
 use crate::workbench::runs::sample_scores;
-use crate::workbench::session::{RunRecord, ScoreRecord, StepScore};
-
-/// Permutations of the verdicts' test (enough for a p-value near 0.05 to
-/// be read to about ±0.005).
-const PERMUTATIONS: usize = 2_000;
-
-/// The seed of the verdicts' permutations, fixed so a diff always reads the same.
-const SEED: u64 = 0;
-
-/// A change in mean with a permutation p-value below this exceeds the spread.
-pub const SIGNIFICANCE: f64 = 0.05;
-
-/// A stretch of text in a word diff: in both, only in the first, or only in
-/// the second.
-#[derive(Debug, Clone, PartialEq, Eq)]
-pub enum Piece {
-    /// Text both sides have.
-    Same(String),
-    /// Text only the first (older) side has.
-    Removed(String),
-    /// Text only the second (newer) side has.
-    Added(String),
-}
-
-impl Piece {
-    /// The text of the piece.
-    pub fn text(&self) -> &str {
-        match self {
-            Piece::Same(t) | Piece::Removed(t) | Piece::Added(t) => t,
-        }
-    }
-
-    /// Whether the piece is a change.
-    pub fn is_change(&self) -> bool {
-        !matches!(self, Piece::Same(_))
-    }
-
-    /// The same kind of piece holding `text`.
-    fn with(&self, text: &str) -> Piece {
-        match self {
-            Piece::Same(_) => Piece::Same(text.to_string()),
-            Piece::Removed(_) => Piece::Removed(text.to_string()),
-            Piece::Added(_) => Piece::Added(text.to_string()),
-        }
-    }
-}
-
-/// `old` against `new` word by word: runs of words (and the spaces between
-/// them) kept, removed or added, adjacent ones of a kind merged.
-pub fn word_diff(old: &str, new: &str) -> Vec<Piece> {
-    let diff = TextDiff::from_words(old, new);
-    let mut pieces: Vec<Piece> = Vec::new();
-    for change in diff.iter_all_changes() {
-        let text = change.value();
-        let piece = match change.tag() {
-            ChangeTag::Equal => Piece::Same(String::new()),
-            ChangeTag::Delete => Piece::Removed(String::new()),
-            ChangeTag::Insert => Piece::Added(String::new()),
-        };
-        match pieces.last_mut() {
-            Some(last) if std::mem::discriminant(last) == std::mem::discriminant(&piece) => {
-                *last = last.with(&format!("{}{text}", last.text()));
-            }
-            _ => pieces.push(piece.with(text)),
-        }
-    }
-    pieces
-}
-
-/// One line of a diff as shown: its pieces, or a count of unchanged lines
-/// left out.
-#[derive(Debug, Clone, PartialEq, Eq)]
-pub enum DiffLine {
-    /// A line, with its changes marked.
-    Text(Vec<Piece>),
-    /// This many unchanged lines left out.
-    Unchanged(usize),
-}
-
-/// The lines of a word diff that hold a change, with `context` unchanged
-/// lines around each; the unchanged stretches between are counted.
-pub fn changed_lines(pieces: &[Piece], context: usize) -> Vec<DiffLine> {
-    let mut lines: Vec<Vec<Piece>> = vec![Vec::new()];
-    for piece in pieces {
-        for (i, part) in piece.text().split('\n').enumerate() {
-            if i > 0 {
-                lines.push(Vec::new());
-            }
-            if !part.is_empty() {
-                if let Some(line) = lines.last_mut() {
-                    line.push(piece.with(part));
-                }
-            }
-        }
-    }
-    let changed: Vec<bool> = lines
-        .iter()
-        .map(|l| l.iter().any(Piece::is_change))
-        .collect();
-    let last = lines.len() - 1;
-    let near = |i: usize| {
-        let (lo, hi) = (i.saturating_sub(context), (i + context).min(last));
-        changed[lo..=hi].iter().any(|&c| c)
-    };
-    let mut out = Vec::new();
-    let mut skipped = 0;
-    for (i, line) in lines.into_iter().enumerate() {
-        if near(i) {
-            if skipped > 0 {
-                out.push(DiffLine::Unchanged(skipped));
-                skipped = 0;
-            }
-            out.push(DiffLine::Text(line));
-        } else {
-            skipped += 1;
-        }
-    }
-    if skipped > 0 {
-        out.push(DiffLine::Unchanged(skipped));
-    }
-    out
-}
+use crate::workbench::session::{RunRecord, StepScore};
 
 /// A setting whose value differs between the runs.
 #[derive(Debug, Clone, PartialEq, Eq)]
@@ -349,78 +232,6 @@ fn step_rows(a: &RunRecord, b: &RunRecord) -> Vec<StepRow> {
     rows
 }
 
-/// How to read one metric from a score.
-pub type ReadMetric = fn(&ScoreRecord) -> Option<f64>;
-
-/// The metrics a verdict is given for, with how to read each from a score.
-pub const METRICS: [(&str, ReadMetric); 4] = [
-    ("PG2S", |s| s.pg2s),
-    ("S_plan", |s| s.s_plan),
-    ("S_goal", |s| s.s_goal),
-    ("KAS", |s| s.kas),
-];
-
-/// Whether a metric's change is more than the spread of its samples.
-#[derive(Debug, Clone, Copy, PartialEq)]
-pub enum Judgement {
-    /// The change exceeds the spread (permutation p-value below [`SIGNIFICANCE`]).
-    Beyond {
-        /// The p-value.
-        p: f64,
-    },
-    /// The change is within the spread.
-    Within {
-        /// The p-value.
-        p: f64,
-    },
-    /// A run has fewer than two samples: no spread to compare with.
-    TooFewSamples,
-    /// A run has no value of the metric.
-    Missing,
-}
-
-/// The verdict on one metric.
-#[derive(Debug, Clone, Copy, PartialEq)]
-pub struct Verdict {
-    /// The metric's name.
-    pub metric: &'static str,
-    /// The mean over the first run's samples.
-    pub before: Option<f64>,
-    /// The mean over the second run's samples.
-    pub after: Option<f64>,
-    /// How many samples each run has of it.
-    pub samples: [usize; 2],
-    /// Whether the change exceeds the spread.
-    pub judgement: Judgement,
-}
-
-impl Verdict {
-    /// The change in mean, second run minus first.
-    pub fn change(&self) -> Option<f64> {
-        Some(self.after? - self.before?)
-    }
-
-    /// The verdict from the samples of the two runs.
-    pub fn of(metric: &'static str, before: &[f64], after: &[f64]) -> Verdict {
-        let judgement = if before.is_empty() || after.is_empty() {
-            Judgement::Missing
-        } else {
-            match mean_difference(before, after, PERMUTATIONS, SEED) {
-                Ok(test) if test.p_value < SIGNIFICANCE => Judgement::Beyond { p: test.p_value },
-                Ok(test) => Judgement::Within { p: test.p_value },
-                Err(_) => Judgement::TooFewSamples,
-            }
-        };
-        Verdict {
-            metric,
-            before: mean(before).ok(),
-            after: mean(after).ok(),
-            samples: [before.len(), after.len()],
-            judgement,
-        }
-    }
-}
-
 /// Everything the run diff view shows.
 #[derive(Debug, Clone, PartialEq)]
 pub struct RunDiff {
@@ -494,8 +305,10 @@ impl RunDiff {
 
 #[cfg(test)]
 mod tests {
+    use super::words::marked as text;
     use super::*;
     use crate::agents::Approach;
+    use crate::workbench::session::ScoreRecord;
 
     fn record(agent: AgentRole, output: &str) -> AgentRecord {
         AgentRecord {
@@ -539,48 +352,6 @@ mod tests {
                 .collect(),
             samples: Vec::new(),
         }
-    }
-
-    fn text(pieces: &[Piece]) -> String {
-        pieces
-            .iter()
-            .map(|p| match p {
-                Piece::Same(t) => t.clone(),
-                Piece::Removed(t) => format!("[-{t}-]"),
-                Piece::Added(t) => format!("{{+{t}+}}"),
-            })
-            .collect()
-    }
-
-    #[test]
-    fn a_prompt_diff_marks_the_words_changed_and_keeps_the_rest() {
-        let pieces = word_diff(
-            "List every object in the scene.",
-            "List every small object in the kitchen.",
-        );
-        assert_eq!(
-            text(&pieces),
-            "List every {+small +}object in the [-scene.-]{+kitchen.+}"
-        );
-        assert_eq!(
-            word_diff("same words", "same words"),
-            vec![Piece::Same("same words".into())]
-        );
-    }
-
-    #[test]
-    fn only_changed_lines_and_their_context_are_shown() {
-        let old = "a\nb\nc\nd\ne\nf\ng";
-        let new = "a\nb\nc\nD\ne\nf\ng";
-        let lines = changed_lines(&word_diff(old, new), 1);
-        let shown: Vec<String> = lines
-            .iter()
-            .map(|l| match l {
-                DiffLine::Text(p) => text(p),
-                DiffLine::Unchanged(n) => format!("({n})"),
-            })
-            .collect();
-        assert_eq!(shown, ["(2)", "c", "[-d-]{+D+}", "e", "(2)"]);
     }
 
     #[test]
@@ -701,25 +472,7 @@ mod tests {
     }
 
     #[test]
-    fn verdicts_come_from_the_samples_spread() {
-        let apart = Verdict::of("KAS", &[0.40, 0.41, 0.39, 0.42], &[0.60, 0.61, 0.62, 0.59]);
-        assert!(
-            matches!(apart.judgement, Judgement::Beyond { p } if p < 0.05),
-            "{apart:?}"
-        );
-        assert!((apart.change().unwrap_or_default() - 0.2).abs() < 1e-9);
-        let noisy = Verdict::of("KAS", &[0.2, 0.8, 0.5], &[0.3, 0.7, 0.55]);
-        assert!(
-            matches!(noisy.judgement, Judgement::Within { p } if p > 0.5),
-            "{noisy:?}"
-        );
-        let one = Verdict::of("PG2S", &[0.4], &[0.6]);
-        assert_eq!(one.judgement, Judgement::TooFewSamples);
-        assert_eq!(one.samples, [1, 1]);
-        assert_eq!(
-            Verdict::of("S_goal", &[], &[0.6]).judgement,
-            Judgement::Missing
-        );
+    fn a_diff_of_one_sample_runs_gives_means_and_says_too_few_samples() {
         // Two runs of one sample each, as runs are today.
         let a = run(1, vec![], &["Go."], Some(0.5));
         let b = run(2, vec![], &["Go."], Some(0.75));
