@@ -142,15 +142,15 @@ fn a_runner_prepares_a_tasks_image_once_for_every_stage() {
             .collect()
     };
     let first = runner();
-    let estimate = sent(first.next_stage(Approach::MultiImage, &task).unwrap());
+    let estimate = sent(first.next_stage(Approach::MultiImage, &task, 0).unwrap());
     assert_eq!(estimate.len(), 2, "SKM and GKM see the scene");
     // The file is no image any more: the runner that prepared it does not
     // read it again, a new one does and refuses.
     std::fs::write(&image, b"not an image").unwrap();
-    let round = sent(first.next_stage(Approach::MultiImage, &task).unwrap());
+    let round = sent(first.next_stage(Approach::MultiImage, &task, 0).unwrap());
     assert_eq!(round, estimate);
     let fresh = runner()
-        .next_stage(Approach::MultiImage, &task)
+        .next_stage(Approach::MultiImage, &task, 0)
         .unwrap_err();
     assert!(fresh.to_string().contains("scene.jpg"), "{fresh}");
 }

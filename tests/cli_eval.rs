@@ -4,7 +4,7 @@
 mod agents_support;
 mod common;
 
-use std::path::Path;
+use std::path::{Path, PathBuf};
 use std::process::Output;
 
 use agents_support::*;
@@ -241,8 +241,9 @@ fn task_json(home: &Path, dir: &str, file: &str) -> Value {
     serde_json::from_str(&text).unwrap()
 }
 
-#[tokio::test(flavor = "multi_thread")]
-async fn eval_reports_tokens_and_cost_per_task_and_cached_answers_cost_nothing() {
+/// Two tasks, a config pricing `test-model`, and a server answering every
+/// plan with the same two steps at its base URL.
+async fn two_priced_tasks_and_a_planner() -> (tempfile::TempDir, PathBuf, MockServer, String) {
     let home = tempfile::tempdir().unwrap();
     let data = two_tasks(home.path());
     priced_config(home.path());
@@ -251,6 +252,12 @@ async fn eval_reports_tokens_and_cost_per_task_and_cached_answers_cost_nothing()
     let plan = whole(provider, "1. Walk to the sink.\n2. Wash the mug.");
     answer(&server, provider, PLANNER_MARK, plan).await;
     let base = format!("{}/v1", server.uri());
+    (home, data, server, base)
+}
+
+#[tokio::test(flavor = "multi_thread")]
+async fn eval_reports_tokens_and_cost_per_task_and_cached_answers_cost_nothing() {
+    let (home, data, server, base) = two_priced_tasks_and_a_planner().await;
     let requests = || async { server.received_requests().await.unwrap().len() };
 
     let (ok, stderr) = eval_into(
@@ -340,4 +347,52 @@ fn no_cache_turns_the_embedding_cache_off_too() {
         }
     }
     assert!(stored() > 0, "without --no-cache the embeddings are stored");
+}
+
+#[tokio::test(flavor = "multi_thread")]
+async fn eval_samples_are_written_one_file_each_and_a_rerun_asks_only_for_missing_ones() {
+    let (home, data, server, base) = two_priced_tasks_and_a_planner().await;
+    let requests = || async { server.received_requests().await.unwrap().len() };
+    let samples = |n: &'static str| ["--no-cache", "--samples", n];
+
+    let mut refused = samples("3").to_vec();
+    refused.extend(["--max-cost", "0"]);
+    let (ok, stderr) = eval_into(home.path(), &data, &base, "s", &refused).await;
+    assert!(!ok, "{stderr}");
+    assert!(
+        stderr.contains("6 requests to send"),
+        "every sample counted: {stderr}"
+    );
+    assert_eq!(requests().await, 0);
+
+    let (ok, stderr) = eval_into(home.path(), &data, &base, "s", &samples("2")).await;
+    assert!(ok, "{stderr}");
+    assert_eq!(requests().await, 4, "2 tasks × 2 samples");
+    let first = task_json(home.path(), "s", "t-1.single-image.json");
+    assert!(
+        first.get("sample").is_none(),
+        "the first sample's file as before"
+    );
+    let second = task_json(home.path(), "s", "t-1.single-image.s1.json");
+    assert_eq!(second["sample"], 1);
+    assert_eq!(second["record"]["sample"], 1);
+    let markdown = std::fs::read_to_string(home.path().join("s/table3.md")).unwrap();
+    assert!(
+        markdown.contains("| t-1 | Put the mug in the sink | n/a | 0.750 ±0.000 |"),
+        "{markdown}"
+    );
+    assert!(markdown.contains("Spread over 2 samples"), "{markdown}");
+
+    std::fs::remove_file(home.path().join("s/tasks/t-2.single-image.s1.json")).unwrap();
+    let (ok, stderr) = eval_into(home.path(), &data, &base, "s", &samples("2")).await;
+    assert!(ok, "{stderr}");
+    assert_eq!(requests().await, 5, "only the missing sample asked again");
+    let (ok, stderr) = eval_into(home.path(), &data, &base, "s", &samples("3")).await;
+    assert!(ok, "{stderr}");
+    assert_eq!(requests().await, 7, "one more sample of each task");
+    let manifest: Value = serde_json::from_str(
+        &std::fs::read_to_string(home.path().join("s/manifest.json")).unwrap(),
+    )
+    .unwrap();
+    assert_eq!(manifest["results"].as_array().unwrap().len(), 6);
 }

@@ -320,7 +320,9 @@ fn session_of(record: &mapvlm::agents::pipeline::PlanRecord) -> Session {
             cancelled: false,
             corrupted: None,
             steps: Vec::new(),
+            samples: Vec::new(),
         }],
+        samples: 1,
         draft: None,
     }
 }

@@ -821,3 +821,64 @@ fn the_run_diff_shows_the_prompt_change_and_each_steps_score_change() {
     h.key(KeyCode::Esc);
     assert!(h.app.overlay.is_none());
 }
+
+/// A run of three samples: the Scores pane shows each score's mean ±sd
+/// right after its name, then its min–max; the history's sparkline shows
+/// the run's min, mean and max.
+#[test]
+fn scores_of_a_sampled_run_show_their_spread() {
+    use mapvlm::workbench::session::{SampleRecord, ScoreRecord};
+
+    let mut h = Harness::new((120, 40), None, false, bag_of_words());
+    let first = h.app.runs.history[0].clone();
+    let one = first.clone();
+    let mut sampled = first.clone();
+    sampled.id = first.id + 1;
+    sampled.scores = Some(ScoreRecord {
+        kas: Some(0.5),
+        s_plan: Some(0.6),
+        s_goal: Some(0.7),
+        pg2s: Some(0.41),
+    });
+    sampled.samples = [(1, 0.455, 0.25), (2, 0.434, 0.75)]
+        .into_iter()
+        .map(|(sample, pg2s, kas)| SampleRecord {
+            sample,
+            outputs: Default::default(),
+            plan: first.plan.clone(),
+            usage: Default::default(),
+            error: None,
+            scores: Some(ScoreRecord {
+                kas: Some(kas),
+                s_plan: Some(0.6),
+                s_goal: None,
+                pg2s: Some(pg2s),
+            }),
+        })
+        .collect();
+    h.app.runs.history = vec![one, sampled];
+    h.app.plan_source = mapvlm::workbench::session::PlanSource::Run { run: first.id + 1 };
+    h.app.focus = Pane::Scores;
+    h.key(KeyCode::Char('z'));
+    let screen = h.screen();
+    // PG2S of the samples 0.41, 0.455, 0.434: mean 0.433, sd 0.0225.
+    assert!(
+        screen.contains("PG2S 0.433 ±0.023  0.410–0.455"),
+        "{screen}"
+    );
+    assert!(screen.contains("KAS 0.500 ±0.250  0.250–0.750"), "{screen}");
+    assert!(
+        screen.contains("S_plan 0.600 ±0.000  0.600–0.600"),
+        "{screen}"
+    );
+    assert!(
+        screen.contains("S_goal 0.700  0.700–0.700"),
+        "one sample has S_goal: {screen}"
+    );
+    assert!(screen.contains("run #2: 3 of 3 samples scored"), "{screen}");
+    assert!(
+        screen.contains("#2   PG2S 0.433 ±0.023 KAS 0.500 ±0.250"),
+        "{screen}"
+    );
+    insta::assert_snapshot!("scores_with_spread_120x40", screen);
+}

@@ -259,6 +259,26 @@ fn editing_a_demo_prompt_says_which_provider_to_set() {
     );
 }
 
+/// A pipeline whose live agents ask `server` with the test key, caching
+/// in `cache`.
+fn live_pipeline(server: &MockServer, cache: &std::path::Path) -> AgentsPipeline {
+    let uri = format!("{}/v1", server.uri());
+    AgentsPipeline::new(
+        ProviderConfig {
+            file: ConfigFile::default(),
+            path: None,
+            env: Box::new(move |name| match name {
+                "OPENAI_API_KEY" => Some(KEY.to_string()),
+                "OPENAI_BASE_URL" => Some(uri.clone()),
+                _ => None,
+            }),
+        },
+        Some(ResponseCache::new(cache)),
+        Pace::Instant,
+    )
+    .unwrap()
+}
+
 fn live_settings() -> AgentSettings {
     AgentSettings::new(ProviderKind::Openai, "test-model", 0.0, 321)
 }
@@ -271,23 +291,9 @@ fn a_live_run_streams_into_the_panes_and_an_edited_planner_prompt_asks_once() {
         true,
         Default::default(),
     ));
-    let uri = format!("{}/v1", server.uri());
-    let served = uri.clone();
+    let served = format!("{}/v1", server.uri());
     let cache_dir = tempfile::tempdir().unwrap();
-    let pipeline = AgentsPipeline::new(
-        ProviderConfig {
-            file: ConfigFile::default(),
-            path: None,
-            env: Box::new(move |name| match name {
-                "OPENAI_API_KEY" => Some(KEY.to_string()),
-                "OPENAI_BASE_URL" => Some(uri.clone()),
-                _ => None,
-            }),
-        },
-        Some(ResponseCache::new(cache_dir.path())),
-        Pace::Instant,
-    )
-    .unwrap();
+    let pipeline = live_pipeline(&server, cache_dir.path());
     let (mut app, cmds) = App::new(AppInit::demo((200, 60), "no models in this test"));
     run_cmds(&mut app, &pipeline, cmds);
     assert!(
@@ -297,9 +303,7 @@ fn a_live_run_streams_into_the_panes_and_an_edited_planner_prompt_asks_once() {
             .is_empty(),
         "the demo's replay asks no server"
     );
-    for role in [AgentRole::Skm, AgentRole::Gkm, AgentRole::Planner] {
-        app.runs.agents.get_mut(&role).unwrap().settings = live_settings();
-    }
+    go_live(&mut app);
 
     let cmds = key(&mut app, KeyCode::Char('r'));
     let Some(Cmd::StartRun(request)) = cmds.first().cloned() else {
@@ -365,4 +369,118 @@ fn a_live_run_streams_into_the_panes_and_an_edited_planner_prompt_asks_once() {
     assert!(app.runs.history[1].prompts[&AgentRole::Planner].contains(PLANNER_MARK));
     let saved = serde_json::to_string(&app.runs.history).unwrap();
     assert!(!saved.contains(KEY), "no key in the run history");
+}
+
+/// The settings of every multi-agent role pointing at a live server.
+fn go_live(app: &mut App) {
+    for role in [AgentRole::Skm, AgentRole::Gkm, AgentRole::Planner] {
+        app.runs.agents.get_mut(&role).unwrap().settings = live_settings();
+    }
+}
+
+#[test]
+fn samples_ask_each_agent_n_times_keep_every_sample_and_reuse_them() {
+    let runtime = tokio::runtime::Runtime::new().unwrap();
+    let server = runtime.block_on(async {
+        let server = MockServer::start().await;
+        wiremock::Mock::given(wiremock::matchers::method("POST"))
+            .respond_with(Numbered::default())
+            .mount(&server)
+            .await;
+        server
+    });
+    let cache_dir = tempfile::tempdir().unwrap();
+    let pipeline = live_pipeline(&server, cache_dir.path());
+    let (mut app, cmds) = App::new(AppInit::demo((200, 60), "no models in this test"));
+    run_cmds(&mut app, &pipeline, cmds);
+    let requests = || runtime.block_on(server.received_requests()).unwrap();
+
+    key(&mut app, KeyCode::Char('S'));
+    assert_eq!(app.samples, 3);
+    let cmds = key(&mut app, KeyCode::Char('R'));
+    let Some(Cmd::StartRun(request)) = cmds.first() else {
+        panic!("no run: {:?}", app.status)
+    };
+    let refused = pipeline.check(request).unwrap_err().to_string();
+    assert!(
+        refused.starts_with("SKM answers from the demo's recording, which holds one sample"),
+        "{refused}"
+    );
+    key(&mut app, KeyCode::Char('x'));
+
+    go_live(&mut app);
+    let cmds = key(&mut app, KeyCode::Char('R'));
+    run_cmds(&mut app, &pipeline, cmds);
+    assert_eq!(requests().len(), 9, "3 samples of SKM, GKM and the Planner");
+    let run = app.runs.history.last().unwrap().clone();
+    assert_eq!(run.samples.len(), 2, "the samples after the first");
+    assert_eq!(
+        mapvlm::workbench::runs::sample_scores(&run).len(),
+        3,
+        "every sample scored"
+    );
+    let planners: Vec<String> = requests()
+        .iter()
+        .map(|r| String::from_utf8_lossy(&r.body).into_owned())
+        .filter(|b| b.contains(PLANNER_MARK))
+        .collect();
+    let first_skm = run
+        .agents
+        .iter()
+        .find(|a| a.role == AgentRole::Skm)
+        .unwrap()
+        .output_text()
+        .to_string();
+    let mut skms = vec![first_skm];
+    for sample in &run.samples {
+        assert!(sample.error.is_none(), "{:?}", sample.error);
+        skms.push(sample.outputs[&AgentRole::Skm].clone());
+        let gkm = &sample.outputs[&AgentRole::Gkm];
+        let skm_mark = sample.outputs[&AgentRole::Skm]
+            .rsplit("skm-answer-")
+            .next()
+            .unwrap()
+            .trim_end_matches(')')
+            .to_string();
+        let gkm_mark = gkm.rsplit(' ').next().unwrap();
+        assert!(
+            planners
+                .iter()
+                .any(|b| b.contains(&format!("skm-answer-{skm_mark}")) && b.contains(gkm_mark)),
+            "sample {}'s Planner read its own SKM and GKM",
+            sample.sample
+        );
+    }
+    skms.sort();
+    skms.dedup();
+    assert_eq!(skms.len(), 3, "each sample its own answer");
+
+    let cmds = key(&mut app, KeyCode::Char('R'));
+    run_cmds(&mut app, &pipeline, cmds);
+    assert_eq!(requests().len(), 9, "every sample from the cache");
+    let again = app.runs.history.last().unwrap();
+    assert_eq!(again.samples.len(), 2);
+    for (old, new) in run.samples.iter().zip(&again.samples) {
+        assert_eq!(old.plan, new.plan, "sample k reused as sample k");
+    }
+
+    key(&mut app, KeyCode::Char('S'));
+    assert_eq!(app.samples, 5);
+    let cmds = key(&mut app, KeyCode::Char('R'));
+    run_cmds(&mut app, &pipeline, cmds);
+    assert_eq!(
+        requests().len(),
+        15,
+        "only the two new samples are asked for"
+    );
+    assert_eq!(app.runs.history.last().unwrap().samples.len(), 4);
+    let saved = serde_json::to_value(app.to_session()).unwrap();
+    assert_eq!(saved["samples"], 5);
+    assert_eq!(
+        saved["runs"].as_array().unwrap().last().unwrap()["samples"]
+            .as_array()
+            .unwrap()
+            .len(),
+        4
+    );
 }

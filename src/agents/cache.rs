@@ -48,6 +48,18 @@ pub fn request_key(provider: ProviderKind, request: &ChatRequest) -> String {
     sha256_hex(canonical.to_string().as_bytes())
 }
 
+/// The key of sample `sample` of the request keyed `key`: sample 0 is the
+/// request's own key (so caches, recordings and tests made before samples
+/// existed keep hitting); sample k > 0 a SHA-256 of the key and k, so each
+/// sample is stored, reused and asked for on its own.
+pub fn sample_key(key: String, sample: u32) -> String {
+    if sample == 0 {
+        key
+    } else {
+        sha256_hex(format!("{key}/sample/{sample}").as_bytes())
+    }
+}
+
 /// Answers stored one file each under a folder.
 #[derive(Debug, Clone)]
 pub struct ResponseCache {

@@ -434,18 +434,19 @@ impl Estimate {
     }
 }
 
-/// The estimate of making a plan for each of `plans` with `runner`, the
-/// requests not cached paid as `paid`. A plan whose input is unusable is left
-/// out: it fails before sending anything.
+/// The estimate of making each of `plans` (approach, input, sample) with
+/// `runner`, the requests not cached paid as `paid`: every sample counts. A
+/// plan whose input is unusable is left out: it fails before sending
+/// anything.
 pub fn estimate_plans<'a>(
     runner: &Runner,
-    plans: impl IntoIterator<Item = (Approach, &'a PlanInput)>,
+    plans: impl IntoIterator<Item = (Approach, &'a PlanInput, u32)>,
     paid: Billing,
     prices: &PriceTable,
 ) -> Estimate {
     let mut estimate = Estimate::default();
-    for (approach, input) in plans {
-        let Ok(stage) = runner.next_stage(approach, input) else {
+    for (approach, input, sample) in plans {
+        let Ok(stage) = runner.next_stage(approach, input, sample) else {
             continue;
         };
         for pending in &stage.requests {

@@ -402,14 +402,14 @@ pub enum AgentError {
         reason: String,
     },
     /// A recorded session has no answer for this request.
-    #[error(
-        "the recording has no answer for this request to {model} (key {key}): record it again"
-    )]
+    #[error("{}", not_recorded(model, key, *sample))]
     NotRecorded {
         /// The model asked.
         model: String,
         /// The request's cache key.
         key: String,
+        /// Which sample of the request was asked for.
+        sample: u32,
     },
     /// A miner failed, so the agent that needs it did not run.
     #[error("not run: {0} failed")]
@@ -430,6 +430,22 @@ pub enum AgentError {
         /// What went wrong.
         message: String,
     },
+}
+
+/// The message of [`AgentError::NotRecorded`]: for a later sample, that the
+/// recording was made with fewer samples and how to get them.
+fn not_recorded(model: &str, key: &str, sample: u32) -> String {
+    if sample == 0 {
+        format!(
+            "the recording has no answer for this request to {model} (key {key}): record it again"
+        )
+    } else {
+        format!(
+            "the recording has no sample {} of this request to {model} (key {key}): it was recorded with fewer samples; record it again with --samples {} or more, or ask for fewer",
+            sample + 1,
+            sample + 1
+        )
+    }
 }
 
 /// The environment variable holding the API key of the provider named

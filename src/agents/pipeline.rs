@@ -10,17 +10,18 @@ use std::time::Instant;
 
 use serde::{Deserialize, Serialize};
 use tokio::sync::mpsc::UnboundedSender;
+use tokio::sync::Semaphore;
 use tokio_util::sync::CancellationToken;
 
 use super::anthropic::Anthropic;
-use super::cache::{request_key, CachedAnswer, ResponseCache};
+use super::cache::{request_key, sample_key, CachedAnswer, ResponseCache};
 use super::config::{AgentSettings, Settings};
 use super::cost::estimate_usage;
 use super::graph::{parse_triples, triples_schema, KnowledgeGraph, ParsedTriples};
 use super::images::prepare_image;
 use super::openai::OpenAi;
 use super::prompts::{render_table, PromptSet};
-use super::provider::{elapsed_ms, ChatRequest, Completion, ImageInput, Provider, SharedProvider};
+use super::provider::{elapsed_ms, ChatRequest, Completion, ImageInput, SharedProvider};
 use super::replay::{Pace, Recording, ReplayProvider};
 use super::{AgentError, AgentRole, Approach, ProviderKind, Usage};
 use crate::plan::parse_steps;
@@ -40,6 +41,13 @@ pub enum AgentEvent {
         role: AgentRole,
         /// The text.
         text: String,
+    },
+    /// A later sample of the run is complete: the workbench asks for
+    /// samples after the first without streaming their agents' events, and
+    /// gets each whole record here.
+    Sampled {
+        /// The sample's run.
+        record: Box<PlanRecord>,
     },
     /// The answer is complete.
     Finished {
@@ -159,6 +167,21 @@ pub struct PlanRecord {
     pub usage: Usage,
     /// Milliseconds for the whole run.
     pub elapsed_ms: u64,
+    /// Which sample of the request this run is (0 for the first, the only
+    /// one of a run without `--samples`; left out of the JSON then, so
+    /// records of one sample read as before).
+    #[serde(default, skip_serializing_if = "is_first_sample")]
+    pub sample: u32,
+}
+
+/// The most samples of one plan a run may ask for (`--samples`): enough for
+/// a spread, bounded so that a typo cannot send thousands of requests.
+pub const MAX_SAMPLES: u32 = 100;
+
+/// Whether `sample` is the first sample: records leave the index out then
+/// (a serde `skip_serializing_if`), so files of one sample read as before.
+pub fn is_first_sample(sample: &u32) -> bool {
+    *sample == 0
 }
 
 impl PlanRecord {
@@ -223,6 +246,7 @@ const PREPARED_IMAGE_BYTES: usize = 256 << 20;
 
 struct Prepared<'a> {
     approach: Approach,
+    sample: u32,
     values: BTreeMap<&'a str, String>,
     images: Vec<ImageInput>,
 }
@@ -266,9 +290,8 @@ impl Runner {
         &self.settings
     }
 
-    /// Makes a plan for `input` with `approach`. Bad input (image, table,
-    /// prompt) is an error before any request; an agent's failure is kept in
-    /// its record, the other agents' results stay intact.
+    /// Makes a plan for `input` with `approach`: its first sample (see
+    /// [`Runner::plan_sample`]).
     pub async fn plan(
         &self,
         approach: Approach,
@@ -276,8 +299,62 @@ impl Runner {
         events: &EventSender,
         cancel: &CancellationToken,
     ) -> Result<PlanRecord, AgentError> {
+        self.plan_sample(approach, input, 0, events, cancel).await
+    }
+
+    /// Makes the samples `samples` (e.g. `0..3`) of the plan for `input`,
+    /// at most `concurrency` at once; each sample's events come tagged with
+    /// its index. The records come in sample order.
+    pub async fn plan_samples(
+        &self,
+        approach: Approach,
+        input: &PlanInput,
+        samples: std::ops::Range<u32>,
+        concurrency: usize,
+        events: &UnboundedSender<(u32, AgentEvent)>,
+        cancel: &CancellationToken,
+    ) -> Result<Vec<PlanRecord>, AgentError> {
+        let limit = Semaphore::new(concurrency.max(1));
+        let runs = samples.map(|sample| {
+            let limit = &limit;
+            async move {
+                let _permit = limit.acquire().await;
+                let (tagged, mut received) = tokio::sync::mpsc::unbounded_channel();
+                let plan = async move {
+                    let record = self
+                        .plan_sample(approach, input, sample, &tagged, cancel)
+                        .await;
+                    drop(tagged);
+                    record
+                };
+                let forward = async {
+                    while let Some(event) = received.recv().await {
+                        let _ = events.send((sample, event));
+                    }
+                };
+                tokio::join!(plan, forward).0
+            }
+        });
+        futures::future::join_all(runs).await.into_iter().collect()
+    }
+
+    /// Makes sample `sample` of the plan for `input` with `approach`: the
+    /// same requests as sample 0, cached and recorded under their own keys
+    /// (see [`sample_key`]), so that sample k of an unchanged request is
+    /// reused and one more sample asks only for that one; the Planner of
+    /// sample k reads sample k of SKM and GKM. Bad input (image, table,
+    /// prompt) is an error before any request; an agent's failure is kept in
+    /// its record, the other agents' results stay intact.
+    pub async fn plan_sample(
+        &self,
+        approach: Approach,
+        input: &PlanInput,
+        sample: u32,
+        events: &EventSender,
+        cancel: &CancellationToken,
+    ) -> Result<PlanRecord, AgentError> {
         let start = Instant::now();
-        let prepared = self.prepare(approach, input)?;
+        let prepared = self.prepare(approach, input, sample)?;
         let mut record = PlanRecord {
             approach,
             task: input.task.clone(),
@@ -290,6 +367,7 @@ impl Runner {
             steps: Vec::new(),
             usage: Usage::default(),
             elapsed_ms: 0,
+            sample,
         };
         let planner = if approach.is_multi_agent() {
             let (skm, gkm) = tokio::join!(
@@ -338,6 +416,7 @@ impl Runner {
         &self,
         approach: Approach,
         input: &PlanInput,
+        sample: u32,
     ) -> Result<Prepared<'a>, AgentError> {
         let mut values = BTreeMap::from([("task", input.task.trim().to_string())]);
         let mut images = Vec::new();
@@ -359,6 +438,7 @@ impl Runner {
         }
         Ok(Prepared {
             approach,
+            sample,
             values,
             images,
         })
@@ -453,7 +533,7 @@ impl Runner {
                 };
             }
         };
-        let key = request_key(settings.provider, &request);
+        let key = sample_key(request_key(settings.provider, &request), prepared.sample);
         let mut record = AgentRecord {
             request_key: key.clone(),
             ..AgentRecord::blank(role, settings, &prompt, &prompt_hash)
@@ -471,6 +551,10 @@ impl Runner {
             .answers
             .as_ref()
             .filter(|(recording, _)| hit.is_none() && recording.answers.contains_key(&key));
+        let replayed = match &self.source {
+            Source::Replay(recording, pace) => Some((recording.clone(), *pace)),
+            Source::Live => recorded.map(|(recording, pace)| (recording.clone(), *pace)),
+        };
         let result = match hit {
             Some(answer) => {
                 record.cached = true;
@@ -479,10 +563,10 @@ impl Runner {
                 }
                 Ok(answer.completion)
             }
-            None => match recorded {
+            None => match replayed {
                 Some((recording, pace)) => {
-                    ReplayProvider::new(recording.clone(), settings.provider, *pace)
-                        .complete(&request, &sink, cancel)
+                    ReplayProvider::new(recording, settings.provider, pace)
+                        .replay(&key, prepared.sample, &request, &sink, cancel)
                         .await
                 }
                 None => match self.provider(settings) {
@@ -555,7 +639,7 @@ impl Runner {
     ) -> Result<PendingRequest, AgentError> {
         let provider = self.settings.agent(role).provider;
         let (request, _, _) = self.request(prepared, role)?;
-        let key = request_key(provider, &request);
+        let key = sample_key(request_key(provider, &request), prepared.sample);
         Ok(PendingRequest {
             role,
             provider,
@@ -565,14 +649,19 @@ impl Runner {
         })
     }
 
-    /// The requests `approach` can send now for `input`, before any is
-    /// sent: the single agent's; or the miners'; or, once both miners'
-    /// answers are in the cache, the Planner's. While the Planner waits on
-    /// the miners, a rough upper bound of its tokens comes instead (its
-    /// prompt without their answers, plus their token limits). Estimates and
-    /// provider batches are made from this.
-    pub fn next_stage(&self, approach: Approach, input: &PlanInput) -> Result<Stage, AgentError> {
-        let prepared = self.prepare(approach, input)?;
+    /// The requests sample `sample` of `approach` can send now for
+    /// `input`, before any is sent: the single agent's; or the miners'; or,
+    /// once both miners' answers are in the cache, the Planner's. While the
+    /// Planner waits on the miners, a rough upper bound of its tokens comes
+    /// instead (its prompt without their answers, plus their token limits).
+    /// Estimates and provider batches are made from this.
+    pub fn next_stage(
+        &self,
+        approach: Approach,
+        input: &PlanInput,
+        sample: u32,
+    ) -> Result<Stage, AgentError> {
+        let prepared = self.prepare(approach, input, sample)?;
         if !approach.is_multi_agent() {
             return Ok(Stage {
                 requests: vec![self.pending(&prepared, AgentRole::Single)?],
@@ -608,6 +697,8 @@ impl Runner {
         })
     }
 
+    /// The live provider of an agent (answers from a recording are served
+    /// before one is asked for, in `run_agent`).
     fn provider(&self, settings: &AgentSettings) -> Result<SharedProvider, AgentError> {
         let http = self.settings.http.clone();
         let key = settings.api_key.clone();

@@ -96,20 +96,27 @@ impl ReplayProvider {
         }
     }
 
-    async fn run(
+    /// Serves the recorded answer keyed `key`: sample `sample` of `request`
+    /// (see [`sample_key`](super::cache::sample_key)). A recording holds
+    /// the samples it was made with (`--record --samples N`), and a sample
+    /// it lacks fails: never a copy of another sample, which would show a
+    /// spread of zero.
+    pub async fn replay(
         &self,
+        key: &str,
+        sample: u32,
         request: &ChatRequest,
         on_token: TokenSink<'_>,
         cancel: &CancellationToken,
     ) -> Result<Completion, AgentError> {
-        let key = request_key(self.provider, request);
         let answer = self
             .recording
             .answers
-            .get(&key)
+            .get(key)
             .ok_or_else(|| AgentError::NotRecorded {
                 model: request.model.clone(),
-                key: key.clone(),
+                key: key.to_string(),
+                sample,
             })?;
         let start = Instant::now();
         for chunk in &answer.completion.chunks {
@@ -134,6 +141,9 @@ impl Provider for ReplayProvider {
         on_token: TokenSink<'a>,
         cancel: &'a CancellationToken,
     ) -> BoxFuture<'a, Result<Completion, AgentError>> {
-        Box::pin(self.run(request, on_token, cancel))
+        Box::pin(async move {
+            let key = request_key(self.provider, request);
+            self.replay(&key, 0, request, on_token, cancel).await
+        })
     }
 }

@@ -3,6 +3,7 @@
 //! KAS and PG2S against the ground truth; per-task JSON and the paper's
 //! Table 3 layout as Markdown and CSV.
 
+use std::collections::HashMap;
 use std::fmt::Write as _;
 use std::path::{Path, PathBuf};
 use std::process::ExitCode;
@@ -16,18 +17,16 @@ use tokio::sync::Semaphore;
 use tokio_util::sync::CancellationToken;
 
 use super::eval_batch::{prefetch, BatchArgs};
-use super::plan::{runtime, AgentArgs};
+use super::plan::{check_concurrency, runtime, AgentArgs};
 use super::score::Metric;
 use crate::agents::cache::{check_writable, write_atomic};
 use crate::agents::cost::{estimate_plans, PlanCost};
-use crate::agents::pipeline::{PlanInput, PlanRecord, Runner};
+use crate::agents::pipeline::{is_first_sample, PlanInput, PlanRecord, Runner};
 use crate::agents::Approach;
 use crate::dataset::{Dataset, Task};
 use crate::metrics::kas::kas;
 use crate::metrics::pg2s::{Pg2sScorer, Pg2sSettings};
-
-/// The most plans made at once: more only draws 429s from any provider.
-const MAX_CONCURRENCY: usize = 64;
+use crate::stats::summary::{self, Spread};
 
 /// Options of `mapvlm eval`.
 #[derive(Debug, Args)]
@@ -47,14 +46,6 @@ pub struct EvalArgs {
     /// The metrics (default: KAS, and PG2S when the model pack can be loaded).
     #[arg(long, value_enum, value_delimiter = ',')]
     pub metrics: Vec<Metric>,
-    /// How many plans are made at once.
-    #[arg(
-        long,
-        allow_negative_numbers = true,
-        default_value_t = 4,
-        value_name = "N"
-    )]
-    pub concurrency: usize,
     /// Model settings for PG2S.
     #[command(flatten)]
     pub models: super::ModelArgs,
@@ -101,22 +92,45 @@ pub struct TaskResult {
     /// Tokens and cost of the run that made the plan, per agent.
     #[serde(default)]
     pub cost: Option<PlanCost>,
+    /// Which sample of the plan this is (`--samples`; 0, and left out of
+    /// the file, for the first).
+    #[serde(default, skip_serializing_if = "is_first_sample")]
+    pub sample: u32,
 }
 
 struct Job<'a> {
     task: &'a Task,
     approach: Approach,
+    sample: u32,
     file: PathBuf,
+}
+
+impl Job<'_> {
+    /// How the job is named in a failure line and the manifest.
+    fn label(&self) -> String {
+        failure_label(&self.task.id, self.approach, self.sample)
+    }
+}
+
+/// `ID APPROACH`, and ` (sample K)` for a later sample.
+fn failure_label(id: &str, approach: Approach, sample: u32) -> String {
+    if sample == 0 {
+        format!("{id} {approach}")
+    } else {
+        format!("{id} {approach} (sample {})", sample + 1)
+    }
 }
 
 /// Runs `mapvlm eval`. Every task's result is written as soon as it is
 /// scored; a task that fails is named with its reason and the others go on.
 pub fn run(args: &EvalArgs) -> anyhow::Result<ExitCode> {
-    if !(1..=MAX_CONCURRENCY).contains(&args.concurrency) {
-        anyhow::bail!(
-            "--concurrency {} is outside 1..={MAX_CONCURRENCY}",
-            args.concurrency
-        );
+    check_concurrency(args.agents.concurrency)?;
+    let samples = args.agents.samples;
+    if samples > 1 && args.from_dataset_plans {
+        anyhow::bail!("--samples {samples} with --from-dataset-plans: the dataset holds one plan per task and approach, so there is nothing to sample; leave out --samples");
+    }
+    if samples > 1 && args.batch.batch {
+        anyhow::bail!("--samples {samples} with --batch: provider batches send one sample per request; leave out --batch to sample, or --samples to batch");
     }
     let shard = args.shard.shard()?;
     let tasks_dir = args.out.join("tasks");
@@ -143,8 +157,11 @@ pub fn run(args: &EvalArgs) -> anyhow::Result<ExitCode> {
     let mut to_make = Vec::new();
     let mut skipped = 0;
     for task in &dataset.tasks {
-        for &approach in &approaches {
-            let file = tasks_dir.join(result_file(&task.id, approach));
+        for (&approach, sample) in approaches
+            .iter()
+            .flat_map(|a| (0..samples).map(move |k| (a, k)))
+        {
+            let file = tasks_dir.join(result_file(&task.id, approach, sample));
             match read_result(&file) {
                 Some(result) if result.pg2s_scored || scorer.is_none() => done.results.push(result),
                 Some(planned) => done.add(&file, planned),
@@ -158,6 +175,7 @@ pub fn run(args: &EvalArgs) -> anyhow::Result<ExitCode> {
                 None if has_input(task, approach) => to_make.push(Job {
                     task,
                     approach,
+                    sample,
                     file,
                 }),
                 None => skipped += 1,
@@ -210,14 +228,17 @@ impl Finished<'_> {
         let outcome = score(&mut result, self.scorer).and_then(|()| write_result(file, &result));
         match outcome {
             Ok(()) => self.results.push(result),
-            Err(err) => self.fail(&result.id, result.approach, &format!("{err:#}")),
+            Err(err) => {
+                let label = failure_label(&result.id, result.approach, result.sample);
+                self.fail(label, &format!("{err:#}"));
+            }
         }
     }
 
-    /// Names a failed task on stderr and counts it.
-    fn fail(&mut self, id: &str, approach: Approach, reason: &str) {
-        eprintln!("mapvlm: {id} {approach}: {reason}");
-        self.failed.push(format!("{id} {approach}"));
+    /// Names a failed task (see [`failure_label`]) on stderr and counts it.
+    fn fail(&mut self, label: String, reason: &str) {
+        eprintln!("mapvlm: {label}: {reason}");
+        self.failed.push(label);
     }
 }
 
@@ -269,6 +290,7 @@ fn new_result(
         s_plan: None,
         s_goal: None,
         pg2s: None,
+        sample: record.as_ref().map_or(0, |r| r.sample),
         record,
         cost: None,
     }
@@ -301,7 +323,7 @@ fn make_plans(args: &EvalArgs, jobs: Vec<Job<'_>>, done: &mut Finished) -> anyho
         &runner,
         jobs.iter()
             .zip(&inputs)
-            .map(|(job, input)| (job.approach, input)),
+            .map(|(job, input)| (job.approach, input, job.sample)),
         billing,
         ledger.prices(),
     );
@@ -332,14 +354,14 @@ fn make_plans(args: &EvalArgs, jobs: Vec<Job<'_>>, done: &mut Finished) -> anyho
         ProgressStyle::with_template("{bar:30} {pos}/{len} plans  {elapsed_precise}  {msg}")
             .unwrap_or_else(|_| ProgressStyle::default_bar()),
     );
-    let limit = Arc::new(Semaphore::new(args.concurrency.max(1)));
+    let limit = Arc::new(Semaphore::new(args.agents.concurrency.max(1)));
     let mut running = tokio::task::JoinSet::new();
     for (index, (job, input)) in jobs.iter().zip(inputs).enumerate() {
         let waiting = prefetched
             .as_ref()
             .and_then(|p| p.unfinished[index].as_ref());
         if let Some(reason) = waiting {
-            progress.suspend(|| done.fail(&job.task.id, job.approach, reason));
+            progress.suspend(|| done.fail(job.label(), reason));
             progress.inc(1);
             continue;
         }
@@ -347,14 +369,16 @@ fn make_plans(args: &EvalArgs, jobs: Vec<Job<'_>>, done: &mut Finished) -> anyho
         let limit = limit.clone();
         let cancel = cancel.clone();
         let progress = progress.clone();
-        let approach = job.approach;
-        let label = format!("{} {approach}", job.task.id);
+        let (approach, sample) = (job.approach, job.sample);
+        let label = job.label();
         running.spawn_on(
             async move {
                 let _permit = limit.acquire_owned().await;
                 let (events, mut drained) = tokio::sync::mpsc::unbounded_channel();
                 let drain = tokio::spawn(async move { while drained.recv().await.is_some() {} });
-                let record = runner.plan(approach, &input, &events, &cancel).await;
+                let record = runner
+                    .plan_sample(approach, &input, sample, &events, &cancel)
+                    .await;
                 drop(events);
                 let _ = drain.await;
                 progress.set_message(label);
@@ -367,9 +391,9 @@ fn make_plans(args: &EvalArgs, jobs: Vec<Job<'_>>, done: &mut Finished) -> anyho
     while let Some(joined) = runtime.block_on(running.join_next()) {
         let (index, record) = joined.context("a planning task stopped")?;
         let job = &jobs[index];
-        let (id, approach) = (&job.task.id, job.approach);
+        let approach = job.approach;
         match record {
-            Err(err) => progress.suspend(|| done.fail(id, approach, &err.to_string())),
+            Err(err) => progress.suspend(|| done.fail(job.label(), &err.to_string())),
             Ok(mut record) => {
                 if let Some(prefetched) = &prefetched {
                     prefetched.mark_paid(&mut record);
@@ -378,7 +402,7 @@ fn make_plans(args: &EvalArgs, jobs: Vec<Job<'_>>, done: &mut Finished) -> anyho
                 match record.first_error() {
                     Some((role, error)) => {
                         let reason = format!("{role} failed: {error}");
-                        progress.suspend(|| done.fail(id, approach, &reason));
+                        progress.suspend(|| done.fail(job.label(), &reason));
                     }
                     None => {
                         let steps = record.steps.clone();
@@ -409,9 +433,15 @@ fn plan_input(task: &Task) -> PlanInput {
     }
 }
 
-/// The name of the file of task `id` through `approach` under `OUT/tasks`.
-pub(super) fn result_file(id: &str, approach: Approach) -> String {
-    format!("{}.{approach}.json", safe_name(id))
+/// The name of the file of sample `sample` of task `id` through `approach`
+/// under `OUT/tasks`: `ID.APPROACH.json` for the first sample (as before
+/// samples existed), `ID.APPROACH.sK.json` for sample index K > 0.
+pub(super) fn result_file(id: &str, approach: Approach, sample: u32) -> String {
+    if sample == 0 {
+        format!("{}.{approach}.json", safe_name(id))
+    } else {
+        format!("{}.{approach}.s{sample}.json", safe_name(id))
+    }
 }
 
 fn safe_name(id: &str) -> String {
@@ -441,9 +471,10 @@ fn cell(value: Option<f64>, digits: usize) -> String {
     value.map_or_else(String::new, |v| format!("{v:.digits$}"))
 }
 
+/// The mean of the values present, if any.
 fn mean(values: impl Iterator<Item = Option<f64>>) -> Option<f64> {
     let present: Vec<f64> = values.flatten().collect();
-    (!present.is_empty()).then(|| present.iter().sum::<f64>() / present.len() as f64)
+    summary::mean(&present).ok()
 }
 
 /// Sorts `results` by task (in the order of `task_ids`, the dataset's) and
@@ -458,7 +489,7 @@ pub(super) fn write_tables(
     results.sort_by_key(|r| {
         let task = task_ids.iter().position(|id| *id == r.id);
         let approach = approaches.iter().position(|a| *a == r.approach);
-        (task, approach)
+        (task, approach, r.sample)
     });
     let (markdown, csv) = tables(task_ids, approaches, results);
     write_atomic(&out.join("table3.md"), markdown.as_bytes())?;
@@ -476,20 +507,20 @@ fn tables(
     if results.is_empty() {
         return (String::from("No plans were scored.\n"), String::new());
     }
+    let samples = results.iter().map(|r| r.sample + 1).max().unwrap_or(1);
+    if samples > 1 {
+        return sampled_tables(task_ids, approaches, results, samples);
+    }
     let find = |id: &str, approach: Approach| {
         results
             .iter()
             .find(|r| r.id == id && r.approach == approach)
     };
-    let mut markdown = String::from("| Task | Instruction |");
-    let mut rule = String::from("| --- | --- |");
+    let mut markdown = markdown_heading(approaches);
     let mut csv = String::from("id,task");
     for approach in approaches {
-        let _ = write!(markdown, " {approach} PG2S | {approach} KAS |");
-        rule.push_str(" ---: | ---: |");
         let _ = write!(csv, ",{approach}_pg2s,{approach}_kas");
     }
-    let _ = writeln!(markdown, "\n{rule}");
     csv.push('\n');
     for id in task_ids {
         let Some(first) = approaches.iter().find_map(|a| find(id, *a)) else {
@@ -516,6 +547,173 @@ fn tables(
     markdown.push('\n');
     csv.push('\n');
     (markdown, csv)
+}
+
+/// One score Table 3 reports: its heading, its CSV column and its value.
+struct Score {
+    label: &'static str,
+    column: &'static str,
+    of: fn(&TaskResult) -> Option<f64>,
+}
+
+/// The scores whose spread over samples the tables show.
+const SCORES: [Score; 4] = [
+    Score::new("PG2S", "pg2s", |r| r.pg2s),
+    Score::new("S_plan", "s_plan", |r| r.s_plan),
+    Score::new("S_goal", "s_goal", |r| r.s_goal),
+    Score::new("KAS", "kas", |r| r.kas),
+];
+
+impl Score {
+    const fn new(
+        label: &'static str,
+        column: &'static str,
+        of: fn(&TaskResult) -> Option<f64>,
+    ) -> Self {
+        Score { label, column, of }
+    }
+}
+
+/// Table 3 over several samples of each plan. Markdown: each task's PG2S
+/// and KAS as the mean ±sd of its samples; the Mean row and a spread table
+/// over the samples' means (each sample's mean over the tasks: mean ±sd and
+/// min–max of PG2S, S_plan, S_goal and KAS). CSV: for each approach and
+/// score its mean, sd, min and max, per task over its samples and, in the
+/// `mean` row, over the samples' means.
+fn sampled_tables(
+    task_ids: &[String],
+    approaches: &[Approach],
+    results: &[TaskResult],
+    samples: u32,
+) -> (String, String) {
+    let mut by_plan: HashMap<(&str, Approach), Vec<&TaskResult>> = HashMap::new();
+    for result in results {
+        by_plan
+            .entry((result.id.as_str(), result.approach))
+            .or_default()
+            .push(result);
+    }
+    let spread_of = |plans: &[&TaskResult], score: &Score| {
+        Spread::of(plans.iter().filter_map(|r| (score.of)(r)))
+    };
+    let over_samples = |approach: Approach, score: &Score| {
+        Spread::of((0..samples).filter_map(|k| {
+            mean(
+                results
+                    .iter()
+                    .filter(|r| r.approach == approach && r.sample == k)
+                    .map(score.of),
+            )
+        }))
+    };
+    let [pg2s, _, _, kas] = &SCORES;
+    let mut markdown = markdown_heading(approaches);
+    let mut csv = String::from("id,task");
+    for approach in approaches {
+        for score in &SCORES {
+            let c = score.column;
+            let _ = write!(
+                csv,
+                ",{approach}_{c},{approach}_{c}_sd,{approach}_{c}_min,{approach}_{c}_max"
+            );
+        }
+    }
+    csv.push('\n');
+    for id in task_ids {
+        let Some(first) = approaches
+            .iter()
+            .find_map(|a| by_plan.get(&(id.as_str(), *a)).and_then(|p| p.first()))
+        else {
+            continue;
+        };
+        let _ = write!(markdown, "| {id} | {} |", first.task.replace('|', "\\|"));
+        let _ = write!(csv, "{},{}", csv_field(id), csv_field(&first.task));
+        for approach in approaches {
+            let plans = by_plan
+                .get(&(id.as_str(), *approach))
+                .map_or(&[][..], Vec::as_slice);
+            for score in [pg2s, kas] {
+                let _ = write!(markdown, " {} |", spread_cell(spread_of(plans, score), ""));
+            }
+            for score in &SCORES {
+                push_spread_csv(&mut csv, spread_of(plans, score));
+            }
+        }
+        markdown.push('\n');
+        csv.push('\n');
+    }
+    let _ = write!(markdown, "| **Mean** | |");
+    csv.push_str("mean,");
+    for approach in approaches {
+        for score in [pg2s, kas] {
+            let cell = spread_cell(over_samples(*approach, score), "**");
+            let _ = write!(markdown, " {cell} |");
+        }
+        for score in &SCORES {
+            push_spread_csv(&mut csv, over_samples(*approach, score));
+        }
+    }
+    let _ = write!(
+        markdown,
+        "\n\nSpread over {samples} samples (each sample's mean over the tasks): mean ±sd (min–max).\n\n| Approach |"
+    );
+    for score in &SCORES {
+        let _ = write!(markdown, " {} |", score.label);
+    }
+    markdown.push_str("\n| --- |");
+    markdown.push_str(&" ---: |".repeat(SCORES.len()));
+    markdown.push('\n');
+    for approach in approaches {
+        let _ = write!(markdown, "| {approach} |");
+        for score in &SCORES {
+            let cell = over_samples(*approach, score).map_or_else(
+                || "n/a".to_string(),
+                |s| format!("{} ({})", s.plus_minus(3), s.range(3)),
+            );
+            let _ = write!(markdown, " {cell} |");
+        }
+        markdown.push('\n');
+    }
+    csv.push('\n');
+    (markdown, csv)
+}
+
+/// The heading and rule of Table 3 in Markdown: the task, its
+/// instruction, then PG2S and KAS of each approach.
+fn markdown_heading(approaches: &[Approach]) -> String {
+    let mut markdown = String::from("| Task | Instruction |");
+    let mut rule = String::from("| --- | --- |");
+    for approach in approaches {
+        let _ = write!(markdown, " {approach} PG2S | {approach} KAS |");
+        rule.push_str(" ---: | ---: |");
+    }
+    let _ = writeln!(markdown, "\n{rule}");
+    markdown
+}
+
+/// A Markdown cell: `0.433 ±0.020`, emphasised, or `n/a`.
+fn spread_cell(spread: Option<Spread>, emphasis: &str) -> String {
+    spread.map_or_else(
+        || format!("{emphasis}n/a{emphasis}"),
+        |s| format!("{emphasis}{}{emphasis}", s.plus_minus(3)),
+    )
+}
+
+/// Appends a spread's mean, sd, min and max as four CSV cells (empty when
+/// unknown).
+fn push_spread_csv(csv: &mut String, spread: Option<Spread>) {
+    let (mean, sd, min, max) = match spread {
+        Some(s) => (Some(s.mean), s.sd, Some(s.min), Some(s.max)),
+        None => (None, None, None, None),
+    };
+    let _ = write!(
+        csv,
+        ",{},{},{},{}",
+        cell(mean, 6),
+        cell(sd, 6),
+        cell(min, 6),
+        cell(max, 6)
+    );
 }
 
 /// Appends one approach's PG2S and KAS cells to both tables.
@@ -547,5 +745,98 @@ fn csv_field(text: &str) -> String {
         format!("\"{}\"", text.replace('"', "\"\""))
     } else {
         text.to_string()
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    fn scored(
+        id: &str,
+        approach: Approach,
+        sample: u32,
+        pg2s: f64,
+        kas: Option<f64>,
+    ) -> TaskResult {
+        TaskResult {
+            id: id.into(),
+            approach,
+            task: format!("Task {id}, with a comma"),
+            source: "model".into(),
+            ground_truth: vec!["Walk to the sink.".into()],
+            steps: vec!["Walk to the sink.".into()],
+            kas,
+            kas_reason: None,
+            pg2s_scored: true,
+            s_plan: Some(pg2s + 0.1),
+            s_goal: Some(pg2s - 0.1),
+            pg2s: Some(pg2s),
+            record: None,
+            cost: None,
+            sample,
+        }
+    }
+
+    fn one_sample_results() -> Vec<TaskResult> {
+        vec![
+            scored("t1", Approach::SingleImage, 0, 0.5, Some(0.25)),
+            scored("t1", Approach::MultiImage, 0, 0.625, None),
+            scored("t2", Approach::SingleImage, 0, 0.375, Some(0.75)),
+        ]
+    }
+
+    #[test]
+    fn tables_of_one_sample_are_as_before_samples() {
+        let ids = ["t1".to_string(), "t2".to_string()];
+        let approaches = [Approach::SingleImage, Approach::MultiImage];
+        let (markdown, csv) = tables(&ids, &approaches, &one_sample_results());
+        insta::assert_snapshot!("table3_one_sample_md", markdown);
+        insta::assert_snapshot!("table3_one_sample_csv", csv);
+    }
+
+    #[test]
+    fn tables_of_three_samples_show_each_tasks_spread_and_the_samples_spread() {
+        let ids = ["t1".to_string(), "t2".to_string()];
+        let approaches = [Approach::SingleImage];
+        let mut results = Vec::new();
+        for (sample, (first, second)) in [(0.5, 0.25), (0.625, 0.375), (0.75, 0.5)]
+            .into_iter()
+            .enumerate()
+        {
+            let sample = sample as u32;
+            results.push(scored(
+                "t1",
+                Approach::SingleImage,
+                sample,
+                first,
+                Some(first),
+            ));
+            results.push(scored("t2", Approach::SingleImage, sample, second, None));
+        }
+        let (markdown, csv) = tables(&ids, &approaches, &results);
+        // t1's PG2S over its samples: 0.5, 0.625, 0.75 -> mean 0.625, sd 0.125.
+        assert!(
+            markdown.contains("| t1 | Task t1, with a comma | 0.625 ±0.125 | 0.625 ±0.125 |"),
+            "{markdown}"
+        );
+        // The samples' means over the tasks: 0.375, 0.5, 0.625.
+        assert!(
+            markdown.contains("| **Mean** | | **0.500 ±0.125** | **0.625 ±0.125** |"),
+            "{markdown}"
+        );
+        assert!(markdown.contains("| single-image | 0.500 ±0.125 (0.375–0.625) | 0.600 ±0.125 (0.475–0.725) | 0.400 ±0.125 (0.275–0.525) | 0.625 ±0.125 (0.500–0.750) |"), "{markdown}");
+        let lines: Vec<&str> = csv.lines().collect();
+        assert!(lines[0].starts_with("id,task,single-image_pg2s,single-image_pg2s_sd,single-image_pg2s_min,single-image_pg2s_max,single-image_s_plan,"), "{csv}");
+        assert!(
+            lines[1]
+                .starts_with("t1,\"Task t1, with a comma\",0.625000,0.125000,0.500000,0.750000,"),
+            "{csv}"
+        );
+        assert!(lines[2].ends_with(",,,,"), "t2 has no KAS: {csv}");
+        assert!(
+            lines[3].starts_with("mean,,0.500000,0.125000,0.375000,0.625000,"),
+            "{csv}"
+        );
     }
 }

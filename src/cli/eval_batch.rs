@@ -173,7 +173,7 @@ fn stranded(
     input: &PlanInput,
     outcome: &BatchOutcome,
 ) -> Vec<AgentCost> {
-    let (Ok(stage), Some(cache)) = (runner.next_stage(approach, input), runner.cache()) else {
+    let (Ok(stage), Some(cache)) = (runner.next_stage(approach, input, 0), runner.cache()) else {
         return Vec::new();
     };
     stage
@@ -201,7 +201,7 @@ fn unfinished(
     input: &PlanInput,
     outcome: &BatchOutcome,
 ) -> Option<String> {
-    let stage = runner.next_stage(approach, input).ok()?;
+    let stage = runner.next_stage(approach, input, 0).ok()?;
     let missing: Vec<_> = stage.requests.iter().filter(|r| !r.free).collect();
     if missing.is_empty() && stage.planner_later.is_none() {
         return None;

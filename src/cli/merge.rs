@@ -101,7 +101,7 @@ impl Manifest {
             shard,
             results: results
                 .iter()
-                .map(|r| result_file(&r.id, r.approach))
+                .map(|r| result_file(&r.id, r.approach, r.sample))
                 .collect(),
             failed,
             prompts: BTreeMap::new(),

@@ -15,7 +15,7 @@ use tokio_util::sync::CancellationToken;
 use crate::agents::cache::{check_writable, ResponseCache};
 use crate::agents::config::{ConfigFile, FlagLayers, Settings};
 use crate::agents::cost::{check_max_cost, estimate_plans, Billing, Estimate, Ledger, PriceTable};
-use crate::agents::pipeline::{AgentEvent, PlanInput, Runner, Source};
+use crate::agents::pipeline::{AgentEvent, PlanInput, PlanRecord, Runner, Source, MAX_SAMPLES};
 use crate::agents::prompts::PromptSet;
 use crate::agents::provider::Notifier;
 use crate::agents::replay::{Pace, Recording};
@@ -79,6 +79,18 @@ pub struct AgentArgs {
     /// (prices from [prices] in the config file).
     #[arg(long, allow_negative_numbers = true, value_name = "USD")]
     pub max_cost: Option<f64>,
+    /// How many times each agent is asked (1 to 100): sample k is cached and
+    /// recorded on its own, so a re-run asks only for samples not yet made.
+    #[arg(long, default_value_t = 1, value_name = "N", value_parser = clap::value_parser!(u32).range(1..=i64::from(MAX_SAMPLES)))]
+    pub samples: u32,
+    /// How many plans (in `eval`) or samples are made at once.
+    #[arg(
+        long,
+        allow_negative_numbers = true,
+        default_value_t = 4,
+        value_name = "N"
+    )]
+    pub concurrency: usize,
 }
 
 impl AgentArgs {
@@ -224,8 +236,31 @@ pub fn runtime(cancel: &CancellationToken) -> anyhow::Result<tokio::runtime::Run
     Ok(runtime)
 }
 
+/// The most plans or samples made at once: more only draws 429s from any
+/// provider.
+const MAX_CONCURRENCY: usize = 64;
+
+/// Checks a `--concurrency` value.
+pub(super) fn check_concurrency(concurrency: usize) -> anyhow::Result<()> {
+    if !(1..=MAX_CONCURRENCY).contains(&concurrency) {
+        anyhow::bail!("--concurrency {concurrency} is outside 1..={MAX_CONCURRENCY}");
+    }
+    Ok(())
+}
+
+/// What `plan --json` prints: the first sample's record at the top level,
+/// as before samples existed, and every sample's record in `samples`.
+#[derive(serde::Serialize)]
+struct PlanOutput<'a> {
+    #[serde(flatten)]
+    first: &'a PlanRecord,
+    samples: &'a [PlanRecord],
+}
+
 /// Runs `mapvlm plan`.
 pub fn run(args: &PlanArgs) -> anyhow::Result<ExitCode> {
+    check_concurrency(args.agents.concurrency)?;
+    let samples = args.agents.samples;
     let mut ledger = args.agents.ledger()?;
     let (runner, recording) = args.agents.runner()?;
     let input = PlanInput {
@@ -235,7 +270,7 @@ pub fn run(args: &PlanArgs) -> anyhow::Result<ExitCode> {
     };
     let estimate = estimate_plans(
         &runner,
-        [(args.approach, &input)],
+        (0..samples).map(|sample| (args.approach, &input, sample)),
         Billing::Interactive,
         ledger.prices(),
     );
@@ -245,53 +280,90 @@ pub fn run(args: &PlanArgs) -> anyhow::Result<ExitCode> {
     let (events, mut received) = unbounded_channel();
     let quiet = args.json;
     let printer = runtime.spawn(async move {
-        while let Some(event) = received.recv().await {
+        while let Some((sample, event)) = received.recv().await {
             if !quiet {
-                print_event(&event);
+                print_event(sample_label(sample, samples), &event);
             }
         }
     });
-    let record = runtime.block_on(runner.plan(args.approach, &input, &events, &cancel));
+    let records = runtime.block_on(runner.plan_samples(
+        args.approach,
+        &input,
+        0..samples,
+        args.agents.concurrency,
+        &events,
+        &cancel,
+    ));
     drop(events);
     let _ = runtime.block_on(printer);
     args.agents.save_recording(recording)?;
-    let record = record?;
-    ledger.add_plan(&record, Billing::Interactive);
+    let records = records?;
+    for record in &records {
+        ledger.add_plan(record, Billing::Interactive);
+    }
     eprint!("{}", ledger.table());
     let mut out = std::io::stdout().lock();
+    let Some(first) = records.first() else {
+        anyhow::bail!("no sample was made");
+    };
     if args.json {
-        serde_json::to_writer_pretty(&mut out, &record)?;
+        let output = PlanOutput {
+            first,
+            samples: &records,
+        };
+        serde_json::to_writer_pretty(&mut out, &output)?;
         writeln!(out)?;
     } else {
-        for (number, step) in record.steps.iter().enumerate() {
-            writeln!(out, "{}. {step}", number + 1)?;
+        for record in &records {
+            if samples > 1 {
+                writeln!(out, "Sample {} of {samples}:", record.sample + 1)?;
+            }
+            for (number, step) in record.steps.iter().enumerate() {
+                writeln!(out, "{}. {step}", number + 1)?;
+            }
         }
     }
-    match record.first_error() {
-        Some((role, error)) => {
-            eprintln!("mapvlm: {role} failed: {error}");
-            Ok(ExitCode::FAILURE)
+    let mut failed = false;
+    for record in &records {
+        if let Some((role, error)) = record.first_error() {
+            let label = sample_label(record.sample, samples);
+            eprintln!("mapvlm: {role}{label} failed: {error}");
+            failed = true;
         }
-        None => Ok(ExitCode::SUCCESS),
+    }
+    Ok(if failed {
+        ExitCode::FAILURE
+    } else {
+        ExitCode::SUCCESS
+    })
+}
+
+/// What follows an agent's name in a line about sample `sample` of
+/// `samples`: nothing for a run of one sample (its lines read as before).
+fn sample_label(sample: u32, samples: u32) -> String {
+    if samples > 1 {
+        format!(" (sample {} of {samples})", sample + 1)
+    } else {
+        String::new()
     }
 }
 
-fn print_event(event: &AgentEvent) {
+fn print_event(label: String, event: &AgentEvent) {
     match event {
-        AgentEvent::Started { role } => eprintln!("{role}: started"),
-        AgentEvent::Token { .. } => {}
+        AgentEvent::Started { role } => eprintln!("{role}{label}: started"),
+        AgentEvent::Token { .. } | AgentEvent::Sampled { .. } => {}
         AgentEvent::Finished {
             role,
             usage,
             elapsed_ms,
             cached,
         } => eprintln!(
-            "{role}: finished in {:.1} s, {} tokens in, {} out{}",
+            "{role}{label}: finished in {:.1} s, {} tokens in, {} out{}",
             *elapsed_ms as f64 / 1000.0,
             usage.input_tokens,
             usage.output_tokens,
             if *cached { " (cached)" } else { "" }
         ),
-        AgentEvent::Failed { role, error } => eprintln!("{role}: failed: {error}"),
+        AgentEvent::Failed { role, error } => eprintln!("{role}{label}: failed: {error}"),
     }
 }

@@ -11,6 +11,7 @@ use clap::Args;
 use crate::agents::cache::ResponseCache;
 use crate::agents::config::ConfigFile;
 use crate::agents::cost::PriceTable;
+use crate::agents::pipeline::MAX_SAMPLES;
 use crate::agents::prompts::PromptSet;
 use crate::agents::replay::Pace;
 use crate::corrupt::{user_vocabulary_dir, Vocabulary};
@@ -47,6 +48,10 @@ pub struct TuiArgs {
     /// $XDG_CONFIG_HOME/mapvlm/prompts).
     #[arg(long, value_name = "DIR")]
     pub prompts: Option<PathBuf>,
+    /// How many samples `r` asks each agent for (1 to 100; default: the
+    /// session's setting, which S changes).
+    #[arg(long, value_name = "N", value_parser = clap::value_parser!(u32).range(1..=i64::from(MAX_SAMPLES)))]
+    pub samples: Option<u32>,
     /// Model settings shared with the other model-backed commands.
     #[command(flatten)]
     pub models: super::ModelArgs,
@@ -83,6 +88,7 @@ pub fn run(args: TuiArgs) -> anyhow::Result<ExitCode> {
     .context("the workbench cannot start")?;
     let models = args.models;
     let options = Options {
+        samples: args.samples,
         dataset: args.dataset,
         session: args.session,
         theme: args.theme,

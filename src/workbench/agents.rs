@@ -58,6 +58,17 @@ pub enum RunError {
         /// The config file, as named to the user.
         file: String,
     },
+    /// A `replay` agent was asked for more than one sample.
+    #[error(
+        "{agent} answers from the demo's recording, which holds one sample of each answer: \
+         press m to give {agent} a provider to ask {samples} samples of, or press S until samples is 1"
+    )]
+    OneRecordedSample {
+        /// The agent, as the workbench names it.
+        agent: &'static str,
+        /// The samples asked for.
+        samples: u32,
+    },
     /// The config file and the environment do not make settings.
     #[error(transparent)]
     Config(#[from] ConfigError),
@@ -103,6 +114,9 @@ pub struct RunRequest {
     pub image: Option<PathBuf>,
     /// The environment table, when the task has one.
     pub table: Option<PathBuf>,
+    /// How many samples each agent is asked for: the first streams its
+    /// events, each later one comes whole as an [`AgentEvent::Sampled`].
+    pub samples: u32,
 }
 
 /// Runs agents in the background and reports [`AgentEvent`]s.
@@ -120,6 +134,10 @@ pub trait Pipeline: Send + Sync {
         events: UnboundedSender<(u64, AgentEvent)>,
     ) -> JoinHandle<()>;
 }
+
+/// How many of a run's later samples are asked for at once, beside the
+/// first (as `--concurrency` defaults to in `plan` and `eval`).
+const LATER_SAMPLES_AT_ONCE: usize = 3;
 
 /// The text of every template of `set`, by template name, as the prompt
 /// editor shows it.
@@ -352,6 +370,12 @@ impl Pipeline for AgentsPipeline {
             resolved.insert(role, agent.without_key());
             if Self::is_replay(request, role) {
                 Self::check_replay(request, role)?;
+                if request.samples > 1 {
+                    return Err(RunError::OneRecordedSample {
+                        agent: role.label(),
+                        samples: request.samples,
+                    });
+                }
                 continue;
             }
             let variables = agent
@@ -419,8 +443,31 @@ impl Pipeline for AgentsPipeline {
             let cancel = CancellationToken::new();
             let _cancel_on_abort = cancel.clone().drop_guard();
             let (tx, mut rx) = mpsc::unbounded_channel();
+            let (approach, samples) = (request.approach, request.samples);
             let plan = async move {
-                let result = runner.plan(request.approach, &input, &tx, &cancel).await;
+                let (drained, mut ignored) = mpsc::unbounded_channel();
+                let drain = async move { while ignored.recv().await.is_some() {} };
+                let later = async {
+                    let records = runner
+                        .plan_samples(
+                            approach,
+                            &input,
+                            1..samples,
+                            LATER_SAMPLES_AT_ONCE,
+                            &drained,
+                            &cancel,
+                        )
+                        .await;
+                    drop(drained);
+                    records
+                };
+                let first = runner.plan(approach, &input, &tx, &cancel);
+                let (result, later, ()) = tokio::join!(first, later, drain);
+                for record in later.into_iter().flatten() {
+                    let _ = tx.send(AgentEvent::Sampled {
+                        record: Box::new(record),
+                    });
+                }
                 drop(tx);
                 result
             };

@@ -142,6 +142,8 @@ pub struct App {
     pub approach: Approach,
     /// The agents and the runs.
     pub runs: Runs,
+    /// How many samples `r` asks each agent for (the `S` key, `--samples`).
+    pub samples: u32,
     /// The settings configured agents start with on a user's task.
     pub configured: BTreeMap<AgentRole, AgentSettings>,
     /// The config file's prices, for the cost of each run in the history
@@ -249,6 +251,7 @@ impl App {
             dataset: init.dataset,
             approach: Approach::MultiImage,
             runs: Runs::new(),
+            samples: 1,
             configured: init.configured,
             prices: PriceTable::default(),
             prompt: PromptPane::new(init.prompts),

@@ -14,7 +14,7 @@ use super::app::App;
 use super::corrupting::{corrupt_plan, CorruptionModels, STILL_LOADING};
 use super::message::{Cmd, Msg, ReadError};
 use super::scene_image;
-use super::scoring::{score_now, ModelSlot};
+use super::scoring::{score_now, score_samples, ModelSlot};
 use crate::agents::prompt_sets;
 
 /// Reads a step file off the loop: the text, or why not.
@@ -80,6 +80,10 @@ impl<'a> Headless<'a> {
                 }
                 Cmd::CancelRun(_) => Vec::new(),
                 Cmd::Score(request) => vec![Msg::Scored(score_now(&self.models, &request))],
+                Cmd::ScoreSamples(request) => vec![Msg::SamplesScored(
+                    request.run,
+                    score_samples(&self.models, &request),
+                )],
                 Cmd::ReadStepFile(path) => {
                     let text = read_step_file(&path);
                     vec![Msg::StepFile(path, text)]

@@ -16,7 +16,8 @@ use crate::dataset::DatasetError;
 use crate::workbench::agents::RunRequest;
 use crate::workbench::corrupting::{CorruptRequest, Corrupted};
 use crate::workbench::scene_image::SceneImageError;
-use crate::workbench::scoring::{ModelSlot, ScoreOutcome, ScoreRequest};
+use crate::workbench::scoring::{ModelSlot, SampleScoring, ScoreOutcome, ScoreRequest};
+use crate::workbench::session::ScoreRecord;
 use crate::workbench::session::SessionError;
 
 /// Why a step file the workbench asked the runtime for could not be read.
@@ -44,6 +45,9 @@ pub enum Msg {
     Agent(u64, AgentEvent),
     /// Scores arrived.
     Scored(ScoreOutcome),
+    /// The later samples of a run were scored: the run and each sample's
+    /// index and scores.
+    SamplesScored(u64, Vec<(u32, ScoreRecord)>),
     /// The models made progress loading.
     ModelsProgress(String),
     /// The models loaded ([`ModelSlot::Ready`]), or why not.
@@ -77,6 +81,8 @@ pub enum Cmd {
     CancelRun(u64),
     /// Score the plan against the ground truth.
     Score(ScoreRequest),
+    /// Score the later samples of a run.
+    ScoreSamples(SampleScoring),
     /// Read a step file.
     ReadStepFile(PathBuf),
     /// Read the scene image.

@@ -77,6 +77,9 @@ pub struct Options {
     /// The config file's price table for the run history's costs, or why
     /// its `[prices]` section cannot be used (shown once at the start).
     pub prices: Result<PriceTable, ConfigError>,
+    /// How many samples `r` asks each agent for, over the session's setting
+    /// (`--samples`).
+    pub samples: Option<u32>,
     /// The agents the config file and the environment configure, with the
     /// settings they start with on a user's task, or why the config cannot
     /// give them (shown once at the start; every agent then replays).

@@ -118,6 +118,7 @@ impl App {
             theme: self.theme.name.clone(),
             image: self.scene.enabled,
             runs: self.runs.history.clone(),
+            samples: self.samples,
             draft,
         }
     }
@@ -164,6 +165,7 @@ impl App {
         self.use_configured_providers();
         self.scene.enabled = s.image;
         self.runs.history = s.runs;
+        self.samples = s.samples;
         self.refresh_graph();
         if let Some(draft) = s.draft {
             let list = if draft.target == StepList::GroundTruth.key() {

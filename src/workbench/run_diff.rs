@@ -537,6 +537,7 @@ mod tests {
                     matched: (i == 0).then_some((0, 0.9)),
                 })
                 .collect(),
+            samples: Vec::new(),
         }
     }
 

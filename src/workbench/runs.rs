@@ -4,7 +4,7 @@
 use std::collections::BTreeMap;
 
 use crate::agents::config::AgentSettings;
-use crate::agents::pipeline::{AgentEvent, AgentRecord};
+use crate::agents::pipeline::{AgentEvent, AgentRecord, PlanRecord};
 use crate::agents::prompts::{prompt_hash, template_name};
 use crate::agents::{AgentRole, Approach, ProviderKind, Usage};
 use crate::plan::parse_steps;
@@ -14,14 +14,39 @@ use crate::workbench::editing::Editing;
 use crate::workbench::message::Cmd;
 use crate::workbench::overlays::Overlay;
 use crate::workbench::panes::steps::StepList;
-use crate::workbench::scoring::{Pg2sOutcome, ScoreOutcome};
-use crate::workbench::session::{PlanSource, RunRecord, ScoreRecord, StepScore};
+use crate::workbench::scoring::{score_record, Pg2sOutcome, SampleScoring, ScoreOutcome};
+use crate::workbench::session::{PlanSource, RunRecord, SampleRecord, ScoreRecord, StepScore};
 
 /// Every sample's scores of `run`, in sample order: the one place the run
-/// diff's verdicts read a run's samples from. A run holds one sample today,
-/// so this is its one score (none before scoring).
+/// diff's verdicts and the Scores pane read a run's samples from. The run's
+/// own scores are sample 0; each later sample follows once scored (a
+/// sample not scored yet is left out).
 pub fn sample_scores(run: &RunRecord) -> Vec<ScoreRecord> {
-    run.scores.into_iter().collect()
+    run.scores
+        .into_iter()
+        .chain(run.samples.iter().filter_map(|s| s.scores))
+        .collect()
+}
+
+/// The numbers of samples the `S` key steps through.
+pub const SAMPLE_STEPS: [u32; 4] = [1, 3, 5, 10];
+
+/// A later sample as a run keeps it, from the pipeline's record.
+fn sample_record(record: &PlanRecord) -> SampleRecord {
+    SampleRecord {
+        sample: record.sample,
+        outputs: record
+            .agents
+            .iter()
+            .filter_map(|a| Some((a.role, a.output.clone()?)))
+            .collect(),
+        plan: record.steps.clone(),
+        usage: record.usage,
+        error: record
+            .first_error()
+            .map(|(role, error)| format!("{}: {error}", role.label())),
+        scores: None,
+    }
 }
 
 /// Each of `steps` plan steps' part of `outcome`: the KAS of the step and
@@ -88,6 +113,8 @@ pub struct ActiveRun {
     pub started_unix: u64,
     /// The agents it runs.
     pub agents: Vec<AgentRole>,
+    /// Its later samples that came in before its first finished.
+    pub samples: Vec<SampleRecord>,
 }
 
 /// The agents of the approach and every run.
@@ -213,6 +240,7 @@ impl App {
             demo: self.is_demo(),
             image: self.task.image.clone(),
             table: self.task.table.clone(),
+            samples: self.samples,
         };
         for &agent in &to_run {
             if let Some(v) = self.runs.agents.get_mut(&agent) {
@@ -224,9 +252,17 @@ impl App {
             id,
             started_unix: unix_now(),
             agents: to_run.clone(),
+            samples: Vec::new(),
         });
         let names: Vec<&str> = to_run.iter().map(|a| a.label()).collect();
-        self.set_status(format!("run {id}: {}", names.join(", ")), Severity::Info);
+        let samples = match self.samples {
+            1 => String::new(),
+            n => format!(" ({n} samples)"),
+        };
+        self.set_status(
+            format!("run {id}: {}{samples}", names.join(", ")),
+            Severity::Info,
+        );
         vec![Cmd::StartRun(request)]
     }
 
@@ -301,14 +337,84 @@ impl App {
             cancelled,
             corrupted: None,
             steps: Vec::new(),
+            samples: active.samples,
         });
-        let cmd = self.rescore();
+        let mut cmds = vec![self.rescore()];
         self.runs.awaiting_scores = Some((self.runs.history.len() - 1, self.score_generation));
+        cmds.extend(self.score_samples(active.id));
         self.refresh_runs();
-        vec![cmd]
+        cmds
+    }
+
+    /// Steps the number of samples `r` asks for through [`SAMPLE_STEPS`].
+    pub(crate) fn next_samples(&mut self) {
+        let next = SAMPLE_STEPS
+            .iter()
+            .find(|&&n| n > self.samples)
+            .copied()
+            .unwrap_or(SAMPLE_STEPS[0]);
+        self.samples = next;
+        self.session_dirty = true;
+        self.set_status(
+            format!("samples per run: {next} (r asks each agent {next} times)"),
+            Severity::Info,
+        );
+    }
+
+    /// A later sample of run `run` arrived: kept with the run (or with the
+    /// run in flight until it finishes) and scored.
+    fn on_sample(&mut self, run: u64, record: &PlanRecord) -> Vec<Cmd> {
+        let sample = sample_record(record);
+        if let Some(active) = self.runs.active.as_mut().filter(|r| r.id == run) {
+            active.samples.push(sample);
+            return Vec::new();
+        }
+        let Some(kept) = self.runs.history.iter_mut().find(|r| r.id == run) else {
+            return Vec::new();
+        };
+        kept.samples.push(sample);
+        kept.samples.sort_by_key(|s| s.sample);
+        self.session_dirty = true;
+        self.refresh_runs();
+        self.score_samples(run).into_iter().collect()
+    }
+
+    /// Scores the later samples of run `run` not scored yet.
+    fn score_samples(&self, run: u64) -> Option<Cmd> {
+        let kept = self.runs.history.iter().find(|r| r.id == run)?;
+        let plans: Vec<(u32, Vec<String>)> = kept
+            .samples
+            .iter()
+            .filter(|s| s.scores.is_none())
+            .map(|s| (s.sample, s.plan.clone()))
+            .collect();
+        (!plans.is_empty()).then(|| {
+            Cmd::ScoreSamples(SampleScoring {
+                run,
+                gt: kept.ground_truth.clone(),
+                plans,
+            })
+        })
+    }
+
+    /// The later samples of run `run` were scored.
+    pub(crate) fn on_samples_scored(&mut self, run: u64, scores: Vec<(u32, ScoreRecord)>) {
+        let Some(kept) = self.runs.history.iter_mut().find(|r| r.id == run) else {
+            return;
+        };
+        for (sample, score) in scores {
+            if let Some(s) = kept.samples.iter_mut().find(|s| s.sample == sample) {
+                s.scores = Some(score);
+            }
+        }
+        self.session_dirty = true;
+        self.refresh_runs();
     }
 
     pub(crate) fn on_agent(&mut self, run: u64, event: AgentEvent) -> Vec<Cmd> {
+        if let AgentEvent::Sampled { record } = &event {
+            return self.on_sample(run, record);
+        }
         if self.runs.active.as_ref().is_none_or(|r| r.id != run) {
             return Vec::new();
         }
@@ -389,6 +495,8 @@ impl App {
                 }
                 cmds
             }
+            // Taken before the run's own events, above.
+            AgentEvent::Sampled { .. } => Vec::new(),
             AgentEvent::Failed { role: agent, error } => {
                 if let Some(v) = self.runs.agents.get_mut(&agent) {
                     v.status = AgentStatus::Failed(error.clone());
@@ -427,16 +535,7 @@ impl App {
         if let Some((index, generation)) = self.runs.awaiting_scores {
             if outcome.generation >= generation {
                 if let Some(run) = self.runs.history.get_mut(index) {
-                    let report = match &outcome.pg2s {
-                        Pg2sOutcome::Ready(r) => Some(r),
-                        _ => None,
-                    };
-                    run.scores = Some(ScoreRecord {
-                        kas: outcome.kas.kas,
-                        s_plan: report.map(|r| r.s_plan),
-                        s_goal: report.and_then(|r| r.s_goal()),
-                        pg2s: report.and_then(|r| r.pg2s()),
-                    });
+                    run.scores = Some(score_record(&outcome));
                     run.steps = step_breakdown(&outcome, run.plan.len());
                 }
                 self.runs.awaiting_scores = None;

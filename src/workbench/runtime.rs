@@ -100,6 +100,7 @@ struct Runtime {
     pipeline: Arc<dyn Pipeline>,
     runs: HashMap<u64, JoinHandle<()>>,
     corruption: SharedCorruptionModels,
+    models: SharedModels,
 }
 
 impl Runtime {
@@ -121,6 +122,13 @@ impl Runtime {
             }
             Cmd::Score(request) => {
                 self.scores.send_replace(Some(request));
+            }
+            Cmd::ScoreSamples(request) => {
+                let (msgs, models) = (self.msgs.clone(), self.models.clone());
+                tokio::task::spawn_blocking(move || {
+                    let scores = scoring::score_samples(&scoring::loaded_models(&models), &request);
+                    let _ = msgs.send(Msg::SamplesScored(request.run, scores));
+                });
             }
             Cmd::ReadStepFile(path) => {
                 let msgs = self.msgs.clone();
@@ -346,6 +354,9 @@ async fn run_async(options: Options) -> Result<(), TuiError> {
         prompt_sets: options.prompt_sets.clone(),
     });
     app.prices = options.prices.as_ref().ok().cloned().unwrap_or_default();
+    if let Some(samples) = options.samples {
+        app.samples = samples;
+    }
     terminal.draw(|f| render::render(f, &app))?;
 
     let (msg_tx, mut msg_rx) = mpsc::unbounded_channel::<Msg>();
@@ -421,6 +432,7 @@ async fn run_async(options: Options) -> Result<(), TuiError> {
         pipeline: options.pipeline,
         runs: HashMap::new(),
         corruption,
+        models: models.clone(),
     };
     for cmd in first_cmds {
         runtime.execute(&mut app, cmd);

@@ -10,6 +10,7 @@ use tokio::sync::{mpsc::UnboundedSender, watch};
 use super::corrupting::{CorruptionModels, SharedCorruptionModels};
 use crate::metrics::kas::{kas, KasReport};
 use crate::metrics::pg2s::{Pg2sReport, Pg2sScorer};
+use crate::workbench::session::ScoreRecord;
 
 /// A plan and ground truth to score; `generation` orders requests so a late
 /// answer to an old request is ignored.
@@ -107,6 +108,65 @@ pub fn score_now(models: &ModelSlot, request: &ScoreRequest) -> ScoreOutcome {
         kas,
         pg2s,
         millis: started.elapsed().as_secs_f64() * 1000.0,
+    }
+}
+
+/// The later samples of a run to score against the run's ground truth
+/// (the first is scored live, as the Plan pane shows it).
+#[derive(Debug, Clone, PartialEq)]
+pub struct SampleScoring {
+    /// The run's id.
+    pub run: u64,
+    /// The ground-truth steps.
+    pub gt: Vec<String>,
+    /// Each sample's index and plan.
+    pub plans: Vec<(u32, Vec<String>)>,
+}
+
+/// The scores a run keeps of an outcome.
+pub fn score_record(outcome: &ScoreOutcome) -> ScoreRecord {
+    let report = match &outcome.pg2s {
+        Pg2sOutcome::Ready(r) => Some(r),
+        _ => None,
+    };
+    ScoreRecord {
+        kas: outcome.kas.kas,
+        s_plan: report.map(|r| r.s_plan),
+        s_goal: report.and_then(|r| r.s_goal()),
+        pg2s: report.and_then(|r| r.pg2s()),
+    }
+}
+
+/// Scores each sample of `request` with whatever models the slot holds:
+/// each sample's index and scores.
+pub fn score_samples(models: &ModelSlot, request: &SampleScoring) -> Vec<(u32, ScoreRecord)> {
+    request
+        .plans
+        .iter()
+        .map(|(sample, plan)| {
+            let one = ScoreRequest {
+                generation: 0,
+                gt: request.gt.clone(),
+                pred: plan.clone(),
+            };
+            (*sample, score_record(&score_now(models, &one)))
+        })
+        .collect()
+}
+
+/// The models in `models` once they are no longer loading (checked every
+/// 200 ms), for scoring that must not go without PG2S only because the
+/// models were still loading.
+pub fn loaded_models(models: &SharedModels) -> ModelSlot {
+    loop {
+        let slot = models
+            .read()
+            .map(|s| s.clone())
+            .unwrap_or_else(|p| p.into_inner().clone());
+        if !matches!(slot, ModelSlot::Loading(_)) {
+            return slot;
+        }
+        std::thread::sleep(Duration::from_millis(200));
     }
 }
 

@@ -11,14 +11,14 @@ use serde::{Deserialize, Serialize};
 
 use crate::agents::config::AgentSettings;
 use crate::agents::pipeline::AgentRecord;
-use crate::agents::{AgentRole, Approach};
+use crate::agents::{AgentRole, Approach, Usage};
 use crate::dataset::Corruption;
 
 mod migrate;
 mod repair;
 
 /// The format version written into every session file.
-pub const SESSION_VERSION: u32 = 3;
+pub const SESSION_VERSION: u32 = 4;
 
 /// Where the ground truth in use came from.
 #[derive(Debug, Clone, PartialEq, Eq, Serialize, Deserialize)]
@@ -109,6 +109,30 @@ pub struct RunRecord {
     /// scoring again (absent in older sessions and before scoring).
     #[serde(default, skip_serializing_if = "Vec::is_empty")]
     pub steps: Vec<StepScore>,
+    /// The samples after the first, in order, when the run asked for more
+    /// than one (the run's own `agents`, `plan` and `scores` are sample 0;
+    /// a run of one sample, and every run saved before version 3, has none).
+    #[serde(default)]
+    pub samples: Vec<SampleRecord>,
+}
+
+/// A later sample of a run (see [`RunRecord::samples`]): the same agents,
+/// prompts and settings asked again, with what they answered and how the
+/// plan scored.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+pub struct SampleRecord {
+    /// Which sample (1 for the second; the run itself is sample 0).
+    pub sample: u32,
+    /// Each agent's answer, by agent.
+    pub outputs: BTreeMap<AgentRole, String>,
+    /// The plan it produced.
+    pub plan: Vec<String>,
+    /// Token use over its agents.
+    pub usage: Usage,
+    /// The first agent's failure, when one failed.
+    pub error: Option<String>,
+    /// Its scores, once computed.
+    pub scores: Option<ScoreRecord>,
 }
 
 /// One plan step's part of a run's scores: its KAS step score and the
@@ -191,6 +215,9 @@ pub struct Session {
     pub image: bool,
     /// Every run.
     pub runs: Vec<RunRecord>,
+    /// How many samples `r` asks each agent for (1 to
+    /// [`MAX_SAMPLES`](crate::agents::pipeline::MAX_SAMPLES)).
+    pub samples: u32,
     /// Text being edited at the time of saving.
     pub draft: Option<Draft>,
 }
@@ -356,6 +383,7 @@ mod tests {
             theme: "dark".into(),
             image: true,
             runs: Vec::new(),
+            samples: 3,
             draft: Some(Draft {
                 target: "plan".into(),
                 index: 0,
@@ -420,6 +448,7 @@ mod tests {
             cancelled: false,
             corrupted: None,
             steps: Vec::new(),
+            samples: Vec::new(),
         });
         save(&path, &saved).unwrap();
         let mut json: serde_json::Value =
@@ -565,7 +594,9 @@ mod tests {
                             cancelled: image,
                             corrupted: None,
                             steps: Vec::new(),
+                            samples: Vec::new(),
                         }],
+                        samples: 1 + (run % 100) as u32,
                         draft: draft.map(|(text, index)| Draft {
                             target: "plan".into(),
                             index,

@@ -34,6 +34,10 @@ impl App {
                 self.on_scored(outcome);
                 Vec::new()
             }
+            Msg::SamplesScored(run, scores) => {
+                self.on_samples_scored(run, scores);
+                Vec::new()
+            }
             Msg::ModelsProgress(line) => {
                 self.models = ModelSlot::Loading(line);
                 Vec::new()
@@ -198,6 +202,7 @@ impl App {
             Action::CancelRun => return self.cancel_run(),
             Action::ChooseGroundTruth => self.open_ground_truth_picker(),
             Action::NextApproach => return self.cycle_approach(),
+            Action::NextSamples => self.next_samples(),
             Action::PublishedPlan => {
                 self.load_published_plan();
                 if self.plan.items.is_empty() {

@@ -241,3 +241,31 @@ pub fn mapvlm_command<S: AsRef<std::ffi::OsStr>>(args: &[S], home: &Path) -> Com
         .env_remove("OPENAI_BASE_URL");
     command
 }
+
+/// Answers each request with its agent's text and a number of its own, so
+/// that every sample's answer differs and a Planner's request shows which
+/// miners' answers it read; streamed when the request asks for a stream.
+#[derive(Default)]
+pub struct Numbered {
+    count: std::sync::atomic::AtomicUsize,
+}
+
+impl wiremock::Respond for Numbered {
+    fn respond(&self, request: &wiremock::Request) -> ResponseTemplate {
+        let n = self.count.fetch_add(1, std::sync::atomic::Ordering::SeqCst);
+        let body = String::from_utf8_lossy(&request.body);
+        let text = if body.contains(SKM_MARK) {
+            format!("(sponge, on, bathtub)\n(mark, is, skm-answer-{n})")
+        } else if body.contains(GKM_MARK) {
+            format!("The sponge is on the bathtub. gkm-answer-{n}")
+        } else {
+            format!("1. Walk to the bathtub.\n2. Say planner-answer-{n}.")
+        };
+        let body: serde_json::Value = serde_json::from_slice(&request.body).unwrap_or_default();
+        if body["stream"] == true {
+            streamed(ProviderKind::Openai, &pieces(&text, 7), true)
+        } else {
+            whole(ProviderKind::Openai, &text)
+        }
+    }
+}

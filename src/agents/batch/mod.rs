@@ -251,7 +251,7 @@ fn next_requests(
     let mut groups: BTreeMap<_, Vec<PendingRequest>> = BTreeMap::new();
     let mut seen = HashSet::new();
     for (approach, input) in plans {
-        let Ok(stage) = runner.next_stage(*approach, input) else {
+        let Ok(stage) = runner.next_stage(*approach, input, 0) else {
             continue;
         };
         for pending in stage.requests {

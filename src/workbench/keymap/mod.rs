@@ -141,6 +141,9 @@ pub enum Action {
     PublishedPlan,
     /// Switch to the next approach.
     NextApproach,
+    /// Ask each agent for the next number of samples per run
+    /// ([`SAMPLE_STEPS`](crate::workbench::runs::SAMPLE_STEPS)).
+    NextSamples,
     /// Run the agents whose inputs changed.
     Run,
     /// Run every agent again.

@@ -180,9 +180,9 @@ pub(super) const WORKBENCH: &[Binding] = &[
     ),
     bind(
         C::Panes,
-        &[(ch('a'), A::NextApproach)],
-        "a",
-        "next approach (table ones when the task has a table)",
+        &[(ch('a'), A::NextApproach), (ch('S'), A::NextSamples)],
+        "a, S",
+        "next approach (tables if the task has one); samples 1, 3, 5, 10",
     ),
     bind(
         C::Panes,

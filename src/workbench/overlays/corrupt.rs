@@ -117,6 +117,7 @@ impl App {
                 corruption: corrupted.corruption,
             }),
             steps: Vec::new(),
+            samples: Vec::new(),
         });
         self.plan.items = corrupted.plan;
         self.plan.selected = 0;

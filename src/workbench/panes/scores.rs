@@ -2,23 +2,113 @@
 
 use ratatui::layout::{Constraint, Layout, Rect};
 use ratatui::text::{Line, Span};
-use ratatui::widgets::{Paragraph, Sparkline, Wrap};
+use ratatui::widgets::{Paragraph, Sparkline, SparklineBar, Wrap};
 use ratatui::Frame;
 
 use crate::metrics::pg2s::Pg2sReport;
+use crate::stats::summary::Spread;
 use crate::workbench::app::App;
 use crate::workbench::panes::{pane_block, Pane};
+use crate::workbench::runs::sample_scores;
 use crate::workbench::scoring::Pg2sOutcome;
+use crate::workbench::session::{PlanSource, RunRecord, ScoreRecord};
 use crate::workbench::theme::Theme;
 
-pub(crate) fn score_span(theme: &Theme, name: &str, value: Option<f64>) -> Vec<Span<'static>> {
-    let shown = value.map_or("  –  ".to_string(), |v| format!("{v:.3}"));
-    let style = match value {
+/// One score of a [`ScoreRecord`].
+type ScoreOf = fn(&ScoreRecord) -> Option<f64>;
+
+/// The scores whose spread over samples the pane shows, by name.
+const SAMPLED: [(&str, ScoreOf); 4] = [
+    ("PG2S", |s| s.pg2s),
+    ("S_plan", |s| s.s_plan),
+    ("S_goal", |s| s.s_goal),
+    ("KAS", |s| s.kas),
+];
+
+/// The spread of one score over `scores`, if any sample has it.
+fn spread_of(scores: &[ScoreRecord], of: ScoreOf) -> Option<Spread> {
+    Spread::of(scores.iter().filter_map(of))
+}
+
+/// The run whose plan the Plan pane shows, with its samples' scores, when
+/// more than one sample of it is scored.
+fn sampled_run(app: &App) -> Option<(&RunRecord, Vec<ScoreRecord>)> {
+    let PlanSource::Run { run } = app.plan_source else {
+        return None;
+    };
+    let kept = app.runs.history.iter().find(|r| r.id == run)?;
+    let scores = sample_scores(kept);
+    (scores.len() > 1).then_some((kept, scores))
+}
+
+/// The lines of a sampled run: how many samples, then each score as
+/// `PG2S 0.433 ±0.020` (the value right after the name) and its min–max.
+fn spread_lines(theme: &Theme, run: &RunRecord, scores: &[ScoreRecord]) -> Vec<Line<'static>> {
+    let mut lines = vec![Line::from(Span::styled(
+        format!(
+            "run #{}: {} of {} samples scored (mean ±sd, min–max)",
+            run.id,
+            scores.len(),
+            run.samples.len() + 1
+        ),
+        theme.muted,
+    ))];
+    for (name, of) in SAMPLED {
+        let spans = match spread_of(scores, of) {
+            Some(spread) => vec![
+                Span::styled(format!("{name} "), theme.accent),
+                Span::styled(spread.plus_minus(3), score_style(theme, Some(spread.mean))),
+                Span::styled(format!("  {}", spread.range(3)), theme.muted),
+            ],
+            None => score_span(theme, name, None),
+        };
+        lines.push(Line::from(spans));
+    }
+    lines.push(Line::from(Span::styled(
+        "sample 1, in the Plan pane:",
+        theme.muted,
+    )));
+    lines
+}
+
+/// The sparkline bars of the run history: one bar a run of one sample;
+/// for a sampled run its min, mean and max (the ends dimmed), so the spread
+/// shows beside the level.
+fn history_bars(theme: &Theme, history: &[RunRecord]) -> Vec<SparklineBar> {
+    let height = |v: f64| (v * 100.0).round().max(0.0) as u64;
+    let mut bars = Vec::new();
+    for run in history {
+        let scores = sample_scores(run);
+        let Some(spread) = spread_of(&scores, |s| s.pg2s.or(s.kas)) else {
+            if run.scores.is_some() {
+                bars.push(SparklineBar::from(0));
+            }
+            continue;
+        };
+        if spread.count > 1 {
+            bars.push(SparklineBar::from(height(spread.min)).style(theme.muted));
+            bars.push(SparklineBar::from(height(spread.mean)));
+            bars.push(SparklineBar::from(height(spread.max)).style(theme.muted));
+        } else {
+            bars.push(SparklineBar::from(height(spread.mean)));
+        }
+    }
+    bars
+}
+
+/// The style of a score: good, middling, bad or absent.
+fn score_style(theme: &Theme, value: Option<f64>) -> ratatui::style::Style {
+    match value {
         Some(v) if v >= 0.6 => theme.good,
         Some(v) if v >= 0.3 => theme.warn,
         Some(_) => theme.bad,
         None => theme.muted,
-    };
+    }
+}
+
+pub(crate) fn score_span(theme: &Theme, name: &str, value: Option<f64>) -> Vec<Span<'static>> {
+    let shown = value.map_or("  –  ".to_string(), |v| format!("{v:.3}"));
+    let style = score_style(theme, value);
     vec![
         Span::styled(format!("{name} "), theme.accent),
         Span::styled(shown, style),
@@ -40,6 +130,9 @@ pub(crate) fn draw(frame: &mut Frame, app: &App, area: Rect) {
     let inner = block.inner(area);
     frame.render_widget(block, area);
     let mut lines = Vec::new();
+    if let Some((run, scores)) = sampled_run(app) {
+        lines.extend(spread_lines(t, run, &scores));
+    }
     match &app.scores {
         None => lines.push(Line::from(Span::styled("scoring…", t.muted))),
         Some(s) => {
@@ -75,13 +168,7 @@ pub(crate) fn draw(frame: &mut Frame, app: &App, area: Rect) {
             }
         }
     }
-    let history: Vec<u64> = app
-        .runs
-        .history
-        .iter()
-        .filter_map(|r| r.scores)
-        .map(|s| (s.pg2s.or(s.kas).unwrap_or(0.0) * 100.0).round() as u64)
-        .collect();
+    let history = history_bars(t, &app.runs.history);
     let width = usize::from(inner.width.max(1));
     let text_height = lines
         .iter()
@@ -102,15 +189,20 @@ pub(crate) fn draw(frame: &mut Frame, app: &App, area: Rect) {
     frame.render_widget(
         Paragraph::new(Span::styled(
             format!(
-                "runs: {} (H lists and compares them)",
-                app.runs.history.len()
+                "runs: {} (H lists and compares them{})",
+                app.runs.history.len(),
+                if app.runs.history.iter().any(|r| !r.samples.is_empty()) {
+                    "; a sampled run: min, mean, max"
+                } else {
+                    ""
+                }
             ),
             t.muted,
         )),
         label,
     );
     frame.render_widget(
-        Sparkline::default().data(&history).max(100).style(t.accent),
+        Sparkline::default().data(history).max(100).style(t.accent),
         spark,
     );
     let rows: Vec<Line> = app
@@ -120,15 +212,17 @@ pub(crate) fn draw(frame: &mut Frame, app: &App, area: Rect) {
         .rev()
         .take(table.height as usize)
         .map(|r| {
-            let s = r.scores.unwrap_or_default();
-            let f = |v: Option<f64>| v.map_or("  –  ".to_string(), |v| format!("{v:.3}"));
+            let scores = sample_scores(r);
+            let f = |of: ScoreOf| {
+                spread_of(&scores, of).map_or("  –  ".to_string(), |s| s.plus_minus(3))
+            };
             let (ms, tokens) = (r.total_ms(), r.total_tokens());
             Line::from(Span::styled(
                 format!(
                     "#{:<3} PG2S {} KAS {} {:>6} ms {:>5} tok{}",
                     r.id,
-                    f(s.pg2s),
-                    f(s.kas),
+                    f(|s| s.pg2s),
+                    f(|s| s.kas),
                     ms,
                     tokens,
                     if r.cancelled { " cancelled" } else { "" }

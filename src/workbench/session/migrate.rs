@@ -22,12 +22,25 @@ pub(super) fn migrate(mut value: Value) -> Result<Value, DecodeError> {
         match version {
             1 => v1_to_v2(&mut value),
             2 => v2_to_v3(&mut value),
+            3 => v3_to_v4(&mut value),
             _ => return Err(DecodeError::TooOld(version)),
         }
         version += 1;
         value["version"] = version.into();
     }
     Ok(value)
+}
+
+/// Version 4 keeps every sample of a run: each run gains its later samples
+/// (none: an older run is one sample) and the session its samples setting
+/// (1, as every older run was made).
+fn v3_to_v4(value: &mut Value) {
+    for run in runs(value) {
+        run.insert("samples".into(), Value::Array(Vec::new()));
+    }
+    if let Some(session) = value.as_object_mut() {
+        session.insert("samples".into(), 1.into());
+    }
 }
 
 /// The runs of a session, as JSON objects.
@@ -168,6 +181,13 @@ mod tests {
         assert_eq!(session.version, SESSION_VERSION);
         assert_eq!(session.runs.len(), old["runs"].as_array().unwrap().len());
         assert!(session.runs.len() >= 2);
+        for run in &session.runs {
+            assert!(run.samples.is_empty(), "an older run is one sample");
+            let scores = crate::workbench::runs::sample_scores(run);
+            assert_eq!(scores.len(), 1, "its one sample's scores");
+            assert_eq!(Some(scores[0]), run.scores);
+        }
+        assert_eq!(session.samples, 1, "older runs were made with one sample");
         (*session, old)
     }
 

@@ -6,6 +6,7 @@
 use serde_json::{Map, Value};
 
 use crate::agents::config::{DEFAULT_MAX_TOKENS, MAX_TOKENS_RANGE, TEMPERATURE_RANGE};
+use crate::agents::pipeline::MAX_SAMPLES;
 
 /// What a numeric field of a session holds, and its default.
 #[derive(Clone, Copy)]
@@ -18,6 +19,8 @@ enum Kind {
     Count,
     /// An optional score: a finite number or `null`; default `null`.
     Score,
+    /// How many samples a run asks for: 1 to [`MAX_SAMPLES`]; default 1.
+    Samples,
 }
 
 impl Kind {
@@ -33,6 +36,9 @@ impl Kind {
                 .is_some_and(|n| MAX_TOKENS_RANGE.contains(&n)),
             Kind::Count => value.is_u64(),
             Kind::Score => value.is_null() || value.as_f64().is_some_and(f64::is_finite),
+            Kind::Samples => value
+                .as_u64()
+                .is_some_and(|n| (1..=u64::from(MAX_SAMPLES)).contains(&n)),
         }
     }
 
@@ -51,6 +57,7 @@ impl Kind {
             ),
             Kind::Count => "a whole number, 0 or more".to_string(),
             Kind::Score => "a finite number or null".to_string(),
+            Kind::Samples => format!("a number of samples in 1..={MAX_SAMPLES}"),
         }
     }
 
@@ -61,6 +68,7 @@ impl Kind {
             Kind::TokenLimit => DEFAULT_MAX_TOKENS.into(),
             Kind::Count => 0.into(),
             Kind::Score => Value::Null,
+            Kind::Samples => 1.into(),
         }
     }
 }
@@ -71,6 +79,9 @@ impl Kind {
 /// missing are left for the reader to report.
 pub(super) fn repair_numbers(session: &mut Value) -> Vec<String> {
     let mut notices = Vec::new();
+    if let Some(object) = session.as_object_mut() {
+        fix_field(object, "", "samples", Kind::Samples, &mut notices);
+    }
     let mut fix = |object: Option<&mut Value>, path: &str, fields: &[(&str, Kind)]| {
         let Some(object) = object.and_then(Value::as_object_mut) else {
             return;
@@ -110,6 +121,11 @@ pub(super) fn repair_numbers(session: &mut Value) -> Vec<String> {
         );
         let scores = ["kas", "s_plan", "s_goal", "pg2s"].map(|name| (name, Kind::Score));
         fix(run.get_mut("scores"), &format!("{at}.scores"), &scores);
+        let samples = run.get_mut("samples").and_then(Value::as_array_mut);
+        for (j, sample) in samples.into_iter().flatten().enumerate() {
+            let at = format!("{at}.samples[{j}]");
+            fix(sample.get_mut("scores"), &format!("{at}.scores"), &scores);
+        }
         let agents = run.get_mut("agents").and_then(Value::as_array_mut);
         for (j, agent) in agents.into_iter().flatten().enumerate() {
             let at = format!("{at}.agents[{j}]");
@@ -146,8 +162,13 @@ fn fix_field(
         return;
     }
     let default = kind.default();
+    let at = if path.is_empty() {
+        field.to_string()
+    } else {
+        format!("{path}.{field}")
+    };
     notices.push(format!(
-        "session value {path}.{field} = {value} is not {}; {default} used instead",
+        "session value {at} = {value} is not {}; {default} used instead",
         kind.expected()
     ));
     *value = default;
@@ -176,13 +197,26 @@ mod tests {
                          "skm": {"temperature": null, "max_tokens": 4_294_967_296_u64}},
             "ran_with": {"gkm": ["prompt", {"temperature": -0.5, "max_tokens": "many"}]},
             "draft": {"index": -1},
+            "samples": 0,
             "plan_source": {"kind": "run", "run": 1.5},
             "runs": [{"id": -2, "started_unix": 1e300, "scores": {"kas": "high"},
+                      "samples": [{"scores": {"pg2s": "low"}}],
                       "agents": [{"elapsed_ms": null, "temperature": 3, "max_tokens": 5,
                                   "usage": {"input_tokens": -1, "output_tokens": 2}}]}],
         });
         let notices = repair_numbers(&mut session);
-        assert_eq!(notices.len(), 14, "{notices:#?}");
+        assert_eq!(notices.len(), 16, "{notices:#?}");
+        assert!(
+            notices.contains(
+                &"session value samples = 0 is not a number of samples in 1..=100; 1 used instead"
+                    .to_string()
+            ),
+            "{notices:#?}"
+        );
+        assert_eq!(
+            session["runs"][0]["samples"][0]["scores"]["pg2s"],
+            Value::Null
+        );
         assert!(notices.contains(
             &"session value settings.planner.temperature = 1e+300 is not a temperature in 0..=2; 0 used instead".to_string()
         ), "{notices:#?}");
