@@ -28,6 +28,7 @@ pub mod render;
 pub mod run_diff;
 pub mod runs;
 pub mod runtime;
+pub mod saver;
 pub mod scene_image;
 pub mod scoring;
 pub mod session;

@@ -25,16 +25,17 @@ use tokio::task::JoinHandle;
 use super::agents::Pipeline;
 use super::app::{App, AppInit, Severity};
 use super::scoring::{ModelSlot, ScorerLoader, SharedModels};
-use super::session::{Restored, Session, SessionError};
+use super::session::{Restored, Session};
 use crate::agents::pipeline::AgentEvent;
 use crate::agents::prompt_sets;
 use crate::dataset::Dataset;
 
 use super::corrupting::{self, SharedCorruptionModels};
 use super::message::{Cmd, Msg, ReadError};
+use super::saver::{self, NumberedCopy, SessionFile};
 use super::scene_image;
 use super::{headless, scoring, session};
-use super::{render, terminal_query, theme, Options, TuiError, SAVE_EVERY, SCORE_DEBOUNCE};
+use super::{render, terminal_query, theme, Options, TuiError, SCORE_DEBOUNCE};
 
 /// Puts the terminal back as it was: raw mode off, main screen, no mouse capture.
 fn restore_terminal() {
@@ -214,28 +215,6 @@ fn spawn_signal_watch(msgs: mpsc::UnboundedSender<Msg>) {
     }
 }
 
-/// Saves the latest session snapshot at most every [`SAVE_EVERY`], off the loop.
-fn spawn_saver(
-    path: PathBuf,
-    mut snapshots: watch::Receiver<Option<Session>>,
-    msgs: mpsc::UnboundedSender<Msg>,
-) -> JoinHandle<()> {
-    tokio::spawn(async move {
-        while snapshots.changed().await.is_ok() {
-            tokio::time::sleep(SAVE_EVERY).await;
-            let Some(snapshot) = snapshots.borrow_and_update().clone() else {
-                continue;
-            };
-            let path = path.clone();
-            let result = tokio::task::spawn_blocking(move || session::save(&path, &snapshot))
-                .await
-                .map_err(SessionError::from)
-                .and_then(|saved| saved);
-            let _ = msgs.send(Msg::Saved(result));
-        }
-    })
-}
-
 /// Starts the workbench and runs it until the user quits. The terminal is
 /// restored on every way out, a panic included.
 pub fn run(options: Options) -> Result<(), TuiError> {
@@ -377,7 +356,7 @@ async fn run_async(options: Options) -> Result<(), TuiError> {
     };
     let (agent_tx, mut agent_rx) = mpsc::unbounded_channel();
     let (score_tx, score_rx) = watch::channel(None);
-    let (save_tx, save_rx) = watch::channel::<Option<Session>>(None);
+    let (save_tx, save_rx) = watch::channel::<Option<NumberedCopy>>(None);
     let models: SharedModels = Arc::new(RwLock::new(ModelSlot::Loading("starting".into())));
     let corruption: SharedCorruptionModels =
         Arc::new(RwLock::new(Err(corrupting::STILL_LOADING.to_string())));
@@ -423,7 +402,10 @@ async fn run_async(options: Options) -> Result<(), TuiError> {
             }
         });
     }
-    let saver = session_path.map(|p| spawn_saver(p, save_rx, msg_tx.clone()));
+    let session_file = session_path.map(|p| Arc::new(SessionFile::new(p)));
+    let saver = session_file
+        .clone()
+        .map(|file| saver::spawn(file, save_rx, msg_tx.clone()));
 
     let mut runtime = Runtime {
         msgs: msg_tx,
@@ -464,7 +446,7 @@ async fn run_async(options: Options) -> Result<(), TuiError> {
         }
         let (copy, next) = app.poll_snapshot(Instant::now());
         if let Some(session) = copy {
-            save_tx.send_replace(Some(session));
+            save_tx.send_replace(Some((app.persist.taken(), session)));
         }
         wake = next;
         if app.quit {
@@ -476,9 +458,11 @@ async fn run_async(options: Options) -> Result<(), TuiError> {
     for (_, handle) in runtime.runs.drain() {
         handle.abort();
     }
-    if let (Some(saver), Some(path)) = (saver, options.session.or_else(session::default_path)) {
+    if let (Some(saver), Some(file)) = (saver, session_file) {
+        // A copy already being written finishes first, and none written
+        // later can replace this one: the file ends with the final state.
         saver.abort();
-        if let Err(e) = session::save(&path, &app.to_session()) {
+        if let Err(e) = file.write(saver::FINAL, &app.to_session()) {
             drop(guard);
             eprintln!("mapvlm: session not saved: {e}");
             return Ok(());
