@@ -12,6 +12,7 @@ use crate::workbench::agents::{self, RunError, RunRequest};
 use crate::workbench::app::{unix_now, App, Severity};
 use crate::workbench::editing::Editing;
 use crate::workbench::message::Cmd;
+use crate::workbench::overlays::Overlay;
 use crate::workbench::panes::steps::StepList;
 use crate::workbench::scoring::{score_record, Pg2sOutcome, SampleScoring, ScoreOutcome};
 use crate::workbench::session::{PlanSource, RunRecord, SampleRecord, ScoreRecord, StepScore};
@@ -547,6 +548,9 @@ impl App {
             .as_ref()
             .is_none_or(|s| s.generation <= outcome.generation)
         {
+            if let Some(Overlay::Actions(view)) = &mut self.overlay {
+                view.scores = Some(outcome.clone());
+            }
             self.scores = Some(outcome);
         }
     }

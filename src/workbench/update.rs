@@ -10,6 +10,7 @@ use crate::workbench::editing::Editing;
 use crate::workbench::keymap::{self, Action, Context};
 use crate::workbench::layout::{pane_rects, Screen};
 use crate::workbench::message::{Cmd, Msg};
+use crate::workbench::overlays::actions::ActionsView;
 use crate::workbench::overlays::Overlay;
 use crate::workbench::panes::steps::StepList;
 use crate::workbench::panes::{list_window, Pane};
@@ -233,7 +234,12 @@ impl App {
                     self.set_status("NO_COLOR is set: themes are off", Severity::Info);
                 }
             }
-            Action::Actions => self.overlay = Some(Overlay::Actions),
+            Action::Actions => {
+                let view = ActionsView {
+                    scores: self.scores.clone(),
+                };
+                self.overlay = Some(Overlay::Actions(Box::new(view)));
+            }
             Action::Corrupt => self.open_corrupt_picker(),
             Action::History => self.open_runs(),
             Action::Accept

@@ -3,7 +3,7 @@
 
 use crossterm::event::KeyCode;
 
-use super::table::{bind, ch, hinted, key};
+use super::row::{bind, ch, hinted, key};
 use super::{Action, Binding, Context};
 use crate::annotate::{Preference, StepLabelKind};
 

@@ -258,6 +258,7 @@ pub struct Binding {
 }
 
 mod annotate;
+mod row;
 mod table;
 
 /// Every binding, the workbench's and the annotation screen's, in the order

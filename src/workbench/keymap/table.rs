@@ -1,48 +1,11 @@
 //! The rows of the key table: every binding of the workbench, in the order
-//! the help lists them, with the small constructors that keep each row on a
-//! line or two.
+//! the help lists them (each row made with [`super::row`]'s constructors).
 
 use crossterm::event::KeyCode;
 
-use super::{Action, Binding, Context, Key};
+use super::row::{bind, ch, ctrl, hinted, key};
+use super::{Action, Binding, Context};
 use crate::workbench::graph_view::Direction;
-
-pub(super) const fn key(code: KeyCode) -> Key {
-    Key { code, ctrl: false }
-}
-
-pub(super) const fn ch(c: char) -> Key {
-    key(KeyCode::Char(c))
-}
-
-pub(super) const fn ctrl(c: char) -> Key {
-    Key {
-        code: KeyCode::Char(c),
-        ctrl: true,
-    }
-}
-
-pub(super) const fn bind(
-    context: Context,
-    keys: &'static [(Key, Action)],
-    label: &'static str,
-    help: &'static str,
-) -> Binding {
-    Binding {
-        context,
-        keys,
-        label,
-        help,
-        hint: None,
-    }
-}
-
-pub(super) const fn hinted(binding: Binding, key: &'static str, hint: &'static str) -> Binding {
-    Binding {
-        hint: Some((key, hint)),
-        ..binding
-    }
-}
 
 use Action as A;
 use Context as C;

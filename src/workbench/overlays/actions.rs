@@ -1,16 +1,53 @@
-//! The framed actions of plan and ground truth, and their matches.
+//! The framed actions of plan and ground truth, and their matches (`a`), a
+//! [`Component`] over the scores it was opened on (kept up to date while
+//! it is open).
 
+use std::convert::Infallible;
+
+use crossterm::event::KeyEvent;
 use ratatui::layout::Rect;
 use ratatui::text::{Line, Span};
 use ratatui::widgets::{Paragraph, Wrap};
 use ratatui::Frame;
 
-use crate::workbench::app::App;
-use crate::workbench::overlays::open_box;
-use crate::workbench::scoring::Pg2sOutcome;
+use crate::workbench::component::Component;
+use crate::workbench::keymap::{Action, Context};
+use crate::workbench::overlays::{open_box, Picked};
+use crate::workbench::scoring::{Pg2sOutcome, ScoreOutcome};
+use crate::workbench::theme::Theme;
 
-pub(crate) fn draw(frame: &mut Frame, app: &App, area: Rect) {
-    let t = &app.theme;
+/// The framed-actions viewer: the scores it shows, `None` while scoring.
+#[derive(Debug, Clone, Default)]
+pub struct ActionsView {
+    /// The scores shown; the workbench replaces them when new ones arrive.
+    pub scores: Option<ScoreOutcome>,
+}
+
+impl Component for ActionsView {
+    /// A viewer chooses nothing: it stays open or is closed.
+    type Outcome = Picked<Infallible>;
+
+    fn contexts(&self) -> Vec<Context> {
+        vec![Context::Viewer]
+    }
+
+    fn on_action(&mut self, action: Action) -> Self::Outcome {
+        match action {
+            Action::Leave => Picked::Cancelled,
+            _ => Picked::Open,
+        }
+    }
+
+    fn on_other_key(&mut self, _key: KeyEvent) -> Self::Outcome {
+        Picked::Open
+    }
+
+    fn draw(&self, frame: &mut Frame, area: Rect, theme: &Theme) {
+        draw(frame, self.scores.as_ref(), area, theme);
+    }
+}
+
+fn draw(frame: &mut Frame, scores: Option<&ScoreOutcome>, area: Rect, t: &Theme) {
     let inner = open_box(
         frame,
         t,
@@ -19,7 +56,7 @@ pub(crate) fn draw(frame: &mut Frame, app: &App, area: Rect) {
         "Framed actions and their matches (Esc closes)",
     );
     let mut lines = Vec::new();
-    match app.scores.as_ref().map(|s| &s.pg2s) {
+    match scores.map(|s| &s.pg2s) {
         Some(Pg2sOutcome::Ready(report)) => match &report.goal {
             Ok(goal) => {
                 lines.push(Line::from(Span::styled(
@@ -77,7 +114,7 @@ pub(crate) fn draw(frame: &mut Frame, app: &App, area: Rect) {
         }
         None => lines.push(Line::from(Span::styled("scoring…", t.muted))),
     }
-    if let Some(s) = &app.scores {
+    if let Some(s) = scores {
         lines.push(Line::from(""));
         lines.push(Line::from(Span::styled(
             "KAS key actions, by step:",
@@ -98,4 +135,26 @@ pub(crate) fn draw(frame: &mut Frame, app: &App, area: Rect) {
         }
     }
     frame.render_widget(Paragraph::new(lines).wrap(Wrap { trim: false }), inner);
+}
+
+#[cfg(test)]
+mod tests {
+    use crossterm::event::{KeyCode, KeyModifiers};
+
+    use super::*;
+    use crate::workbench::component::dispatch;
+
+    #[test]
+    fn the_viewer_stays_open_until_a_close_key() {
+        let mut view = ActionsView::default();
+        let press = |code| KeyEvent::new(code, KeyModifiers::NONE);
+        assert_eq!(
+            dispatch(&mut view, &press(KeyCode::Char('x'))),
+            Picked::Open
+        );
+        assert_eq!(dispatch(&mut view, &press(KeyCode::Down)), Picked::Open);
+        for code in [KeyCode::Esc, KeyCode::Char('q'), KeyCode::Enter] {
+            assert_eq!(dispatch(&mut view, &press(code)), Picked::Cancelled);
+        }
+    }
 }

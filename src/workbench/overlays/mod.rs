@@ -19,8 +19,9 @@ use ratatui::Frame;
 
 use crate::workbench::app::App;
 use crate::workbench::component::{self, Component};
-use crate::workbench::keymap::{self, Action, Context};
+use crate::workbench::keymap::Context;
 use crate::workbench::message::Cmd;
+use crate::workbench::overlays::actions::ActionsView;
 use crate::workbench::overlays::corrupt::CorruptPicker;
 use crate::workbench::overlays::help::{Close, Help};
 use crate::workbench::overlays::model_form::ModelForm;
@@ -46,7 +47,7 @@ pub enum Overlay {
     /// The history of runs and the diff of two.
     Runs(Box<runs::RunsOverlay>),
     /// The framed actions and their matches.
-    Actions,
+    Actions(Box<ActionsView>),
     /// Choose how to corrupt the plan into a new run.
     CorruptPicker(CorruptPicker),
 }
@@ -74,7 +75,7 @@ impl Overlay {
             Overlay::PromptSetName(_) => Some(Context::SetName),
             Overlay::PromptSetPicker(_) => Some(Context::Picker),
             Overlay::Runs(view) => Some(view.context()),
-            Overlay::Actions => Some(Context::Viewer),
+            Overlay::Actions(_) => Some(Context::Viewer),
         }
     }
 }
@@ -93,18 +94,14 @@ impl App {
         let Some(overlay) = self.overlay.take() else {
             return Vec::new();
         };
-        let action = overlay
-            .context()
-            .and_then(|context| keymap::action(&[context], &key));
         match overlay {
             Overlay::Help => {
                 let Close = component::dispatch(&mut Help, &key);
                 Vec::new()
             }
-            Overlay::Actions => {
-                if action != Some(Action::Leave) {
-                    self.overlay = Some(overlay);
-                }
+            Overlay::Actions(view) => {
+                // A viewer chooses nothing: it is put back or closed.
+                let _ = self.pick(*view, &key, |v| Overlay::Actions(Box::new(v)));
                 Vec::new()
             }
             Overlay::GroundTruthPicker(picker) => {
@@ -207,7 +204,7 @@ pub(crate) fn render_overlay(frame: &mut Frame, app: &App, area: Rect) {
         Overlay::PromptSetName(prompt) => prompt.draw(frame, area, t),
         Overlay::PromptSetPicker(picker) => picker.draw(frame, area, t),
         Overlay::Runs(view) => view.draw(frame, area, t),
-        Overlay::Actions => actions::draw(frame, app, area),
+        Overlay::Actions(view) => view.draw(frame, area, t),
         Overlay::CorruptPicker(picker) => picker.draw(frame, area, t),
     }
 }

@@ -1,0 +1,48 @@
+//! The small constructors that keep each row of the key table on a line
+//! or two, shared by the workbench's rows and the annotation screen's.
+
+use crossterm::event::KeyCode;
+
+use super::{Action, Binding, Context, Key};
+
+/// A key without modifiers.
+pub(super) const fn key(code: KeyCode) -> Key {
+    Key { code, ctrl: false }
+}
+
+/// A character key.
+pub(super) const fn ch(c: char) -> Key {
+    key(KeyCode::Char(c))
+}
+
+/// Ctrl with a character.
+pub(super) const fn ctrl(c: char) -> Key {
+    Key {
+        code: KeyCode::Char(c),
+        ctrl: true,
+    }
+}
+
+/// A row without a status-bar hint.
+pub(super) const fn bind(
+    context: Context,
+    keys: &'static [(Key, Action)],
+    label: &'static str,
+    help: &'static str,
+) -> Binding {
+    Binding {
+        context,
+        keys,
+        label,
+        help,
+        hint: None,
+    }
+}
+
+/// `binding` with the status-bar hint `key` and `hint`.
+pub(super) const fn hinted(binding: Binding, key: &'static str, hint: &'static str) -> Binding {
+    Binding {
+        hint: Some((key, hint)),
+        ..binding
+    }
+}
