@@ -122,23 +122,38 @@ fn spawn_signal_watch(quit: mpsc::UnboundedSender<(u16, u16)>) {
     }
 }
 
-/// Encodes the scene image for the area the screen shows it in, once per
-/// image and area.
-fn prepare_image(screen: &mut Judging, picker: &Picker, area: Rect) {
+/// Asks for the scene image to be encoded for the area the screen shows it
+/// in, once per image and area, on a blocking task (resizing and encoding
+/// are slow; the loop keeps reading keys): the result comes back as a
+/// message naming the image file.
+fn request_image(
+    screen: &mut Judging,
+    picker: &Picker,
+    area: Rect,
+    msgs: &mpsc::UnboundedSender<Msg>,
+) {
     let Some(wanted) = view::image_area(area, screen) else {
         return;
     };
     if screen.image.as_ref().is_some_and(|(at, _)| *at == wanted) {
         return;
     }
-    let Scene::Loaded(_, image) = &screen.scene else {
+    let Scene::Loaded(path, image) = &screen.scene else {
         return;
     };
-    let msg = match scene_image::encode(picker, image, wanted) {
-        Ok(encoded) => Msg::ImageReady(encoded),
-        Err(e) => Msg::ImageUndrawable(e.to_string()),
-    };
-    screen.update(msg);
+    let request = (path.clone(), wanted);
+    if screen.requested.as_ref() == Some(&request) {
+        return;
+    }
+    screen.requested = Some(request);
+    let (picker, image, path, msgs) = (picker.clone(), image.clone(), path.clone(), msgs.clone());
+    tokio::task::spawn_blocking(move || {
+        let msg = match scene_image::encode(&picker, &image, wanted) {
+            Ok(encoded) => Msg::ImageReady(path, encoded),
+            Err(e) => Msg::ImageUndrawable(path, e.to_string()),
+        };
+        let _ = msgs.send(msg);
+    });
 }
 
 /// Opens the screen and runs it until the user quits; the terminal is
@@ -203,7 +218,7 @@ async fn run_async(options: Options) -> Result<Outcome, TuiError> {
     let mut tick = tokio::time::interval(Duration::from_secs(1));
     loop {
         let area = terminal.get_frame().area();
-        prepare_image(&mut screen, &picker, area);
+        request_image(&mut screen, &picker, area, &msg_tx);
         terminal.draw(|f| {
             let area = f.area();
             screen.draw(f, area, &theme);

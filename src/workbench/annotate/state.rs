@@ -9,6 +9,7 @@ use std::time::Duration;
 
 use crossterm::event::KeyEvent;
 use image::DynamicImage;
+use ratatui::layout::Rect;
 use ratatui_textarea::TextArea;
 
 use crate::annotate::guidelines::Guidelines;
@@ -56,10 +57,10 @@ pub enum Msg {
     },
     /// A scene image was read, or could not be.
     Image(PathBuf, Result<Arc<DynamicImage>, String>),
-    /// The scene image is encoded for this area.
-    ImageReady(Encoded),
-    /// The scene image cannot be drawn on this terminal.
-    ImageUndrawable(String),
+    /// The scene image read from this file is encoded for an area.
+    ImageReady(PathBuf, Encoded),
+    /// The scene image read from this file cannot be drawn on this terminal.
+    ImageUndrawable(PathBuf, String),
 }
 
 /// What goes out.
@@ -169,6 +170,9 @@ pub struct Judging {
     pub scene: Scene,
     /// The image encoded for an area of the screen.
     pub image: Option<Encoded>,
+    /// The image file and area an encoding was last asked for, so that a
+    /// frame drawn while it is under way does not ask again.
+    pub(super) requested: Option<(PathBuf, Rect)>,
     /// Set when the user quits.
     pub quit: bool,
 }
@@ -223,6 +227,7 @@ impl Judging {
                 .map(|n| (n, Severity::Warn)),
             scene: Scene::None,
             image: None,
+            requested: None,
             quit: false,
         };
         let first = screen.next_unjudged_from(0).unwrap_or(0);

@@ -45,12 +45,18 @@ impl Judging {
                 }
                 vec![]
             }
-            Msg::ImageReady(encoded) => {
-                self.image = Some(encoded);
+            // An encoding finished after the user moved on is dropped.
+            Msg::ImageReady(path, encoded) => {
+                if matches!(&self.scene, Scene::Loaded(p, _) if *p == path) {
+                    self.image = Some(encoded);
+                }
                 vec![]
             }
-            Msg::ImageUndrawable(e) => {
-                self.scene = Scene::Failed(format!("the scene image cannot be drawn here: {e}"));
+            Msg::ImageUndrawable(path, e) => {
+                if matches!(&self.scene, Scene::Loaded(p, _) if *p == path) {
+                    self.scene =
+                        Scene::Failed(format!("the scene image cannot be drawn here: {e}"));
+                }
                 vec![]
             }
         }
@@ -240,6 +246,35 @@ mod tests {
     use super::super::state::{Clock, Cmd, Draft, Msg, Severity};
     use crate::annotate::guidelines::Guidelines;
     use crate::annotate::{Annotations, Preference, StepLabel, StepLabelKind, Subject};
+
+    #[test]
+    fn an_image_encoded_after_the_user_moved_on_is_dropped() {
+        use std::path::PathBuf;
+        use std::sync::Arc;
+
+        use image::DynamicImage;
+        use ratatui::layout::Rect;
+        use ratatui_image::picker::Picker;
+
+        use super::super::state::Scene;
+        use crate::workbench::scene_image;
+
+        let (mut s, _) = open(setup(false, Annotations::default()));
+        let (here, gone) = (
+            PathBuf::from("/nowhere/here.png"),
+            PathBuf::from("/nowhere/gone.png"),
+        );
+        let image = Arc::new(DynamicImage::new_rgb8(4, 4));
+        s.scene = Scene::Loaded(here.clone(), image.clone());
+        let area = Rect::new(0, 0, 4, 2);
+        let encoded = || scene_image::encode(&Picker::halfblocks(), &image, area).unwrap();
+        s.update(Msg::ImageReady(gone.clone(), encoded()));
+        assert!(s.image.is_none(), "the image of an item left behind");
+        s.update(Msg::ImageUndrawable(gone, "no protocol".into()));
+        assert!(matches!(s.scene, Scene::Loaded(..)));
+        s.update(Msg::ImageReady(here, encoded()));
+        assert_eq!(s.image.as_ref().map(|(at, _)| *at), Some(area));
+    }
 
     #[test]
     fn the_first_key_rates_the_first_item_and_moves_on() {
