@@ -17,7 +17,7 @@ use crate::agents::replay::Pace;
 use crate::corrupt::{user_vocabulary_dir, Vocabulary};
 use crate::metrics::pg2s::Pg2sSettings;
 use crate::workbench::agents::{prompt_texts, AgentsPipeline, ProviderConfig};
-use crate::workbench::corrupting::CorruptionModels;
+use crate::workbench::corrupting::{CorruptError, CorruptionModels};
 use crate::workbench::scoring::{LoadError, Loaded};
 use crate::workbench::{self, Options};
 
@@ -113,7 +113,7 @@ pub fn run(args: TuiArgs) -> anyhow::Result<ExitCode> {
                         vectors,
                         vocabulary: Arc::new(vocabulary),
                     })
-                    .map_err(|e| e.to_string()),
+                    .map_err(|e| CorruptError::Unavailable(e.to_string())),
             })
         }),
         pipeline: Arc::new(pipeline),

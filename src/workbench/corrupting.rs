@@ -23,11 +23,30 @@ pub struct CorruptionModels {
 
 /// The corruption models once loaded, else why not (still loading, or the
 /// reason they cannot be).
-pub type SharedCorruptionModels = Arc<RwLock<Result<CorruptionModels, String>>>;
+pub type SharedCorruptionModels = Arc<RwLock<Result<CorruptionModels, CorruptError>>>;
 
-/// What the corruption slot says until the loader is done.
-pub const STILL_LOADING: &str =
-    "the English pipeline and word vectors are still loading; try again when the status bar says models ready";
+/// Why the plan was not corrupted: one line for the status bar.
+#[derive(Debug, Clone, PartialEq, Eq, thiserror::Error)]
+pub enum CorruptError {
+    /// The loader has not finished: the slot says so until it is done.
+    #[error(
+        "the English pipeline and word vectors are still loading; try again when the status bar says models ready"
+    )]
+    StillLoading,
+    /// The models or the vocabularies could not be loaded: the loader's
+    /// words, saying what to do.
+    #[error("{0}")]
+    Unavailable(String),
+    /// The kind does not apply to this plan (with the corrupter's reason,
+    /// when it gave one).
+    #[error("{kind} cannot corrupt this plan{}", .reason.as_ref().map_or_else(String::new, |r| format!(": {r}")))]
+    NotApplicable {
+        /// The kind asked for.
+        kind: Kind,
+        /// Why it does not apply.
+        reason: Option<String>,
+    },
+}
 
 /// A plan to corrupt into run `run`.
 #[derive(Debug, Clone, PartialEq)]
@@ -59,11 +78,11 @@ pub struct Corrupted {
 }
 
 /// Corrupts the request's plan, the way `mapvlm corrupt` does an item of
-/// its own; the error is one line saying why the kind does not apply.
+/// its own; the error says why the kind does not apply.
 pub fn corrupt_plan(
     models: &CorruptionModels,
     request: &CorruptRequest,
-) -> Result<Corrupted, String> {
+) -> Result<Corrupted, CorruptError> {
     let corrupter = Corrupter {
         language: Language {
             parser: &models.parser,
@@ -99,9 +118,15 @@ pub fn corrupt_plan(
             plan: pred,
             corruption,
         }),
-        _ => Err(skipped.iter().find(|s| s.item == "plan").map_or_else(
-            || format!("{} cannot corrupt this plan", request.kind),
-            |s| format!("{} cannot corrupt this plan: {}", s.kind, s.reason),
+        _ => Err(skipped.iter().find(|s| s.item == "plan").map_or(
+            CorruptError::NotApplicable {
+                kind: request.kind,
+                reason: None,
+            },
+            |s| CorruptError::NotApplicable {
+                kind: s.kind,
+                reason: Some(s.reason.to_string()),
+            },
         )),
     }
 }

@@ -11,7 +11,7 @@ use ratatui_image::picker::Picker;
 
 use super::agents::{run_blocking, Pipeline};
 use super::app::App;
-use super::corrupting::{corrupt_plan, CorruptionModels, STILL_LOADING};
+use super::corrupting::{corrupt_plan, CorruptError, CorruptionModels};
 use super::message::{Cmd, Msg, ReadError};
 use super::scene_image;
 use super::scoring::{score_now, score_samples, ModelSlot};
@@ -35,7 +35,7 @@ pub fn prepare_image(app: &mut App, picker: &Picker) {
 pub struct Headless<'a> {
     pipeline: &'a dyn Pipeline,
     models: ModelSlot,
-    corruption: Result<CorruptionModels, String>,
+    corruption: Result<CorruptionModels, CorruptError>,
 }
 
 impl<'a> Headless<'a> {
@@ -44,7 +44,7 @@ impl<'a> Headless<'a> {
         Self {
             pipeline,
             models,
-            corruption: Err(STILL_LOADING.to_string()),
+            corruption: Err(CorruptError::StillLoading),
         }
     }
 

@@ -14,7 +14,7 @@ use crate::agents::prompt_sets::PromptSetError;
 use crate::agents::prompts::PromptSet;
 use crate::dataset::DatasetError;
 use crate::workbench::agents::RunRequest;
-use crate::workbench::corrupting::{CorruptRequest, Corrupted};
+use crate::workbench::corrupting::{CorruptError, CorruptRequest, Corrupted};
 use crate::workbench::scene_image::SceneImageError;
 use crate::workbench::scoring::{ModelSlot, SampleScoring, ScoreOutcome, ScoreRequest};
 use crate::workbench::session::ScoreRecord;
@@ -61,7 +61,7 @@ pub enum Msg {
     /// The session was saved, or why not.
     Saved(Result<(), SessionError>),
     /// The plan was corrupted, or why not.
-    Corrupted(Result<Corrupted, String>),
+    Corrupted(Result<Corrupted, CorruptError>),
     /// The prompt set of this name was saved in a folder, or why not.
     PromptSetSaved(String, Result<PathBuf, PromptSetError>),
     /// The names of the saved prompt sets, or why they cannot be listed.

@@ -30,7 +30,7 @@ use crate::agents::pipeline::AgentEvent;
 use crate::agents::prompt_sets;
 use crate::dataset::Dataset;
 
-use super::corrupting::{self, SharedCorruptionModels};
+use super::corrupting::{self, CorruptError, SharedCorruptionModels};
 use super::message::{Cmd, Msg, ReadError};
 use super::saver::{self, NumberedCopy, SessionFile};
 use super::scene_image;
@@ -358,8 +358,7 @@ async fn run_async(options: Options) -> Result<(), TuiError> {
     let (score_tx, score_rx) = watch::channel(None);
     let (save_tx, save_rx) = watch::channel::<Option<NumberedCopy>>(None);
     let models: SharedModels = Arc::new(RwLock::new(ModelSlot::Loading("starting".into())));
-    let corruption: SharedCorruptionModels =
-        Arc::new(RwLock::new(Err(corrupting::STILL_LOADING.to_string())));
+    let corruption: SharedCorruptionModels = Arc::new(RwLock::new(Err(CorruptError::StillLoading)));
 
     spawn_input_thread(msg_tx.clone());
     spawn_signal_watch(msg_tx.clone());

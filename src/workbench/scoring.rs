@@ -7,7 +7,7 @@ use std::time::{Duration, Instant};
 
 use tokio::sync::{mpsc::UnboundedSender, watch};
 
-use super::corrupting::{CorruptionModels, SharedCorruptionModels};
+use super::corrupting::{CorruptError, CorruptionModels, SharedCorruptionModels};
 use crate::metrics::kas::{kas, KasReport};
 use crate::metrics::pg2s::{Pg2sReport, Pg2sScorer};
 use crate::workbench::session::ScoreRecord;
@@ -70,7 +70,7 @@ pub struct Loaded {
     /// The scorer.
     pub scorer: Pg2sScorer,
     /// The same parser and vectors for corrupting plans, or why not.
-    pub corruption: Result<CorruptionModels, String>,
+    pub corruption: Result<CorruptionModels, CorruptError>,
 }
 
 /// Why the PG2S models could not be loaded: the Scores pane shows it and
@@ -215,7 +215,7 @@ pub fn spawn_loader(
             Ok(loaded) => (ModelSlot::Ready(Arc::new(loaded.scorer)), loaded.corruption),
             Err(error) => (
                 ModelSlot::Unavailable(error.to_string()),
-                Err(error.to_string()),
+                Err(CorruptError::Unavailable(error.to_string())),
             ),
         };
         if let Ok(mut shared) = corruption.write() {

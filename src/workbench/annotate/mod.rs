@@ -207,7 +207,7 @@ async fn run_async(options: Options) -> Result<Outcome, TuiError> {
         Cmd::LoadImage(path) => {
             let msgs = msg_tx.clone();
             tokio::task::spawn_blocking(move || {
-                let read = scene_image::read(&path).map_err(|e| e.to_string());
+                let read = scene_image::read(&path);
                 let _ = msgs.send(Msg::Image(path, read));
             });
         }

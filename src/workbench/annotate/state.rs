@@ -17,7 +17,7 @@ use crate::annotate::order::{pairwise_units, single_units, Unit};
 use crate::annotate::{Annotations, Judgement, StepLabelKind, Subject, Verdict};
 use crate::dataset::Pair;
 use crate::workbench::keymap::Context;
-use crate::workbench::scene_image::Encoded;
+use crate::workbench::scene_image::{Encoded, SceneImageError};
 
 /// The clock as the screen knows it: time since start (for the seconds
 /// spent on an item) and the wall clock (for `at`).
@@ -56,7 +56,7 @@ pub enum Msg {
         error: String,
     },
     /// A scene image was read, or could not be.
-    Image(PathBuf, Result<Arc<DynamicImage>, String>),
+    Image(PathBuf, Result<Arc<DynamicImage>, SceneImageError>),
     /// The scene image read from this file is encoded for an area.
     ImageReady(PathBuf, Encoded),
     /// The scene image read from this file cannot be drawn on this terminal.

@@ -40,7 +40,7 @@ impl Judging {
                 if matches!(&self.scene, Scene::Loading(p) if *p == path) {
                     self.scene = match result {
                         Ok(image) => Scene::Loaded(path, image),
-                        Err(e) => Scene::Failed(e),
+                        Err(e) => Scene::Failed(e.to_string()),
                     };
                 }
                 vec![]

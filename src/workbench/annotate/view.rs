@@ -522,9 +522,10 @@ mod tests {
                 "/nowhere/images/gone.png".into()
             )]
         );
+        let gone = std::path::Path::new("/nowhere/images/gone.png");
         s.update(Msg::Image(
-            "/nowhere/images/gone.png".into(),
-            Err("/nowhere/images/gone.png: the scene image cannot be read: no such file".into()),
+            gone.to_path_buf(),
+            Err(crate::workbench::scene_image::read(gone).unwrap_err()),
         ));
         let text = drawn(&s, 120, 30);
         assert!(text.contains("cannot be read"), "{text}");

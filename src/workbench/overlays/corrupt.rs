@@ -11,7 +11,7 @@ use ratatui::Frame;
 use crate::corrupt::Kind;
 use crate::workbench::app::{unix_now, App, Severity};
 use crate::workbench::component::Component;
-use crate::workbench::corrupting::{CorruptRequest, Corrupted};
+use crate::workbench::corrupting::{CorruptError, CorruptRequest, Corrupted};
 use crate::workbench::keymap::{Action, Context};
 use crate::workbench::message::Cmd;
 use crate::workbench::overlays::{centred, moved, themed_box, Overlay, Picked};
@@ -73,7 +73,7 @@ impl App {
 
     /// A corruption finished: a new run with the corrupted plan, scored at
     /// once; or one line saying why not.
-    pub(crate) fn on_corrupted(&mut self, result: Result<Corrupted, String>) -> Vec<Cmd> {
+    pub(crate) fn on_corrupted(&mut self, result: Result<Corrupted, CorruptError>) -> Vec<Cmd> {
         let corrupted = match result {
             Ok(c) if c.source == self.plan.items && self.runs.active.is_none() => c,
             Ok(_) => {
@@ -84,7 +84,7 @@ impl App {
                 return Vec::new();
             }
             Err(reason) => {
-                self.set_status(reason, Severity::Warn);
+                self.set_status(reason.to_string(), Severity::Warn);
                 return Vec::new();
             }
         };
