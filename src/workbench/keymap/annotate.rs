@@ -3,7 +3,7 @@
 
 use crossterm::event::KeyCode;
 
-use super::row::{bind, ch, hinted, key};
+use super::row::{bind, ch, hinted, key, MOVE_KEYS};
 use super::{Action, Binding, Context};
 use crate::annotate::{Preference, StepLabelKind};
 
@@ -61,12 +61,7 @@ pub(super) const ANNOTATE: &[Binding] = &[
     hinted(
         bind(
             C::AnnotateRating,
-            &[
-                (key(KeyCode::Down), A::Move(1)),
-                (ch('j'), A::Move(1)),
-                (key(KeyCode::Up), A::Move(-1)),
-                (ch('k'), A::Move(-1)),
-            ],
+            MOVE_KEYS,
             "↓ j, ↑ k",
             "select the next or previous step",
         ),

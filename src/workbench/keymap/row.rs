@@ -46,3 +46,11 @@ pub(super) const fn hinted(binding: Binding, key: &'static str, hint: &'static s
         ..binding
     }
 }
+
+/// Up and down by one, arrows and vi keys: how every list and page moves.
+pub(super) const MOVE_KEYS: &[(Key, Action)] = &[
+    (key(KeyCode::Up), Action::Move(-1)),
+    (key(KeyCode::Down), Action::Move(1)),
+    (ch('k'), Action::Move(-1)),
+    (ch('j'), Action::Move(1)),
+];

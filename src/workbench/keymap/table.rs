@@ -3,7 +3,7 @@
 
 use crossterm::event::KeyCode;
 
-use super::row::{bind, ch, ctrl, hinted, key};
+use super::row::{bind, ch, ctrl, hinted, key, MOVE_KEYS};
 use super::{Action, Binding, Context};
 use crate::workbench::graph_view::Direction;
 
@@ -317,17 +317,7 @@ pub(super) const WORKBENCH: &[Binding] = &[
         "next theme (NO_COLOR turns colour off)",
     ),
     hinted(
-        bind(
-            C::Picker,
-            &[
-                (key(KeyCode::Up), A::Move(-1)),
-                (key(KeyCode::Down), A::Move(1)),
-                (ch('k'), A::Move(-1)),
-                (ch('j'), A::Move(1)),
-            ],
-            "↑↓ j k (choosing)",
-            "move",
-        ),
+        bind(C::Picker, MOVE_KEYS, "↑↓ j k (choosing)", "move"),
         "↑↓",
         "move",
     ),
@@ -352,17 +342,7 @@ pub(super) const WORKBENCH: &[Binding] = &[
         "closes",
     ),
     hinted(
-        bind(
-            C::History,
-            &[
-                (key(KeyCode::Up), A::Move(-1)),
-                (key(KeyCode::Down), A::Move(1)),
-                (ch('k'), A::Move(-1)),
-                (ch('j'), A::Move(1)),
-            ],
-            "↑↓ j k (run history)",
-            "move",
-        ),
+        bind(C::History, MOVE_KEYS, "↑↓ j k (run history)", "move"),
         "↑↓",
         "move",
     ),
@@ -517,17 +497,7 @@ pub(super) const WORKBENCH: &[Binding] = &[
         "closes",
     ),
     hinted(
-        bind(
-            C::RunDiff,
-            &[
-                (key(KeyCode::Up), A::Move(-1)),
-                (key(KeyCode::Down), A::Move(1)),
-                (ch('k'), A::Move(-1)),
-                (ch('j'), A::Move(1)),
-            ],
-            "↑↓ j k (run diff)",
-            "scroll a line",
-        ),
+        bind(C::RunDiff, MOVE_KEYS, "↑↓ j k (run diff)", "scroll a line"),
         "↑↓",
         "scroll",
     ),
