@@ -1,8 +1,8 @@
 //! Parity of the English pipeline with spaCy en_core_web_sm 3.8.0 on the
 //! golden parses, and its behaviour on awkward input.
 
+use crate::common;
 use mapvlm::metrics::FramingParser;
-mod common;
 
 use mapvlm::models::EN_CORE_WEB_SM;
 use mapvlm::nlp::en::EnPipeline;

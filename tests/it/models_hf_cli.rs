@@ -6,7 +6,7 @@
 //! speaks the Hub's download protocol lands the real files in the cache
 //! layout, verified. The shared pack is only read.
 
-mod hub_support;
+use crate::hub_support;
 
 use std::fs;
 use std::path::{Path, PathBuf};

@@ -2,7 +2,7 @@
 //! PG2S explanation field by field: S_plan and the sentence matches, the
 //! framed actions, the action matches, S_goal, PG2S and KAS.
 
-mod common;
+use crate::common;
 
 use serde_json::Value;
 

@@ -2,7 +2,7 @@
 //! a run hold exactly its lines and files, and merged they give its tables
 //! byte for byte.
 
-mod common;
+use crate::common;
 
 use std::collections::BTreeSet;
 use std::path::Path;

@@ -15,7 +15,7 @@ const GOLDEN: &str = concat!(
     "/../shared/golden/embed.dev.jsonl"
 );
 
-mod common;
+use crate::common;
 
 /// The encoder folder of the model pack.
 fn encoder_dir() -> PathBuf {

@@ -1,7 +1,7 @@
 //! The embedding cache as a user meets it: `score` through the real binary,
 //! cold then warm, with the same bytes out; `mapvlm cache stats|prune|clear`.
 
-mod common;
+use crate::common;
 
 use std::path::Path;
 use std::process::{Command, Output};

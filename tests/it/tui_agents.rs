@@ -3,7 +3,7 @@
 //! live run against a local OpenAI-compatible server (wiremock), driven
 //! through the workbench's update function.
 
-mod agents_support;
+use crate::agents_support;
 
 use std::collections::BTreeMap;
 use std::sync::{Arc, Mutex};

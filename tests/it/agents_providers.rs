@@ -1,7 +1,7 @@
 //! The providers and the pipeline against a local server (wiremock) that
 //! speaks both the OpenAI and the Anthropic API.
 
-mod agents_support;
+use crate::agents_support;
 
 use std::time::{Duration, Instant};
 

@@ -4,8 +4,8 @@
 //! tasks: a restart between submission and completion, staged multi-agent
 //! plans, an expired request retried by the next run, and no key on disk.
 
-mod agents_support;
-mod common;
+use crate::agents_support;
+use crate::common;
 
 use std::collections::HashMap;
 use std::path::{Path, PathBuf};

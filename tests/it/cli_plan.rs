@@ -1,6 +1,6 @@
 //! `mapvlm plan` end to end against a local OpenAI-compatible server.
 
-mod agents_support;
+use crate::agents_support;
 
 use std::path::Path;
 use std::process::Output;

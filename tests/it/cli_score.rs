@@ -1,7 +1,7 @@
 //! `mapvlm score` as a user runs it: JSON lines, bad input with one clear
 //! line and a non-zero exit, never a panic.
 
-mod common;
+use crate::common;
 
 use std::path::Path;
 

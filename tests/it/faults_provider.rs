@@ -2,8 +2,8 @@
 //! against a local server (wiremock) that misbehaves, and runs whose output
 //! cannot be written.
 
-mod agents_support;
-mod common;
+use crate::agents_support;
+use crate::common;
 
 use std::collections::BTreeMap;
 use std::path::Path;

@@ -3,7 +3,7 @@
 //! edits that reproduce the corrupted plans, an output `score --pairs`
 //! reads, user vocabularies, and bad input in one clear line.
 
-mod common;
+use crate::common;
 
 use std::collections::{BTreeMap, BTreeSet};
 use std::path::Path;

@@ -2,7 +2,7 @@
 //! with the real English pipeline and word vectors of the pack (loaded once
 //! for this test binary), and the picker drawn.
 
-mod common;
+use crate::common;
 
 use std::sync::{Arc, OnceLock};
 

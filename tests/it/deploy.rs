@@ -2,7 +2,7 @@
 //! runs as an array task and as the merge, and the Kubernetes manifests have
 //! the shape an Indexed Job with a shared cache needs.
 
-mod common;
+use crate::common;
 
 use std::path::{Path, PathBuf};
 use std::process::Command;

@@ -1,7 +1,7 @@
 //! End to end: `mapvlm annotate` on the real binary, in tmux as a person
 //! would use it, and its answers to bad input.
 
-mod common;
+use crate::common;
 
 use common::tmux::{wait, Tmux};
 

@@ -4,7 +4,7 @@
 //! tests/fixtures/handwritten/ were written by hand and recorded through a
 //! local server (see its README).
 
-mod agents_support;
+use crate::agents_support;
 
 use std::path::PathBuf;
 use std::sync::{Arc, Mutex};

@@ -1,7 +1,7 @@
 //! Recording and replay, and the API key's absence from every file, record,
 //! log line and error message.
 
-mod agents_support;
+use crate::agents_support;
 
 use std::collections::BTreeMap;
 use std::io::Write;

@@ -2,7 +2,7 @@
 //! (point estimates to 1e-9, counts exactly), the report as a snapshot, the
 //! figure in both formats, and bad input named by file and line.
 
-mod common;
+use crate::common;
 
 use std::path::{Path, PathBuf};
 use std::process::Output;

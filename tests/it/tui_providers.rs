@@ -3,7 +3,7 @@
 //! (wiremock, in this test process), and the real binary runs against it,
 //! in tmux for the workbench.
 
-mod common;
+use crate::common;
 
 use std::time::Duration;
 

@@ -3,6 +3,7 @@
 //! Each driver has its own `-L` socket, so parallel runs never collide.
 
 use std::process::Command;
+use std::sync::atomic::{AtomicUsize, Ordering};
 use std::time::{Duration, Instant};
 
 /// How long a wait lasts before it fails the test with the last state seen.
@@ -14,16 +15,22 @@ pub struct Tmux {
 }
 
 impl Tmux {
-    /// A tmux server on the socket `mapvlm-LABEL-PID`; fails the test when
-    /// tmux is missing (`.ci/run` installs it).
+    /// A tmux server on the socket `mapvlm-LABEL-PID-N` (N counts the
+    /// drivers of this process, since every test shares one binary); fails
+    /// the test when tmux is missing (`.ci/run` installs it).
     pub fn new(label: &str) -> Tmux {
+        static DRIVERS: AtomicUsize = AtomicUsize::new(0);
         let version = Command::new("tmux").arg("-V").output();
         assert!(
             version.is_ok_and(|o| o.status.success()),
             "tmux is not installed: install it to run the end-to-end tests (.ci/run does)"
         );
         Tmux {
-            socket: format!("mapvlm-{label}-{}", std::process::id()),
+            socket: format!(
+                "mapvlm-{label}-{}-{}",
+                std::process::id(),
+                DRIVERS.fetch_add(1, Ordering::Relaxed)
+            ),
         }
     }
 

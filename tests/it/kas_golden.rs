@@ -1,6 +1,6 @@
 //! KAS equals the reference on every golden pair, chunks included.
 
-mod common;
+use crate::common;
 
 use mapvlm::metrics::kas::kas;
 

@@ -1,7 +1,7 @@
 //! End to end: the real binary in tmux, driven with keys and read from the
 //! screen, as a person would use it.
 
-mod common;
+use crate::common;
 
 use std::path::Path;
 use std::process::Command;

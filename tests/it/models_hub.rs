@@ -3,7 +3,7 @@
 //! speaks the Hub's download protocol, including refusals, a revision the
 //! Hub should not have served, a tampered file and an interrupted download.
 
-mod hub_support;
+use crate::hub_support;
 
 use std::fs;
 use std::path::{Path, PathBuf};

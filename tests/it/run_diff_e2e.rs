@@ -3,7 +3,7 @@
 //! answers an edited Planner prompt with another plan; two runs with the
 //! prompt edit between them, then the diff of the two.
 
-mod common;
+use crate::common;
 
 use common::server::LocalServer;
 use common::workbench::{score_on, UserHome, Workbench};

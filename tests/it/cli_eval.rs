@@ -1,8 +1,8 @@
 //! `mapvlm eval`: the paper's Table 3 from the published plans of
 //! ../shared/data/alfred30, and a live run against a local server.
 
-mod agents_support;
-mod common;
+use crate::agents_support;
+use crate::common;
 
 use std::path::{Path, PathBuf};
 use std::process::Output;

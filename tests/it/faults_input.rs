@@ -6,7 +6,7 @@ use std::io::Write as _;
 use std::path::Path;
 use std::process::{Output, Stdio};
 
-mod common;
+use crate::common;
 
 fn mapvlm_with_stdin(args: &[&str], stdin: &[u8]) -> Output {
     let mut child = common::mapvlm_command()
