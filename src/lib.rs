@@ -17,6 +17,7 @@ pub mod metrics;
 pub mod models;
 pub mod nlp;
 pub mod plan;
+pub mod sanitize;
 pub mod shard;
 pub mod stats;
 pub mod store;
