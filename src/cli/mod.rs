@@ -9,6 +9,7 @@ mod corrupt;
 mod embed;
 mod eval;
 mod eval_batch;
+mod logging;
 mod merge;
 mod models;
 mod parse;
@@ -46,6 +47,9 @@ pub struct Cli {
     /// The workbench's options, when no subcommand is given.
     #[command(flatten)]
     pub tui: tui::TuiArgs,
+    /// Where warnings and notices go and how many.
+    #[command(flatten)]
+    pub log: logging::LogArgs,
 }
 
 /// The subcommands.
@@ -277,6 +281,11 @@ fn joined<T>(handle: std::thread::ScopedJoinHandle<'_, anyhow::Result<T>>) -> an
 /// Parses the command line and runs the chosen command.
 pub fn run() -> anyhow::Result<ExitCode> {
     let cli = Cli::parse();
+    let screen = matches!(
+        cli.command,
+        None | Some(Command::Tui(_)) | Some(Command::Annotate(_))
+    );
+    logging::install(&cli.log, screen)?;
     match cli.command {
         Some(Command::Score(args)) => score::run(&args),
         Some(Command::Models(args)) => models::run(args),

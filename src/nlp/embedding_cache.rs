@@ -12,7 +12,7 @@
 
 use std::collections::HashMap;
 use std::path::Path;
-use std::sync::atomic::{AtomicU64, Ordering};
+use std::sync::atomic::{AtomicBool, AtomicU64, Ordering};
 use std::sync::{Arc, Mutex, PoisonError};
 
 use crate::metrics::{ModelError, SentenceEncoder};
@@ -53,6 +53,8 @@ pub struct CachedEncoder {
     working: Mutex<HashMap<String, Arc<[f32]>>>,
     disk_hits: AtomicU64,
     encoded: AtomicU64,
+    /// Whether a failed store was already said: once a run, not once a sentence.
+    store_failed: AtomicBool,
 }
 
 impl std::fmt::Debug for CachedEncoder {
@@ -75,6 +77,7 @@ impl CachedEncoder {
             working: Mutex::new(HashMap::new()),
             disk_hits: AtomicU64::new(0),
             encoded: AtomicU64::new(0),
+            store_failed: AtomicBool::new(false),
         }
     }
 
@@ -105,7 +108,13 @@ impl CachedEncoder {
     fn keep(&self, text: &str, vector: &[f32]) {
         if let Some((store, model)) = &self.store {
             if let Err(err) = store.put(&Self::key(model, text), &encode_entry(text, vector)) {
-                tracing::warn!(dir = %store.dir().display(), %err, "cannot store an embedding");
+                if !self.store_failed.swap(true, Ordering::Relaxed) {
+                    tracing::warn!(
+                        dir = %store.dir().display(),
+                        %err,
+                        "cannot store embeddings, so they will be computed again next time"
+                    );
+                }
             }
         }
     }

@@ -84,3 +84,58 @@ fn a_warm_score_prints_the_bytes_of_the_cold_one() {
     assert!(cleared.starts_with("embeddings: removed"), "{cleared}");
     assert_eq!(embeddings(home.path())["entries"], 0);
 }
+
+/// A cache whose embeddings folder is a plain file: scoring still works, and
+/// the binary says once, on stderr, that embeddings cannot be kept, whether
+/// RUST_LOG is unset, empty or `warn`; with `--log FILE` the line goes to
+/// the file and stderr stays empty.
+#[test]
+fn an_unwritable_embedding_cache_is_said_once_on_stderr() {
+    let home = tempfile::tempdir().unwrap();
+    std::fs::create_dir_all(home.path().join("mapvlm")).unwrap();
+    std::fs::write(home.path().join("mapvlm/embeddings"), b"not a folder").unwrap();
+    let pairs = home.path().join("pairs.jsonl");
+    let golden = std::fs::read_to_string(common::shared().join("golden/pairs.dev.jsonl")).unwrap();
+    let first: Vec<&str> = golden.lines().take(2).collect();
+    std::fs::write(&pairs, first.join("\n") + "\n").unwrap();
+    let warning = "cannot store embeddings";
+    for filter in [None, Some(""), Some("warn")] {
+        let mut command = common::mapvlm_command();
+        command
+            .env("XDG_CACHE_HOME", home.path())
+            .env_remove("RUST_LOG");
+        if let Some(filter) = filter {
+            command.env("RUST_LOG", filter);
+        }
+        let out = command
+            .args(["score", "--json", "--pairs"])
+            .arg(&pairs)
+            .output()
+            .unwrap();
+        let err = common::stderr(&out);
+        assert!(out.status.success(), "RUST_LOG={filter:?}: {err}");
+        assert_eq!(
+            err.matches(warning).count(),
+            1,
+            "RUST_LOG={filter:?}: {err}"
+        );
+    }
+    let log = home.path().join("mapvlm.log");
+    let out = common::mapvlm_command()
+        .env("XDG_CACHE_HOME", home.path())
+        .env("RUST_LOG", "trace")
+        .args(["score", "--json", "--log"])
+        .arg(&log)
+        .arg("--pairs")
+        .arg(&pairs)
+        .output()
+        .unwrap();
+    assert!(out.status.success(), "{}", common::stderr(&out));
+    assert_eq!(
+        common::stderr(&out),
+        "",
+        "with --log nothing goes to stderr"
+    );
+    let logged = std::fs::read_to_string(&log).unwrap();
+    assert!(logged.contains(warning), "{logged}");
+}
