@@ -72,8 +72,19 @@ fn a_prompt_edit_between_two_runs_shows_in_their_diff_with_the_score_change() {
     assert!(planners[1].text().contains(EDIT.trim()));
 
     workbench.keys(&["H", "d"]);
-    let diff = workbench.wait_for("the diff of runs 1 and 2", |s| {
-        s.contains("Diff run #1 → #2")
+    // The wait covers every string asserted below, so a frame tmux
+    // captured half drawn (title drawn, body not yet) is never judged.
+    let diff = workbench.wait_for("the whole diff of runs 1 and 2", |s| {
+        [
+            "Diff run #1 → #2",
+            "── Planner ──",
+            "Be brief.+}",
+            "did not run (the output of #1 was reused)",
+            "set samples to 5",
+        ]
+        .iter()
+        .all(|needle| s.contains(needle))
+            && verdict(s, "KAS").is_some()
     });
     assert!(diff.contains("── Planner ──"), "{diff}");
     assert!(

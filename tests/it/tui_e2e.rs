@@ -61,8 +61,8 @@ fn exit_status(dir: &Path) -> String {
             }
         }
         assert!(
-            start.elapsed() < Duration::from_secs(10),
-            "mapvlm did not quit"
+            start.elapsed() < Duration::from_secs(30),
+            "mapvlm did not quit within 30 s"
         );
         std::thread::sleep(Duration::from_millis(50));
     }
@@ -153,8 +153,8 @@ fn demo_ground_truth_switch_step_edit_and_quit_in_tmux() {
     let start = Instant::now();
     while tmux.cmd(&["list-sessions"]).contains(E2E) {
         assert!(
-            start.elapsed() < Duration::from_secs(10),
-            "mapvlm did not quit"
+            start.elapsed() < Duration::from_secs(30),
+            "mapvlm did not quit within 30 s"
         );
         std::thread::sleep(Duration::from_millis(50));
     }
