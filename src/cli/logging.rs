@@ -80,26 +80,26 @@ enum Sink {
 /// quotes a model's answer or a path cannot move the cursor or set the title.
 struct SanitizedWriter(Sink);
 
+impl SanitizedWriter {
+    /// Runs `act` on the sink's writer: stderr, or the log file under its lock.
+    fn with_sink(&self, act: impl FnOnce(&mut dyn Write) -> io::Result<()>) -> io::Result<()> {
+        match &self.0 {
+            Sink::Stderr => act(&mut io::stderr()),
+            Sink::File(file) => act(&mut *file
+                .lock()
+                .map_err(|_| io::Error::other("the log file's lock is poisoned"))?),
+        }
+    }
+}
+
 impl Write for SanitizedWriter {
     fn write(&mut self, buf: &[u8]) -> io::Result<usize> {
         let text = sanitize::for_terminal(&String::from_utf8_lossy(buf));
-        match &self.0 {
-            Sink::Stderr => io::stderr().write_all(text.as_bytes())?,
-            Sink::File(file) => file
-                .lock()
-                .map_err(|_| io::Error::other("the log file's lock is poisoned"))?
-                .write_all(text.as_bytes())?,
-        }
+        self.with_sink(|out| out.write_all(text.as_bytes()))?;
         Ok(buf.len())
     }
 
     fn flush(&mut self) -> io::Result<()> {
-        match &self.0 {
-            Sink::Stderr => io::stderr().flush(),
-            Sink::File(file) => file
-                .lock()
-                .map_err(|_| io::Error::other("the log file's lock is poisoned"))?
-                .flush(),
-        }
+        self.with_sink(|out| out.flush())
     }
 }
