@@ -350,3 +350,59 @@ fn a_terminal_that_never_answers_still_gets_the_first_key() {
     pty.send(b"q");
     assert_eq!(pty.exit_code(), Some(0));
 }
+
+/// With `RUST_LOG=trace` and an embedding cache that cannot be written (its
+/// folder is a plain file, so scoring the demo warns), the workbench writes
+/// nothing to the terminal: neither to stderr nor over the screen. The same
+/// warning reaches `--log FILE`, which shows the event was raised.
+#[test]
+fn rust_log_trace_writes_nothing_over_the_screen_and_events_go_to_the_log_file() {
+    let warning = "cannot store embeddings";
+    for with_log in [true, false] {
+        let dir = tempfile::tempdir().unwrap();
+        std::fs::create_dir_all(dir.path().join(".cache/mapvlm")).unwrap();
+        std::fs::write(dir.path().join(".cache/mapvlm/embeddings"), b"not a folder").unwrap();
+        let log = dir.path().join("events.log");
+        let stderr = dir.path().join("stderr");
+        let log_flag = if with_log {
+            format!("--log {}", log.display())
+        } else {
+            String::new()
+        };
+        let tmux = Tmux::new("trace");
+        let command = format!(
+            "env -u NO_COLOR RUST_LOG=trace TERM=xterm-256color HOME={home} XDG_CACHE_HOME={home}/.cache MAPVLM_MODELS={} {} --halfblocks --replay-delay 1 --session {home}/s.json {log_flag} 2>{}; echo $? > {home}/status",
+            common::pack_dir().display(),
+            env!("CARGO_BIN_EXE_mapvlm"),
+            stderr.display(),
+            home = dir.path().display(),
+        );
+        tmux.open(E2E, 200, 60, &command);
+        let screen = tmux.wait_for(E2E, "the demo's scores", |s| {
+            s.contains("run 1 finished") && score_on(s, "PG2S").is_some()
+        });
+        if with_log {
+            common::tmux::wait("the warning in the log file", || {
+                let text = std::fs::read_to_string(&log).unwrap_or_default();
+                if text.contains(warning) {
+                    Ok(())
+                } else {
+                    Err(format!("log file so far:\n{text}"))
+                }
+            });
+        }
+        for noise in [warning, "TRACE", "DEBUG", " WARN "] {
+            assert!(
+                !screen.contains(noise),
+                "{noise:?} on the screen (--log {with_log}):\n{screen}"
+            );
+        }
+        tmux.keys(E2E, &["q"]);
+        assert_eq!(exit_status(dir.path()), "0");
+        let written = std::fs::read_to_string(&stderr).unwrap();
+        assert!(
+            written.is_empty(),
+            "the workbench wrote to stderr (--log {with_log}):\n{written}"
+        );
+    }
+}
