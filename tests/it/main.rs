@@ -24,6 +24,7 @@ mod cli_plan;
 mod cli_score;
 mod cli_shards;
 mod deploy;
+mod docs;
 mod en_parse;
 mod eval_batch;
 mod faults_input;

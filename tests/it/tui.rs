@@ -882,3 +882,43 @@ fn scores_of_a_sampled_run_show_their_spread() {
     );
     insta::assert_snapshot!("scores_with_spread_120x40", screen);
 }
+
+/// The README's picture of the workbench is the demo as drawn now: the lines
+/// between its capture markers equal this frame. `MAPVLM_UPDATE_README=1`
+/// rewrites them instead, after a change to the screen.
+#[test]
+fn readme_capture_is_the_demo_as_drawn() {
+    let models = real_models();
+    let mut h = Harness::new((120, 36), None, true, models.clone());
+    h.app.models = models;
+    let frame: Vec<String> = h
+        .screen()
+        .lines()
+        .map(|line| {
+            let line = line.strip_prefix('"').unwrap_or(line);
+            line.strip_suffix('"')
+                .unwrap_or(line)
+                .trim_end()
+                .to_string()
+        })
+        .collect();
+    let block = format!("```text\n{}\n```\n", frame.join("\n"));
+    let path = std::path::Path::new(env!("CARGO_MANIFEST_DIR")).join("README.md");
+    let readme = std::fs::read_to_string(&path).unwrap();
+    let (begin, end) = ("<!-- capture begin -->\n", "<!-- capture end -->");
+    let start = readme
+        .find(begin)
+        .expect("README has a capture begin marker")
+        + begin.len();
+    let stop = readme.find(end).expect("README has a capture end marker");
+    if std::env::var_os("MAPVLM_UPDATE_README").is_some() {
+        let updated = format!("{}{block}{}", &readme[..start], &readme[stop..]);
+        std::fs::write(&path, updated).unwrap();
+        return;
+    }
+    assert_eq!(
+        &readme[start..stop],
+        block,
+        "the README's capture is not the demo as drawn: rerun with MAPVLM_UPDATE_README=1"
+    );
+}
