@@ -8,21 +8,20 @@
 //! modification time, which a hit refreshes (at most once a minute, to keep
 //! hits read-only in the common case).
 
-use std::io::{self, Write as _};
+use std::io;
 use std::path::{Path, PathBuf};
 use std::sync::atomic::{AtomicU64, Ordering};
 use std::time::{Duration, SystemTime};
 
 use sha2::{Digest, Sha256};
 
+use crate::fsutil::TEMP_PREFIX;
+
 /// A hit older than this refreshes its entry's modification time.
 const TOUCH_AFTER: Duration = Duration::from_secs(60);
 
 /// Temporary files left this long by a crashed writer are removed by prune.
 const STALE_TEMP: Duration = Duration::from_secs(3600);
-
-/// The prefix of a writer's temporary file; such files are not entries.
-const TEMP_PREFIX: &str = ".tmp";
 
 /// The default size bound of a store: 2 GiB.
 pub const DEFAULT_MAX_BYTES: u64 = 2 << 30;
@@ -122,14 +121,7 @@ impl DiskStore {
     /// Stores `bytes` under `key` atomically; after enough new bytes, evicts
     /// the least recently used entries beyond the size bound.
     pub fn put(&self, key: &EntryKey, bytes: &[u8]) -> io::Result<()> {
-        let path = self.path_of(key);
-        let parent = path.parent().unwrap_or(&self.dir);
-        std::fs::create_dir_all(parent)?;
-        let mut temp = tempfile::Builder::new()
-            .prefix(TEMP_PREFIX)
-            .tempfile_in(parent)?;
-        temp.write_all(bytes)?;
-        temp.persist(&path).map_err(|err| err.error)?;
+        crate::fsutil::write_atomic(&self.path_of(key), bytes)?;
         let written = self
             .written_since_check
             .fetch_add(bytes.len() as u64, Ordering::Relaxed)

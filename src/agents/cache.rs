@@ -3,7 +3,6 @@
 //! hashes), so that re-running an unchanged agent costs nothing. The API key
 //! is never part of the key nor of an entry.
 
-use std::io::Write;
 use std::path::{Path, PathBuf};
 
 use serde::{Deserialize, Serialize};
@@ -111,48 +110,6 @@ impl ResponseCache {
             path: path.clone(),
             message: err.to_string(),
         })?;
-        write_atomic(&path, text.as_bytes())
+        Ok(crate::fsutil::write_atomic(&path, text.as_bytes())?)
     }
-}
-
-/// Writes `bytes` to a uniquely named temporary file beside `path`, then
-/// renames it over `path`, so that a reader never sees half a file and
-/// concurrent writers never share a temporary file.
-pub fn write_atomic(path: &Path, bytes: &[u8]) -> Result<(), AgentError> {
-    let io = |err: std::io::Error| AgentError::Io {
-        path: path.to_path_buf(),
-        message: err.to_string(),
-    };
-    let parent = path
-        .parent()
-        .filter(|p| !p.as_os_str().is_empty())
-        .unwrap_or(Path::new("."));
-    std::fs::create_dir_all(parent).map_err(io)?;
-    let mut temp = tempfile::NamedTempFile::new_in(parent).map_err(io)?;
-    temp.write_all(bytes).map_err(io)?;
-    temp.persist(path).map_err(|err| io(err.error))?;
-    Ok(())
-}
-
-/// Checks, before any work is spent, that a file could be written at `path`
-/// by [`write_atomic`]: its folder exists or can be made, a file can be
-/// created there, and `path` is not a folder. Nothing is left behind but
-/// the folder.
-pub fn check_writable(path: &Path) -> Result<(), AgentError> {
-    let io = |message: String| AgentError::Io {
-        path: path.to_path_buf(),
-        message,
-    };
-    if path.is_dir() {
-        return Err(io("is a folder; give a file name".into()));
-    }
-    let parent = path
-        .parent()
-        .filter(|p| !p.as_os_str().is_empty())
-        .unwrap_or(Path::new("."));
-    std::fs::create_dir_all(parent)
-        .map_err(|err| io(format!("cannot create its folder ({err})")))?;
-    tempfile::NamedTempFile::new_in(parent)
-        .map(drop)
-        .map_err(|err| io(format!("cannot write in its folder ({err})")))
 }

@@ -430,6 +430,9 @@ pub enum AgentError {
         /// What went wrong.
         message: String,
     },
+    /// A file could not be written whole (see [`crate::fsutil`]).
+    #[error(transparent)]
+    Write(#[from] crate::fsutil::FsError),
 }
 
 /// The message of [`AgentError::NotRecorded`]: for a later sample, that the

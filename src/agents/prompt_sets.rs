@@ -6,9 +6,9 @@
 
 use std::path::{Path, PathBuf};
 
-use super::cache::write_atomic;
 use super::prompts::PromptSet;
 use super::AgentError;
+use crate::fsutil::write_atomic;
 
 /// The longest name a prompt set may have.
 pub const MAX_NAME_CHARS: usize = 64;
@@ -41,6 +41,9 @@ pub enum PromptSetError {
     /// A file could not be read or written, or a template did not parse.
     #[error(transparent)]
     Agent(#[from] AgentError),
+    /// A file could not be written whole (see [`crate::fsutil`]).
+    #[error(transparent)]
+    Write(#[from] crate::fsutil::FsError),
 }
 
 /// The folder of the named sets: `$XDG_CONFIG_HOME/mapvlm/prompt-sets`,

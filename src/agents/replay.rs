@@ -10,9 +10,10 @@ use std::time::{Duration, Instant};
 use serde::{Deserialize, Serialize};
 use tokio_util::sync::CancellationToken;
 
-use super::cache::{request_key, write_atomic, CachedAnswer};
+use super::cache::{request_key, CachedAnswer};
 use super::provider::{cancellable, BoxFuture, ChatRequest, Completion, Provider, TokenSink};
 use super::{AgentError, ProviderKind};
+use crate::fsutil::write_atomic;
 
 /// Bumped when the layout of a recording changes.
 const FORMAT: u32 = 1;
@@ -63,7 +64,7 @@ impl Recording {
             path: path.to_path_buf(),
             message: err.to_string(),
         })?;
-        write_atomic(path, text.as_bytes())
+        Ok(write_atomic(path, text.as_bytes())?)
     }
 }
 

@@ -28,6 +28,9 @@ pub enum PlotError {
         /// What plotters said.
         message: String,
     },
+    /// A file could not be written whole (see [`crate::fsutil`]).
+    #[error(transparent)]
+    Write(#[from] crate::fsutil::FsError),
 }
 
 /// Draws every metric's scatter plot into `path` (`.svg` or `.png`),
@@ -71,7 +74,7 @@ pub fn write_figure(human: &HumanAgreement, path: &Path) -> Result<(), PlotError
         }
         _ => return Err(PlotError::Format(name)),
     };
-    crate::agents::cache::write_atomic(path, &bytes).map_err(|e| fail(e.to_string()))
+    Ok(crate::fsutil::write_atomic(path, &bytes)?)
 }
 
 /// Draws the 2 × 2 grid of scatter plots on any backend.

@@ -544,23 +544,13 @@ pub fn default_annotations_path(items: &Path) -> PathBuf {
     items.with_file_name(format!("{stem}.annotations.jsonl"))
 }
 
-/// Writes the current judgements to the CSV file `csv` atomically (a
-/// temporary file beside it, flushed, then renamed), so that a reader never
-/// sees half a file.
+/// Writes the current judgements to the CSV file `csv` atomically (see
+/// [`crate::fsutil::write_atomic`]), so that a reader never sees half a file.
 pub fn export_csv(current: &Current, csv: &Path) -> Result<(), WriteError> {
-    let fail = |error| WriteError {
-        path: csv.to_path_buf(),
-        error,
-    };
-    let dir = csv
-        .parent()
-        .filter(|p| !p.as_os_str().is_empty())
-        .unwrap_or(Path::new("."));
-    let mut temp = tempfile::NamedTempFile::new_in(dir).map_err(fail)?;
-    temp.write_all(current.to_csv().as_bytes()).map_err(fail)?;
-    temp.as_file().sync_data().map_err(fail)?;
-    temp.persist(csv).map_err(|e| fail(e.error))?;
-    Ok(())
+    crate::fsutil::write_atomic(csv, current.to_csv().as_bytes()).map_err(|e| WriteError {
+        path: e.path,
+        error: e.error,
+    })
 }
 
 #[cfg(test)]

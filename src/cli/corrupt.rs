@@ -111,7 +111,7 @@ pub fn run(args: &CorruptArgs) -> anyhow::Result<ExitCode> {
         text.push_str(&serde_json::to_string(item)?);
         text.push('\n');
     }
-    crate::agents::cache::write_atomic(&args.out, text.as_bytes())?;
+    crate::fsutil::write_atomic(&args.out, text.as_bytes())?;
     eprintln!(
         "mapvlm: wrote {} items to {}: {} originals, {} corruptions, {} skipped",
         written.len(),
@@ -144,7 +144,7 @@ fn requested_kinds(asked: &[Kind]) -> Vec<Kind> {
 /// The folder of the output file, absolute, once the file is known to be
 /// writable (checked before any work).
 fn output_dir(out: &Path) -> anyhow::Result<PathBuf> {
-    crate::agents::cache::check_writable(out).context("--out")?;
+    crate::fsutil::check_writable(out).context("--out")?;
     let parent = out
         .parent()
         .filter(|p| !p.as_os_str().is_empty())

@@ -15,9 +15,9 @@ use clap::Args;
 use serde::{Deserialize, Serialize};
 
 use super::eval::{result_file, write_tables, TaskResult};
-use crate::agents::cache::write_atomic;
 use crate::agents::prompts::PromptSet;
 use crate::agents::Approach;
+use crate::fsutil::write_atomic;
 use crate::shard::Shard;
 
 /// The name of the manifest in an eval output folder.

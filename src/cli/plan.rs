@@ -12,7 +12,7 @@ use clap::Args;
 use tokio::sync::mpsc::unbounded_channel;
 use tokio_util::sync::CancellationToken;
 
-use crate::agents::cache::{check_writable, ResponseCache};
+use crate::agents::cache::ResponseCache;
 use crate::agents::config::{ConfigFile, FlagLayers, Settings};
 use crate::agents::cost::{check_max_cost, estimate_plans, Billing, Estimate, Ledger, PriceTable};
 use crate::agents::pipeline::{AgentEvent, PlanInput, PlanRecord, Runner, Source, MAX_SAMPLES};
@@ -20,6 +20,7 @@ use crate::agents::prompts::PromptSet;
 use crate::agents::provider::Notifier;
 use crate::agents::replay::{Pace, Recording};
 use crate::agents::{Approach, ProviderKind};
+use crate::fsutil::check_writable;
 
 /// Provider, prompt, cache and recording options shared by `plan` and `eval`.
 #[derive(Debug, Args)]

@@ -20,7 +20,7 @@
 //! the stamp, for caches keyed by a model's identity.
 
 use std::fs::File;
-use std::io::{self, Read, Write};
+use std::io::{self, Read};
 use std::path::{Path, PathBuf};
 use std::time::UNIX_EPOCH;
 
@@ -222,14 +222,11 @@ fn save_stamp(folder: &Path, entries: &[StampEntry]) -> Result<(), ModelsError> 
         path: folder.to_path_buf(),
         source: e.into(),
     })?;
-    let stamp = folder.join(STAMP_FILE);
-    let mut tmp =
-        tempfile::NamedTempFile::new_in(folder).map_err(ModelsError::io("write", folder))?;
-    tmp.write_all(&json)
-        .map_err(ModelsError::io("write", tmp.path()))?;
-    tmp.persist(&stamp)
-        .map(drop)
-        .map_err(|err| ModelsError::io("rename", &stamp)(err.error))
+    crate::fsutil::write_atomic(&folder.join(STAMP_FILE), &json).map_err(|e| ModelsError::Io {
+        action: e.action,
+        path: e.path,
+        source: e.error,
+    })
 }
 
 /// Whether `folder`'s stamp matches its key files' current size and mtime

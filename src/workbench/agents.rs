@@ -12,7 +12,7 @@ use tokio::sync::mpsc::{self, UnboundedSender};
 use tokio::task::JoinHandle;
 use tokio_util::sync::CancellationToken;
 
-use crate::agents::cache::{write_atomic, ResponseCache};
+use crate::agents::cache::ResponseCache;
 use crate::agents::config::{
     AgentLayer, AgentSettings, ConfigError, ConfigFile, FlagLayers, Settings,
 };
@@ -21,6 +21,7 @@ use crate::agents::prompts::{template_name, PromptSet, Template};
 use crate::agents::replay::{Pace, Recording};
 use crate::agents::{AgentError, AgentRole, Approach, ProviderKind, DEMO_MODEL};
 use crate::demo;
+use crate::fsutil::write_atomic;
 
 /// Why a run cannot start, or stopped before its agents could report: the
 /// words the status bar shows, each saying what to do.
@@ -530,7 +531,7 @@ fn explain_replay_failure(event: AgentEvent, request: &RunRequest) -> AgentEvent
 pub fn demo_scene_file() -> Result<PathBuf, RunError> {
     let bytes = demo::scene_png().map_err(RunError::DemoScene)?;
     let path = std::env::temp_dir().join("mapvlm-demo-scene.png");
-    write_atomic(&path, &bytes)?;
+    write_atomic(&path, &bytes).map_err(AgentError::from)?;
     Ok(path)
 }
 

@@ -270,6 +270,19 @@ mod tests {
     }
 
     #[test]
+    fn the_session_file_is_the_owners_only_even_when_it_was_not() {
+        use std::os::unix::fs::PermissionsExt as _;
+        let dir = tempfile::tempdir().unwrap();
+        let path = dir.path().join("session.json");
+        let mode = |p: &std::path::Path| std::fs::metadata(p).unwrap().permissions().mode() & 0o777;
+        save(&path, &sample()).unwrap();
+        assert_eq!(mode(&path), 0o600);
+        std::fs::set_permissions(&path, std::fs::Permissions::from_mode(0o644)).unwrap();
+        save(&path, &sample()).unwrap();
+        assert_eq!(mode(&path), 0o600);
+    }
+
+    #[test]
     fn a_session_from_a_newer_version_is_set_aside_with_the_reason() {
         let dir = tempfile::tempdir().unwrap();
         let path = dir.path().join("session.json");

@@ -30,6 +30,13 @@ fn words_of(plan: &[String]) -> BTreeSet<String> {
         .collect()
 }
 
+/// An items file `items.jsonl` in `dir` holding `text`.
+fn items_file(dir: &Path, text: &str) -> std::path::PathBuf {
+    let items = dir.join("items.jsonl");
+    std::fs::write(&items, text).unwrap_or_else(|e| panic!("{e}"));
+    items
+}
+
 fn corrupt_alfred30(out: &Path, seed: &str) -> Output {
     let dataset = common::shared().join("data/alfred30");
     let out = mapvlm(&[
@@ -177,17 +184,15 @@ fn alfred30_every_kind_applies_deterministically_with_edits_that_fit() {
 #[test]
 fn items_files_user_vocabularies_and_what_cannot_be_corrupted() {
     let dir = tempfile::tempdir().unwrap_or_else(|e| panic!("{e}"));
-    let items = dir.path().join("items.jsonl");
-    std::fs::write(
-        &items,
+    let items = items_file(
+        dir.path(),
         concat!(
             r#"{"id": "h", "gt": ["Pick up the harmonica."], "pred": ["Walk to the desk.", "Pick up the harmonica."], "task": "Get it.", "image": "scene.jpg"}"#,
             "\n{broken\n",
             r#"{"id": "one", "gt": ["Stop."], "pred": ["Stop."]}"#,
             "\n"
         ),
-    )
-    .unwrap_or_else(|e| panic!("{e}"));
+    );
     std::fs::write(dir.path().join("scene.jpg"), b"not really").unwrap_or_else(|e| panic!("{e}"));
     let vocabulary = dir.path().join("vocab");
     std::fs::create_dir(&vocabulary).unwrap_or_else(|e| panic!("{e}"));
@@ -267,4 +272,58 @@ fn an_unwritable_output_or_an_empty_items_file_is_one_line() {
         assert_eq!(err.trim_end().lines().count(), 1, "{err}");
         assert!(err.contains(needle), "{needle}: {err}");
     }
+}
+
+/// Runs `mapvlm ARGS` under the umask `mask` (set by a shell that then
+/// becomes the binary), as a user's login shell would have it.
+fn mapvlm_under_umask(mask: &str, args: &[&str]) -> Output {
+    common::mapvlm_command_program("sh")
+        .arg("-c")
+        .arg(format!("umask {mask} && exec \"$0\" \"$@\""))
+        .arg(env!("CARGO_BIN_EXE_mapvlm"))
+        .args(args)
+        .output()
+        .unwrap_or_else(|e| panic!("running sh: {e}"))
+}
+
+#[test]
+fn an_items_file_gets_the_umask_mode_and_a_replaced_one_keeps_its_own() {
+    use std::os::unix::fs::PermissionsExt as _;
+    let dir = tempfile::tempdir().unwrap_or_else(|e| panic!("{e}"));
+    let items = items_file(
+        dir.path(),
+        r#"{"id": "a", "gt": ["Pick up the mug.", "Put the mug in the sink."], "pred": ["Pick up the mug.", "Put the mug in the sink."]}"#,
+    );
+    let mode = |p: &Path| {
+        std::fs::metadata(p)
+            .unwrap_or_else(|e| panic!("{}: {e}", p.display()))
+            .permissions()
+            .mode()
+            & 0o777
+    };
+    let corrupt = |out: &Path| {
+        let run = mapvlm_under_umask(
+            "022",
+            &[
+                "corrupt",
+                "--items",
+                &items.to_string_lossy(),
+                "--kinds",
+                "reorder",
+                "--out",
+                &out.to_string_lossy(),
+            ],
+        );
+        assert!(run.status.success(), "{}", stderr(&run));
+    };
+    let fresh = dir.path().join("fresh.jsonl");
+    corrupt(&fresh);
+    assert_eq!(mode(&fresh), 0o644, "a new items file is 0666 & !umask");
+    assert_eq!(read_items(&fresh).len(), 2);
+    let shared = dir.path().join("group.jsonl");
+    std::fs::write(&shared, "").unwrap_or_else(|e| panic!("{e}"));
+    std::fs::set_permissions(&shared, std::fs::Permissions::from_mode(0o664))
+        .unwrap_or_else(|e| panic!("{e}"));
+    corrupt(&shared);
+    assert_eq!(mode(&shared), 0o664, "a replaced file keeps its mode");
 }

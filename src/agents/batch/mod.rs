@@ -22,10 +22,11 @@ use serde::{Deserialize, Serialize};
 use serde_json::Value;
 use tokio_util::sync::CancellationToken;
 
-use super::cache::{write_atomic, CachedAnswer};
+use super::cache::CachedAnswer;
 use super::pipeline::{PendingRequest, PlanInput, Runner};
 use super::provider::{cancellable, Assembler, Completion, HttpEndpoint};
 use super::{AgentError, AgentRole, Approach, ProviderKind, Usage};
+use crate::fsutil::write_atomic;
 
 /// The most requests put in one batch (both providers accept more; smaller
 /// batches finish sooner and lose less when one fails).
@@ -62,6 +63,9 @@ pub enum BatchError {
         /// What was wrong.
         message: String,
     },
+    /// A file could not be written whole (see [`crate::fsutil`]).
+    #[error(transparent)]
+    Write(#[from] crate::fsutil::FsError),
 }
 
 /// A batch's progress as its provider reports it.

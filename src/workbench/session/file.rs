@@ -2,7 +2,6 @@
 //! (decoded, migrated to this version and repaired; a file that cannot be
 //! read is set aside, not fatal).
 
-use std::io::Write as _;
 use std::path::{Path, PathBuf};
 
 use super::{migrate, repair, Session, SESSION_VERSION};
@@ -87,23 +86,15 @@ fn io_error(path: &Path) -> impl FnOnce(std::io::Error) -> SessionError + '_ {
     }
 }
 
-/// Writes `session` to `path` atomically: a temporary file in the same folder
-/// is written, flushed to disk and renamed over the old file.
+/// Writes `session` to `path` atomically and readable by the owner only
+/// (it holds the user's work and settings): see
+/// [`crate::fsutil::write_atomic_private`].
 pub fn save(path: &Path, session: &Session) -> Result<(), SessionError> {
     let json = serde_json::to_vec_pretty(session)?;
-    let dir = path
-        .parent()
-        .filter(|p| !p.as_os_str().is_empty())
-        .unwrap_or(Path::new("."));
-    std::fs::create_dir_all(dir).map_err(io_error(dir))?;
-    let mut tmp = tempfile::NamedTempFile::new_in(dir).map_err(io_error(dir))?;
-    tmp.write_all(&json).map_err(io_error(path))?;
-    tmp.as_file().sync_data().map_err(io_error(path))?;
-    tmp.persist(path).map_err(|e| SessionError::Io {
-        path: path.to_path_buf(),
+    crate::fsutil::write_atomic_private(path, &json).map_err(|e| SessionError::Io {
+        path: e.path,
         error: e.error,
-    })?;
-    Ok(())
+    })
 }
 
 /// The session in the bytes of a session file, brought up to this version

@@ -16,7 +16,13 @@ use std::sync::OnceLock;
 /// this test process, never to the user's, while the model pack is still
 /// the user's (`MAPVLM_MODELS`, resolved before the cache is moved).
 pub fn mapvlm_command() -> Command {
-    let mut command = Command::new(env!("CARGO_BIN_EXE_mapvlm"));
+    mapvlm_command_program(env!("CARGO_BIN_EXE_mapvlm"))
+}
+
+/// `program` (a shell or wrapper that runs the real binary) with the
+/// environment of [`mapvlm_command`].
+pub fn mapvlm_command_program(program: &str) -> Command {
+    let mut command = Command::new(program);
     command
         .env("XDG_CACHE_HOME", test_cache_home())
         .env("MAPVLM_MODELS", pack_dir());
