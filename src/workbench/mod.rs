@@ -31,6 +31,7 @@ pub mod runtime;
 pub mod saver;
 pub mod scene_image;
 pub mod scoring;
+pub mod scroll;
 pub mod session;
 pub mod snapshot;
 pub mod terminal_query;
