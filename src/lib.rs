@@ -13,6 +13,7 @@ pub mod cli;
 pub mod corrupt;
 pub mod dataset;
 pub mod demo;
+pub mod limits;
 pub mod metrics;
 pub mod models;
 pub mod nlp;
