@@ -69,6 +69,14 @@ pub enum DatasetError {
         /// The underlying error.
         error: std::io::Error,
     },
+    /// The file is longer than the limit for its kind.
+    #[error("{path}: {message}")]
+    TooLong {
+        /// The file that failed.
+        path: PathBuf,
+        /// The limit it passed, in words.
+        message: String,
+    },
     /// The file is not UTF-8 text.
     #[error("{path}: not UTF-8 text (byte {offset}); save it as UTF-8")]
     NotUtf8 {
@@ -90,10 +98,27 @@ pub struct Dataset {
 
 /// Reads a whole text file as UTF-8, with errors naming the file; a UTF-8
 /// byte-order mark at its start is dropped (it is not part of the text).
+/// At most [`crate::limits::MAX_TEXT_FILE_BYTES`] are read.
 pub fn read_text(path: &Path) -> Result<String, DatasetError> {
-    let bytes = std::fs::read(path).map_err(|error| DatasetError::Read {
-        path: path.to_path_buf(),
-        error,
+    read_text_within(path, crate::limits::MAX_TEXT_FILE_BYTES, "a text file")
+}
+
+/// [`read_text`] of a file of kind `what` (`a step file`) held to `limit`
+/// bytes: a longer file (or a device) is refused naming the limit.
+pub fn read_text_within(
+    path: &Path,
+    limit: u64,
+    what: &'static str,
+) -> Result<String, DatasetError> {
+    let bytes = crate::limits::read_file(path, limit, what).map_err(|error| match error {
+        crate::limits::ReadError::Io(error) => DatasetError::Read {
+            path: path.to_path_buf(),
+            error,
+        },
+        too_long => DatasetError::TooLong {
+            path: path.to_path_buf(),
+            message: too_long.to_string(),
+        },
     })?;
     let mut text = String::from_utf8(bytes).map_err(|e| DatasetError::NotUtf8 {
         path: path.to_path_buf(),
@@ -120,31 +145,172 @@ struct RawTask {
     rest: Map<String, Value>,
 }
 
+/// The longest task or item id, in bytes: ids name result files
+/// (`ID.APPROACH.json`), and a file name has at most 255 bytes.
+pub const MAX_ID_BYTES: usize = 200;
+
+/// Why `id` cannot be a task's or an item's id (empty, blank or longer than
+/// [`MAX_ID_BYTES`]), checked before any request is made for it.
+pub fn check_id(id: &str) -> Result<(), String> {
+    if id.trim().is_empty() {
+        return Err("the id is empty: give every task an id of its own".into());
+    }
+    if id.len() > MAX_ID_BYTES {
+        return Err(format!(
+            "the id is {} bytes long, past the limit of {MAX_ID_BYTES} bytes: give a shorter id",
+            id.len()
+        ));
+    }
+    Ok(())
+}
+
+/// The one rule every reader of tasks and items holds ids to: each valid
+/// ([`check_id`]) and unique in its file, a repeat refused naming both lines.
+#[derive(Debug, Default)]
+pub struct IdRule {
+    seen: std::collections::HashMap<String, usize>,
+}
+
+impl IdRule {
+    /// Takes the id on line `line`, or says why it cannot be used.
+    pub fn admit(&mut self, id: &str, line: usize) -> Result<(), String> {
+        check_id(id)?;
+        if let Some(first) = self.seen.get(id) {
+            return Err(format!(
+                "the id `{}` is also the id of line {first}: ids must be unique; this line was left out",
+                crate::sanitize::for_terminal(id)
+            ));
+        }
+        self.seen.insert(id.to_string(), line);
+        Ok(())
+    }
+}
+
+/// The file stem of id `id`: the id itself when it is made of letters,
+/// digits, `-`, `_` and `.` only (and does not start with `.`); otherwise
+/// those kept, the rest as `_`, and `~` with 8 hex digits of the id's
+/// SHA-256, so that two ids never share a file (`task/1`, `task_1` and
+/// `task 1` get three names) and none is hidden.
+pub fn file_stem(id: &str) -> String {
+    let safe = legacy_file_stem(id);
+    if safe == id && !id.starts_with('.') {
+        return safe;
+    }
+    // A leading `.` would hide the file.
+    let shown = match safe.strip_prefix('.') {
+        Some(rest) => format!("_{rest}"),
+        None => safe,
+    };
+    let hash = crate::agents::sha256_hex(id.as_bytes());
+    format!("{shown}~{}", &hash[..8])
+}
+
+/// The stem older versions gave id `id` (letters, digits, `-`, `_` and `.`
+/// kept, the rest as `_`, no hash suffix), to find the results an existing
+/// output folder holds under it.
+pub fn legacy_file_stem(id: &str) -> String {
+    id.chars()
+        .map(|c| {
+            if c.is_ascii_alphanumeric() || matches!(c, '-' | '_' | '.') {
+                c
+            } else {
+                '_'
+            }
+        })
+        .collect()
+}
+
+/// `path`, as a task writes it, resolved against the dataset folder `root`
+/// when it stays inside: relative, with no `..` left after normalising
+/// (`images/../images/1.jpg` is fine, `../x.jpg` is not). Symlinks inside
+/// the dataset are followed when the file is opened, since clusters link
+/// `images/` to shared storage. With `allow_outside` any path is taken.
+pub fn resolve_inside(root: &Path, path: &str, allow_outside: bool) -> Result<PathBuf, String> {
+    use std::path::Component;
+    let written = Path::new(path);
+    if allow_outside {
+        return Ok(root.join(written));
+    }
+    let refuse = |why: &str| {
+        format!(
+            "`{}` {why}: files a task names must be inside the dataset folder; give --allow-outside-paths to use it anyway",
+            crate::sanitize::for_terminal(path)
+        )
+    };
+    let mut inside = PathBuf::new();
+    for part in written.components() {
+        match part {
+            Component::Normal(name) => inside.push(name),
+            Component::CurDir => {}
+            Component::ParentDir => {
+                if !inside.pop() {
+                    return Err(refuse("leads out of the dataset folder"));
+                }
+            }
+            Component::RootDir | Component::Prefix(_) => {
+                return Err(refuse("is an absolute path"));
+            }
+        }
+    }
+    if inside.as_os_str().is_empty() {
+        return Err(refuse("names no file"));
+    }
+    Ok(root.join(inside))
+}
+
 impl Dataset {
     /// Loads `DIR/tasks.jsonl` (or the given `.jsonl` file, whose folder is
     /// then the dataset folder). Lines that cannot be used are returned with
-    /// their line numbers; the others load.
+    /// their line numbers; the others load. Ids are held to [`IdRule`];
+    /// images and tables to [`resolve_inside`].
     pub fn load(path: &Path) -> Result<(Dataset, Vec<LineError>), DatasetError> {
+        Self::load_with(path, false)
+    }
+
+    /// [`Self::load`], taking image and table paths outside the dataset
+    /// folder when `allow_outside_paths` (`--allow-outside-paths`).
+    pub fn load_with(
+        path: &Path,
+        allow_outside_paths: bool,
+    ) -> Result<(Dataset, Vec<LineError>), DatasetError> {
         let (root, file) = if path.is_dir() {
             (path.to_path_buf(), path.join("tasks.jsonl"))
         } else {
             let root = path.parent().map_or_else(PathBuf::new, Path::to_path_buf);
             (root, path.to_path_buf())
         };
-        let text = read_text(&file)?;
+        let source = std::fs::File::open(&file).map_err(|error| DatasetError::Read {
+            path: file.clone(),
+            error,
+        })?;
+        let reader = std::io::BufReader::with_capacity(1 << 16, source);
         let mut tasks = Vec::new();
         let mut errors = Vec::new();
-        for (n, line) in text.lines().enumerate() {
+        let mut ids = IdRule::default();
+        for read in lines::BoundedLines::new(reader, crate::limits::MAX_TASK_LINE_BYTES) {
+            let (n, line) = read.map_err(|error| DatasetError::Read {
+                path: file.clone(),
+                error,
+            })?;
+            let error = |message: String| LineError {
+                path: file.clone(),
+                line: n,
+                message,
+            };
+            let line = match line {
+                Ok(line) => line,
+                Err(problem) => {
+                    errors.push(error(problem.to_string()));
+                    continue;
+                }
+            };
             if line.trim().is_empty() {
                 continue;
             }
-            let error = |message: String| LineError {
-                path: file.clone(),
-                line: n + 1,
-                message,
-            };
-            match serde_json::from_str::<RawTask>(line) {
-                Ok(raw) => match Task::from_raw(raw, &root) {
+            match serde_json::from_str::<RawTask>(&line) {
+                Ok(raw) => match Task::from_raw(raw, &root, allow_outside_paths)
+                    .and_then(|task| ids.admit(&task.id, n).map(|()| task))
+                {
                     Ok(task) => tasks.push(task),
                     Err(message) => errors.push(error(message)),
                 },
@@ -161,7 +327,7 @@ impl Dataset {
 }
 
 impl Task {
-    fn from_raw(raw: RawTask, root: &Path) -> Result<Task, String> {
+    fn from_raw(raw: RawTask, root: &Path, allow_outside: bool) -> Result<Task, String> {
         let mut plans = BTreeMap::new();
         let mut extra = Map::new();
         for (key, value) in raw.rest {
@@ -177,8 +343,16 @@ impl Task {
             id: raw.id,
             trial: raw.trial,
             task: raw.task,
-            image: raw.image.map(|p| root.join(p)),
-            table: raw.table.map(|p| root.join(p)),
+            image: raw
+                .image
+                .map(|p| resolve_inside(root, &p, allow_outside))
+                .transpose()
+                .map_err(|e| format!("image {e}"))?,
+            table: raw
+                .table
+                .map(|p| resolve_inside(root, &p, allow_outside))
+                .transpose()
+                .map_err(|e| format!("table {e}"))?,
             ground_truth: raw.ground_truth,
             plans,
             extra,
@@ -277,6 +451,7 @@ pub struct PairsReader {
     path: PathBuf,
     lines: lines::BoundedLines<Box<dyn BufRead + Send>>,
     failed: bool,
+    ids: IdRule,
 }
 
 /// Opens a pairs file for reading; `-` is standard input.
@@ -306,6 +481,7 @@ impl PairsReader {
             path: shown,
             lines: lines::BoundedLines::new(source, MAX_PAIR_LINE_BYTES),
             failed: false,
+            ids: IdRule::default(),
         }
     }
 }
@@ -337,10 +513,13 @@ impl Iterator for PairsReader {
             if text.trim().is_empty() {
                 continue;
             }
-            return Some(
-                serde_json::from_str::<Pair>(&text)
-                    .map_err(|e| error(n, format!("not a pair {{\"id\", \"gt\", \"pred\"}}: {e}"))),
-            );
+            let pair = serde_json::from_str::<Pair>(&text)
+                .map_err(|e| error(n, format!("not a pair {{\"id\", \"gt\", \"pred\"}}: {e}")))
+                .and_then(|pair| match self.ids.admit(&pair.id, n) {
+                    Ok(()) => Ok(pair),
+                    Err(why) => Err(error(n, why)),
+                });
+            return Some(pair);
         }
     }
 }

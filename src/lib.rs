@@ -14,6 +14,7 @@ pub mod corrupt;
 pub mod dataset;
 pub mod demo;
 pub mod fsutil;
+pub mod limits;
 pub mod metrics;
 pub mod models;
 pub mod nlp;

@@ -6,7 +6,9 @@ fn main() -> ExitCode {
     match mapvlm::cli::run() {
         Ok(code) => code,
         Err(err) => {
-            eprintln!("mapvlm: {err:#}");
+            // The error may quote a server, a model, a file or a path.
+            let line = mapvlm::sanitize::redact_url_credentials(&format!("{err:#}"));
+            eprintln!("mapvlm: {}", mapvlm::sanitize::for_terminal(&line));
             ExitCode::FAILURE
         }
     }

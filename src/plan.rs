@@ -10,12 +10,7 @@
 /// "Here is the plan:" and closing remarks are left out. When no line carries a
 /// marker, every non-blank line is a step, except a first line ending in `:`.
 pub fn parse_steps(text: &str) -> Vec<String> {
-    let text = text.strip_prefix('\u{feff}').unwrap_or(text);
-    let lines: Vec<&str> = text
-        .lines()
-        .map(str::trim)
-        .filter(|l| !l.is_empty())
-        .collect();
+    let lines = content_lines(text);
     let marked: Vec<Option<&str>> = lines.iter().map(|l| strip_marker(l)).collect();
     let steps: Vec<&str> = if marked.iter().any(Option::is_some) {
         marked.iter().flatten().copied().collect()
@@ -27,6 +22,16 @@ pub fn parse_steps(text: &str) -> Vec<String> {
         .into_iter()
         .map(clean_step)
         .filter(|s| !s.is_empty())
+        .collect()
+}
+
+/// The non-blank lines of a step file or an answer, trimmed, without a
+/// byte-order mark.
+fn content_lines(text: &str) -> Vec<&str> {
+    let text = text.strip_prefix('\u{feff}').unwrap_or(text);
+    text.lines()
+        .map(str::trim)
+        .filter(|l| !l.is_empty())
         .collect()
 }
 
@@ -64,6 +69,43 @@ pub fn bound_steps(steps: &mut Vec<String>) -> Option<String> {
         ));
     }
     (!notes.is_empty()).then(|| notes.join("; "))
+}
+
+/// The steps of a model's answer held to the one step limit (at most
+/// [`MAX_STEPS`] steps of at most [`MAX_STEP_CHARS`] characters), the same
+/// in `plan`, `eval`, the workbench and `score`; with what was cut, in words.
+pub fn bounded_steps(text: &str) -> (Vec<String>, Option<String>) {
+    let mut steps = parse_steps(text);
+    let note = bound_steps(&mut steps);
+    (steps, note)
+}
+
+/// Why a model's answer is not a plan, or `None` when it is one: a plan has
+/// a step-shaped line (numbered or bulleted), or several lines, or several
+/// sentences. A refusal ("I am sorry, but I cannot help with that.") has
+/// none of them and must not be scored as a one-step plan.
+pub fn not_a_plan(text: &str) -> Option<String> {
+    let lines = content_lines(text);
+    if lines.iter().any(|l| strip_marker(l).is_some()) {
+        return None;
+    }
+    let skip = usize::from(lines.first().is_some_and(|l| l.ends_with(':')));
+    let body = &lines[skip.min(lines.len())..];
+    let sentences: usize = body
+        .iter()
+        .map(|line| {
+            line.split_terminator(['.', '!', '?'])
+                .filter(|s| s.chars().any(char::is_alphanumeric))
+                .count()
+        })
+        .sum();
+    if body.len() >= 2 || sentences >= 2 {
+        return None;
+    }
+    let start: String = text.trim().chars().take(80).collect();
+    Some(format!(
+        "the answer is not a plan (no numbered or bulleted line, nor several sentences): \"{start}\""
+    ))
 }
 
 /// Removes a trailing `,` after the final period (`... sink.,`) and markdown

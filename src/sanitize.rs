@@ -20,15 +20,68 @@ pub fn is_unsafe(c: char) -> bool {
 /// fake a line. A backslash is left alone, so the output is for reading, not
 /// for parsing back.
 pub fn for_terminal(s: &str) -> String {
+    escape_unsafe(s, |cp| format!("\\u{{{cp:x}}}"))
+}
+
+/// `s` with every [`is_unsafe`] code point replaced by `escape` of its
+/// number: the one loop behind the terminal and the JSON escaping.
+fn escape_unsafe(s: &str, escape: impl Fn(u32) -> String) -> String {
     let mut out = String::with_capacity(s.len());
     for c in s.chars() {
         if is_unsafe(c) {
-            out.push_str(&format!("\\u{{{:x}}}", c as u32));
+            out.push_str(&escape(c as u32));
         } else {
             out.push(c);
         }
     }
     out
+}
+
+/// Returns `text` with the credentials of every URL in it replaced by `***`
+/// (`http://user:sk-…@host/v1` → `http://***@host/v1`), so that a key given
+/// in a base URL never reaches a message, a log, a record or `--json`.
+/// Works on a URL alone and on any text quoting URLs (an error message);
+/// text without `scheme://…@` is returned as it is.
+pub fn redact_url_credentials(text: &str) -> String {
+    static USERINFO: std::sync::LazyLock<Option<regex::Regex>> = std::sync::LazyLock::new(|| {
+        regex::Regex::new(r"(?i)\b([a-z][a-z0-9+.\-]*://)[^/?#@\s]*@").ok()
+    });
+    match USERINFO.as_ref() {
+        Some(userinfo) => userinfo.replace_all(text, "${1}***@").into_owned(),
+        None => text.to_string(),
+    }
+}
+
+/// What is printed for a body that is not text (a gzip body, an image, a
+/// truncated UTF-8 sequence): its size, never its bytes.
+pub fn body_text(body: &[u8]) -> String {
+    if body.starts_with(&[0x1f, 0x8b]) {
+        return format!("binary body, {} bytes", body.len());
+    }
+    match std::str::from_utf8(body) {
+        Ok(text) => for_terminal(text),
+        // A text body cut inside its last character (a bounded read).
+        Err(cut) if cut.error_len().is_none() => {
+            for_terminal(&String::from_utf8_lossy(&body[..cut.valid_up_to()]))
+        }
+        Err(_) => format!("binary body, {} bytes", body.len()),
+    }
+}
+
+/// Writes `value` as pretty JSON whose strings escape every [`is_unsafe`]
+/// code point as `\uXXXX` (serde_json escapes only C0 controls), so that
+/// `--json` output is exactly the data and still safe on a terminal. Such
+/// a code point can only stand inside a string of serde_json's output (the
+/// rest is ASCII), and each is below U+FFFF, so escaping it there is exact.
+pub fn write_json_pretty<W: std::io::Write, T: serde::Serialize + ?Sized>(
+    mut writer: W,
+    value: &T,
+) -> serde_json::Result<()> {
+    let text = serde_json::to_string_pretty(value)?;
+    let out = escape_unsafe(&text, |cp| format!("\\u{cp:04x}"));
+    writer
+        .write_all(out.as_bytes())
+        .map_err(serde_json::Error::io)
 }
 
 #[cfg(test)]
@@ -42,6 +95,46 @@ mod tests {
             for_terminal(s),
             "a\\u{1b}]52;c;Zm9v\\u{7}b\\u{d}\nc\td\\u{9b}6n\\u{202e}x\\u{7f}"
         );
+    }
+
+    #[test]
+    fn url_credentials_are_redacted_in_urls_and_in_text() {
+        assert_eq!(
+            redact_url_credentials("http://user:sk-abc@host:8000/v1?x=a@b"),
+            "http://***@host:8000/v1?x=a@b"
+        );
+        assert_eq!(
+            redact_url_credentials(
+                "error sending request for url (HTTPS://sk-1@h/v1/chat): refused"
+            ),
+            "error sending request for url (HTTPS://***@h/v1/chat): refused"
+        );
+        assert_eq!(
+            redact_url_credentials("http://host/v1 mail a@b"),
+            "http://host/v1 mail a@b"
+        );
+    }
+
+    #[test]
+    fn a_binary_body_is_named_by_its_size() {
+        assert_eq!(body_text(&[0x1f, 0x8b, 8, 0, 1, 2]), "binary body, 6 bytes");
+        assert_eq!(body_text(b"bad\xff"), "binary body, 4 bytes");
+        assert_eq!(body_text("no \x1b[2J".as_bytes()), "no \\u{1b}[2J");
+    }
+
+    #[test]
+    fn json_escapes_every_unsafe_code_point_and_reads_back_the_same() {
+        let text = "a\u{9b}6n\u{202e}b\x7f\x1b]52;c;x\x07 é";
+        let mut out = Vec::new();
+        write_json_pretty(&mut out, &serde_json::json!({ "k": [text] })).unwrap();
+        let printed = String::from_utf8(out).unwrap();
+        assert!(!printed.chars().any(is_unsafe), "{printed}");
+        assert!(
+            printed.contains("\\u009b") && printed.contains("\\u202e"),
+            "{printed}"
+        );
+        let back: serde_json::Value = serde_json::from_str(&printed).unwrap();
+        assert_eq!(back["k"][0], text);
     }
 
     #[test]

@@ -4,8 +4,8 @@ use serde_json::{json, Value};
 use tokio_util::sync::CancellationToken;
 
 use super::provider::{
-    is_json, Assembler, BoxFuture, ChatRequest, Completion, HttpEndpoint, HttpSettings, Provider,
-    SseEvent, StreamStep, TokenSink,
+    cut_reason, is_json, Assembler, BoxFuture, ChatRequest, Completion, HttpEndpoint, HttpSettings,
+    Provider, SseEvent, StreamStep, TokenSink,
 };
 use super::{AgentError, Secret, Usage};
 
@@ -55,7 +55,8 @@ impl Anthropic {
                 None => builder,
             }
         };
-        let mut answer = Assembler::new(on_token, self.endpoint.key.clone());
+        let mut answer = Assembler::new(on_token, self.endpoint.key.clone())
+            .with_token_limit(request.max_tokens);
         let response = self.endpoint.send(build, cancel).await?;
         if request.stream && !is_json(&response) {
             let complete = self
@@ -78,6 +79,10 @@ impl Anthropic {
                 .ok_or_else(|| self.endpoint.invalid("no `content` in the answer".into()))?;
             answer.push(&text);
             answer.usage = usage;
+            answer.cut = cut_reason(&value, "/stop_reason", "max_tokens");
+            answer
+                .check_limit()
+                .map_err(|message| self.endpoint.invalid(message))?;
         }
         answer.finish(NAME, &request.model)
     }
@@ -110,10 +115,15 @@ pub fn apply_event(event: &SseEvent, answer: &mut Assembler<'_>) -> Result<Strea
             if let Some(text) = value.pointer("/delta/text").and_then(Value::as_str) {
                 answer.push(text);
             }
+            answer.check_limit()?;
         }
         "message_delta" => {
             let output = count(value.get("usage"), "output_tokens");
             answer.usage.output_tokens = answer.usage.output_tokens.max(output);
+            answer.cut = answer
+                .cut
+                .or(cut_reason(&value, "/delta/stop_reason", "max_tokens"));
+            answer.check_limit()?;
         }
         "message_stop" => return Ok(StreamStep::Done),
         "error" => {

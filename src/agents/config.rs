@@ -169,8 +169,58 @@ impl ConfigFile {
                 message: format!("[agents.{name}]: use skm, gkm, planner or single"),
             });
         }
+        if config.holds_key() {
+            if let Some(warning) = loose_key_file(path) {
+                warn_once(warning);
+            }
+        }
         Ok(config)
     }
+
+    /// Whether any layer of the file sets an API key.
+    fn holds_key(&self) -> bool {
+        self.defaults.api_key.is_some() || self.agents.values().any(|a| a.api_key.is_some())
+    }
+}
+
+/// The warning for a file holding an API key that users other than its
+/// owner may read or write (as ssh warns of a private key), naming the mode
+/// and the fix; `None` when only the owner may.
+pub fn loose_key_file(path: &Path) -> Option<String> {
+    #[cfg(unix)]
+    {
+        use std::os::unix::fs::PermissionsExt;
+        let mode = std::fs::metadata(path).ok()?.permissions().mode() & 0o777;
+        if mode & 0o077 == 0 {
+            return None;
+        }
+        let shown = crate::sanitize::for_terminal(&path.display().to_string());
+        let who = match (mode & 0o044 != 0, mode & 0o022 != 0) {
+            (true, true) => "read and change",
+            (false, true) => "change",
+            _ => "read",
+        };
+        Some(format!(
+            "permissions {mode:04o} for config file {shown} are too open: it holds an API key that others may {who}; run chmod 600 {shown}"
+        ))
+    }
+    #[cfg(not(unix))]
+    {
+        let _ = path;
+        None
+    }
+}
+
+/// Logs `warning` as a warning once a run, however often the file is read.
+fn warn_once(warning: String) {
+    static SAID: std::sync::Mutex<Vec<String>> = std::sync::Mutex::new(Vec::new());
+    if let Ok(mut said) = SAID.lock() {
+        if said.contains(&warning) {
+            return;
+        }
+        said.push(warning.clone());
+    }
+    tracing::warn!("{warning}");
 }
 
 /// The settings from flags: for all agents, and per agent.
@@ -268,6 +318,16 @@ impl AgentSettings {
     pub fn without_key(&self) -> Self {
         Self {
             api_key: None,
+            ..self.clone()
+        }
+    }
+
+    /// These settings as records, sessions and `--json` keep them: no key,
+    /// and credentials in the base URL replaced by `***`.
+    pub fn for_record(&self) -> Self {
+        Self {
+            api_key: None,
+            base_url: crate::sanitize::redact_url_credentials(&self.base_url),
             ..self.clone()
         }
     }
@@ -440,7 +500,8 @@ fn seconds(value: f64, name: &str) -> Result<Duration, ConfigError> {
 fn check_base_url(role: AgentRole, url: &str) -> Result<(), ConfigError> {
     let bad = |why: String| {
         ConfigError::Invalid(format!(
-            "{role}: base URL `{url}` {why}; give one like http://localhost:8000/v1"
+            "{role}: base URL `{}` {why}; give one like http://localhost:8000/v1",
+            crate::sanitize::redact_url_credentials(url)
         ))
     };
     let parsed =

@@ -21,7 +21,9 @@ pub fn prepare_image(path: &Path, max_edge: u32) -> Result<ImageInput, AgentErro
         path: path.to_path_buf(),
         reason,
     };
-    let bytes = std::fs::read(path).map_err(|err| fail(format!("cannot read it ({err})")))?;
+    let bytes =
+        crate::limits::read_file(path, crate::limits::MAX_IMAGE_FILE_BYTES, "an image file")
+            .map_err(|err| fail(err.to_string()))?;
     if bytes.is_empty() {
         return Err(fail(
             "the file is empty (0 bytes): copy the image again".into(),
@@ -33,6 +35,11 @@ pub fn prepare_image(path: &Path, max_edge: u32) -> Result<ImageInput, AgentErro
     let format = reader.format().ok_or_else(|| {
         fail("not an image this program reads: use JPEG, PNG, WebP or GIF".into())
     })?;
+    if format == ImageFormat::Jpeg && !jpeg_is_complete(&bytes) {
+        return Err(fail(
+            "the JPEG file is truncated (its image data ends before the end-of-image marker): copy the image again".into(),
+        ));
+    }
     let decoded = reader
         .decode()
         .map_err(|err| fail(format!("not a valid {format:?} image ({err})")))?;
@@ -66,6 +73,32 @@ pub fn prepare_image(path: &Path, max_edge: u32) -> Result<ImageInput, AgentErro
     })
 }
 
+/// Whether a JPEG's main image data reaches its end-of-image marker
+/// (`FF D9`): the decoder fills a cut file with grey and says nothing, as
+/// Pillow would not ("image file is truncated"). The segments before the
+/// first scan are skipped by their lengths, so a thumbnail's markers inside
+/// EXIF data do not count; entropy-coded data cannot hold `FF D9`.
+pub fn jpeg_is_complete(bytes: &[u8]) -> bool {
+    let mut at = 2;
+    while at + 4 <= bytes.len() {
+        if bytes[at] != 0xff {
+            return false;
+        }
+        let marker = bytes[at + 1];
+        if marker == 0xff {
+            at += 1;
+            continue;
+        }
+        let length = usize::from(u16::from_be_bytes([bytes[at + 2], bytes[at + 3]]));
+        if marker == 0xda {
+            let scan = (at + 2 + length).min(bytes.len());
+            return bytes[scan..].windows(2).any(|w| w == [0xff, 0xd9]);
+        }
+        at += 2 + length;
+    }
+    false
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;
@@ -93,6 +126,17 @@ mod tests {
         std::fs::write(&bad, b"\xff\xd8\xff\xe0 not really a jpeg").unwrap();
         let err = prepare_image(&bad, 1000).unwrap_err().to_string();
         assert!(err.contains("scene.jpg"), "{err}");
+
+        let photo = dir.path().join("photo.jpg");
+        image::RgbImage::from_fn(64, 48, |x, y| image::Rgb([x as u8 * 3, y as u8 * 5, 90]))
+            .save(&photo)
+            .unwrap();
+        assert!(prepare_image(&photo, 1000).is_ok());
+        let whole = std::fs::read(&photo).unwrap();
+        let cut = dir.path().join("cut.jpg");
+        std::fs::write(&cut, &whole[..whole.len() * 2 / 3]).unwrap();
+        let err = prepare_image(&cut, 1000).unwrap_err().to_string();
+        assert!(err.contains("cut.jpg: the JPEG file is truncated"), "{err}");
 
         let empty = dir.path().join("empty.jpg");
         std::fs::write(&empty, b"").unwrap();

@@ -366,6 +366,19 @@ pub enum AgentError {
         /// How much text had arrived.
         received: usize,
     },
+    /// The provider cut the answer at the token limit: the last step is
+    /// likely cut too, so the answer is neither kept nor scored.
+    #[error("{provider} cut the answer of {model} at the token limit (stop reason `{reason}`, {received} characters received): the plan is incomplete; raise --max-tokens (or max_tokens in the config file) and run again")]
+    CutAnswer {
+        /// The provider's name.
+        provider: &'static str,
+        /// The model asked.
+        model: String,
+        /// The stop reason as the provider gave it.
+        reason: &'static str,
+        /// How much text had arrived.
+        received: usize,
+    },
     /// The model answered nothing.
     #[error("{provider} returned an empty answer (model {model})")]
     EmptyAnswer {

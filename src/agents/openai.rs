@@ -6,8 +6,8 @@ use serde_json::{json, Value};
 use tokio_util::sync::CancellationToken;
 
 use super::provider::{
-    is_json, Assembler, BoxFuture, ChatRequest, Completion, HttpEndpoint, HttpSettings, Provider,
-    SseEvent, StreamStep, TokenSink,
+    cut_reason, is_json, Assembler, BoxFuture, ChatRequest, Completion, HttpEndpoint, HttpSettings,
+    Provider, SseEvent, StreamStep, TokenSink,
 };
 use super::{AgentError, Secret, Usage};
 
@@ -71,7 +71,8 @@ impl OpenAi {
                 None => builder,
             }
         };
-        let mut answer = Assembler::new(on_token, self.endpoint.key.clone());
+        let mut answer = Assembler::new(on_token, self.endpoint.key.clone())
+            .with_token_limit(request.max_tokens);
         let response = self.endpoint.send(build, cancel).await?;
         if request.stream && !is_json(&response) {
             let mut finished = false;
@@ -98,6 +99,10 @@ impl OpenAi {
             })?;
             answer.push(text);
             answer.usage = usage;
+            answer.cut = cut_reason(&value, "/choices/0/finish_reason", "length");
+            answer
+                .check_limit()
+                .map_err(|message| self.endpoint.invalid(message))?;
         }
         answer.finish(NAME, &request.model)
     }
@@ -136,6 +141,10 @@ pub fn apply_event(event: &SseEvent, answer: &mut Assembler<'_>) -> Result<Strea
     if let Some(usage) = value.get("usage").and_then(usage_of) {
         answer.usage = usage;
     }
+    answer.cut = answer
+        .cut
+        .or(cut_reason(&value, "/choices/0/finish_reason", "length"));
+    answer.check_limit()?;
     let finished = value
         .pointer("/choices/0/finish_reason")
         .is_some_and(|reason| !reason.is_null());

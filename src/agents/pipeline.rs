@@ -24,7 +24,7 @@ use super::prompts::{render_table, PromptSet};
 use super::provider::{elapsed_ms, ChatRequest, Completion, ImageInput, SharedProvider};
 use super::replay::{Pace, Recording, ReplayProvider};
 use super::{AgentError, AgentRole, Approach, ProviderKind, Usage};
-use crate::plan::parse_steps;
+use crate::plan::{bounded_steps, not_a_plan};
 
 /// What happened to an agent, for a front end to show live.
 #[derive(Debug, Clone, PartialEq, Serialize)]
@@ -124,7 +124,7 @@ impl AgentRecord {
     ) -> Self {
         Self {
             role,
-            settings: settings.without_key(),
+            settings: settings.for_record(),
             prompt: prompt.to_string(),
             prompt_hash: prompt_hash.to_string(),
             request_key: String::new(),
@@ -369,7 +369,7 @@ impl Runner {
             elapsed_ms: 0,
             sample,
         };
-        let planner = if approach.is_multi_agent() {
+        let mut planner = if approach.is_multi_agent() {
             let (skm, gkm) = tokio::join!(
                 self.run_agent(&prepared, AgentRole::Skm, events, cancel),
                 self.run_agent(&prepared, AgentRole::Gkm, events, cancel),
@@ -401,7 +401,16 @@ impl Runner {
                 .await
         };
         if let Some(text) = &planner.output {
-            record.steps = parse_steps(text);
+            match not_a_plan(text) {
+                Some(why) if planner.error.is_none() => planner.error = Some(why),
+                _ => {
+                    let (steps, cut) = bounded_steps(text);
+                    if let Some(cut) = cut {
+                        tracing::warn!(agent = planner.role.name(), "{cut}");
+                    }
+                    record.steps = steps;
+                }
+            }
         }
         record.agents.push(planner);
         record.usage = record.agents.iter().fold(Usage::default(), |sum, a| Usage {

@@ -159,8 +159,8 @@ impl HttpEndpoint {
             .build()
             .map_err(|err| AgentError::Connect {
                 provider,
-                url: base_url.to_string(),
-                message: err.to_string(),
+                url: crate::sanitize::redact_url_credentials(base_url),
+                message: crate::sanitize::redact_url_credentials(&err.to_string()),
             })?;
         Ok(Self {
             provider,
@@ -184,11 +184,17 @@ impl HttpEndpoint {
         }
     }
 
-    /// Removes the key from a message.
+    /// The base URL as messages show it: credentials in it replaced by `***`.
+    pub fn shown_url(&self) -> String {
+        crate::sanitize::redact_url_credentials(&self.base_url)
+    }
+
+    /// Removes the key, and any credentials of a URL, from a message.
     pub fn redact(&self, text: &str) -> String {
+        let text = crate::sanitize::redact_url_credentials(text);
         match &self.key {
-            Some(key) => key.redact(text),
-            None => text.to_string(),
+            Some(key) => key.redact(&text),
+            None => text,
         }
     }
 
@@ -283,7 +289,7 @@ impl HttpEndpoint {
                 provider: self.provider,
                 message: format!(
                     "{} sent a web page (text/html), not an API answer: check the base URL (an OpenAI-compatible one usually ends in /v1)",
-                    self.base_url
+                    self.shown_url()
                 ),
             });
         }
@@ -291,18 +297,28 @@ impl HttpEndpoint {
     }
 
     /// Turns an unsuccessful response into an error carrying the server's
-    /// message, shortened and with the key removed.
-    pub async fn status_error(&self, response: Response) -> AgentError {
+    /// message (at most [`crate::limits::MAX_ERROR_BODY_BYTES`] of the body are read),
+    /// shortened, made printable and with the key removed; a body that is
+    /// not text is named by its size.
+    pub async fn status_error(&self, mut response: Response) -> AgentError {
         let status = response.status().as_u16();
-        let body = response.text().await.unwrap_or_default();
-        let message = serde_json::from_str::<serde_json::Value>(&body)
+        let limit = crate::limits::MAX_ERROR_BODY_BYTES;
+        let mut body = Vec::new();
+        while body.len() < limit {
+            match response.chunk().await {
+                Ok(Some(piece)) => body.extend_from_slice(&piece),
+                _ => break,
+            }
+        }
+        body.truncate(limit);
+        let message = serde_json::from_slice::<serde_json::Value>(&body)
             .ok()
             .and_then(|v| {
                 v.pointer("/error/message")
                     .and_then(|m| m.as_str())
-                    .map(str::to_string)
+                    .map(crate::sanitize::for_terminal)
             })
-            .unwrap_or(body);
+            .unwrap_or_else(|| crate::sanitize::body_text(&body));
         AgentError::Http {
             provider: self.provider,
             status,
@@ -320,7 +336,7 @@ impl HttpEndpoint {
         } else if err.is_connect() {
             AgentError::Connect {
                 provider: self.provider,
-                url: self.base_url.clone(),
+                url: self.shown_url(),
                 message: self.redact(&root_cause(err)),
             }
         } else {
@@ -331,20 +347,37 @@ impl HttpEndpoint {
         }
     }
 
-    /// Reads a whole JSON body.
+    /// Reads a whole JSON body of at most [`crate::limits::MAX_BODY_BYTES`].
     pub async fn read_json(
         &self,
-        response: Response,
+        mut response: Response,
         cancel: &CancellationToken,
     ) -> Result<serde_json::Value, AgentError> {
-        let body = cancellable(cancel, response.bytes())
+        let limit = crate::limits::MAX_BODY_BYTES;
+        let too_long = || {
+            self.invalid(format!(
+                "a body longer than the limit of {} MiB ({limit} bytes): not a model's answer; check the base URL",
+                limit >> 20
+            ))
+        };
+        if response.content_length().is_some_and(|n| n > limit as u64) {
+            return Err(too_long());
+        }
+        let mut body = Vec::new();
+        while let Some(piece) = cancellable(cancel, response.chunk())
             .await?
-            .map_err(|err| self.transport_error(&err))?;
+            .map_err(|err| self.transport_error(&err))?
+        {
+            if body.len() + piece.len() > limit {
+                return Err(too_long());
+            }
+            body.extend_from_slice(&piece);
+        }
         serde_json::from_slice(&body).map_err(|err| AgentError::InvalidResponse {
             provider: self.provider,
             message: format!(
                 "invalid JSON ({err}): {}",
-                shorten(&self.redact(&String::from_utf8_lossy(&body)), 120)
+                shorten(&self.redact(&crate::sanitize::body_text(&body)), 120)
             ),
         })
     }
@@ -401,6 +434,11 @@ pub struct Assembler<'a> {
     chunks: Vec<Chunk>,
     /// The usage reported so far.
     pub usage: Usage,
+    /// The stop reason, when the provider said it cut the answer at the
+    /// token limit (`finish_reason "length"`, `stop_reason "max_tokens"`).
+    pub cut: Option<&'static str>,
+    /// The request's token limit, when the answer is held to it.
+    max_tokens: Option<u32>,
 }
 
 impl<'a> Assembler<'a> {
@@ -414,7 +452,41 @@ impl<'a> Assembler<'a> {
             text: String::new(),
             chunks: Vec::new(),
             usage: Usage::default(),
+            cut: None,
+            max_tokens: None,
         }
+    }
+
+    /// Holds the answer to the request's token limit: more output tokens
+    /// reported than `max_tokens`, or more than
+    /// [`crate::limits::ANSWER_BYTES_PER_TOKEN`] bytes a token, ends it
+    /// (see [`Self::check_limit`]).
+    pub fn with_token_limit(mut self, max_tokens: u32) -> Self {
+        self.max_tokens = Some(max_tokens);
+        self
+    }
+
+    /// The message for an answer past its token limit, if it is: what a
+    /// decoder reports, so that reading stops there and memory stays bounded.
+    pub fn check_limit(&self) -> Result<(), String> {
+        let Some(max_tokens) = self.max_tokens else {
+            return Ok(());
+        };
+        let bytes = self.text.len() + self.held.len();
+        let limit = crate::limits::answer_bytes(max_tokens);
+        if bytes > limit {
+            return Err(format!(
+                "an answer longer than the limit of {limit} bytes ({} bytes a token of max_tokens {max_tokens}): the server does not hold to the token limit; check the base URL",
+                crate::limits::ANSWER_BYTES_PER_TOKEN
+            ));
+        }
+        if self.usage.output_tokens > u64::from(max_tokens) {
+            return Err(format!(
+                "the server reports {} output tokens, past max_tokens {max_tokens}: it does not hold to the token limit",
+                self.usage.output_tokens
+            ));
+        }
+        Ok(())
     }
 
     /// Adds a piece of text and passes on what of it is known to hold no key.
@@ -457,10 +529,19 @@ impl<'a> Assembler<'a> {
         self.text.chars().count() + self.held.chars().count()
     }
 
-    /// The finished answer; an empty or blank one is an error.
+    /// The finished answer; an empty or blank one is an error, and so is
+    /// one the provider cut at the token limit (never kept as complete).
     pub fn finish(mut self, provider: &'static str, model: &str) -> Result<Completion, AgentError> {
         let rest = std::mem::take(&mut self.held);
         self.pass_on(rest);
+        if let Some(reason) = self.cut {
+            return Err(AgentError::CutAnswer {
+                provider,
+                model: model.to_string(),
+                reason,
+                received: self.text.chars().count(),
+            });
+        }
         if self.text.trim().is_empty() {
             return Err(AgentError::EmptyAnswer {
                 provider,
@@ -473,6 +554,17 @@ impl<'a> Assembler<'a> {
             chunks: self.chunks,
         })
     }
+}
+
+/// `Some(cut)` when the stop reason at `pointer` of an answer or stream
+/// event is `cut`, the provider's word for an answer cut at the token limit
+/// (`length` for Chat Completions, `max_tokens` for Messages).
+pub fn cut_reason(
+    value: &serde_json::Value,
+    pointer: &str,
+    cut: &'static str,
+) -> Option<&'static str> {
+    (value.pointer(pointer).and_then(serde_json::Value::as_str) == Some(cut)).then_some(cut)
 }
 
 /// Whether a response is a whole JSON document (some servers answer so

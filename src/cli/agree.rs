@@ -84,7 +84,10 @@ pub fn run(args: &AgreeArgs) -> anyhow::Result<ExitCode> {
         Some(path) => {
             let (scores, errors) = load_scores(path)?;
             for e in &errors {
-                eprintln!("mapvlm: {e}; that line was skipped");
+                eprintln!(
+                    "mapvlm: {}; that line was skipped",
+                    crate::sanitize::for_terminal(&e.to_string())
+                );
             }
             bad_lines += errors.len();
             scores
@@ -147,7 +150,10 @@ fn read_items(args: &AgreeArgs, bad_lines: &mut usize) -> anyhow::Result<Vec<Pai
                 }
             },
             Err(e) => {
-                eprintln!("mapvlm: {e}; that line was skipped");
+                eprintln!(
+                    "mapvlm: {}; that line was skipped",
+                    crate::sanitize::for_terminal(&e.to_string())
+                );
                 *bad_lines += 1;
             }
         }
@@ -172,7 +178,10 @@ fn read_judgements(
     for path in &args.annotations {
         let file = Annotations::load(path)?;
         for e in &file.errors {
-            eprintln!("mapvlm: {e}; that line was skipped");
+            eprintln!(
+                "mapvlm: {}; that line was skipped",
+                crate::sanitize::for_terminal(&e.to_string())
+            );
         }
         *bad_lines += file.errors.len();
         lines.extend(file.lines.into_iter().map(|(_, j)| j));

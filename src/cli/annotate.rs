@@ -52,7 +52,10 @@ pub struct AnnotateArgs {
 }
 
 fn warn(line: impl std::fmt::Display) {
-    eprintln!("mapvlm: {line}");
+    eprintln!(
+        "mapvlm: {}",
+        crate::sanitize::for_terminal(&line.to_string())
+    );
 }
 
 /// Runs `mapvlm annotate`.
@@ -183,6 +186,22 @@ fn read_items(path: &Path) -> anyhow::Result<(Vec<crate::dataset::Pair>, Vec<Str
             "{}: no plans to judge (no line with a non-empty `pred`); give a pairs file of {{\"id\", \"gt\", \"pred\"}} lines",
             path.display()
         );
+    }
+    let folder = path.parent().unwrap_or(Path::new(""));
+    let mut named = std::collections::BTreeSet::new();
+    for item in &items {
+        let Some(image) = &item.image else { continue };
+        let outside = crate::dataset::resolve_inside(folder, image, false).is_err();
+        if outside && named.insert(image.clone()) {
+            let line = format!(
+                "image {} (item {}) is outside the items' folder {}",
+                crate::sanitize::for_terminal(image),
+                crate::sanitize::for_terminal(&item.id),
+                crate::sanitize::for_terminal(&folder.display().to_string())
+            );
+            warn(&line);
+            notices.push(line);
+        }
     }
     if items.len() < before {
         warn(format!(

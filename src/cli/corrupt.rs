@@ -63,7 +63,10 @@ pub fn run(args: &CorruptArgs) -> anyhow::Result<ExitCode> {
     let out_dir = output_dir(&args.out)?;
     let (items, problems) = read_items(args, &out_dir)?;
     for line in &problems {
-        eprintln!("mapvlm: {line}");
+        eprintln!(
+            "mapvlm: {}",
+            crate::sanitize::for_terminal(&line.to_string())
+        );
     }
     if items.is_empty() {
         bail!(
@@ -104,7 +107,10 @@ pub fn run(args: &CorruptArgs) -> anyhow::Result<ExitCode> {
     };
     let (written, skipped) = corrupter.corrupt_items(&items, &kinds);
     for s in &skipped {
-        eprintln!("mapvlm: {s}; skipped");
+        eprintln!(
+            "mapvlm: {}; skipped",
+            crate::sanitize::for_terminal(&s.to_string())
+        );
     }
     let mut text = String::new();
     for item in &written {

@@ -43,6 +43,10 @@ pub struct EvalArgs {
     /// Score the plans already in the dataset instead of calling any model.
     #[arg(long)]
     pub from_dataset_plans: bool,
+    /// Take a task's image or table even when its path leads outside the
+    /// dataset folder (absolute, or `..` past it); refused otherwise.
+    #[arg(long)]
+    pub allow_outside_paths: bool,
     /// The metrics (default: KAS, and PG2S when the model pack can be loaded).
     #[arg(long, value_enum, value_delimiter = ',')]
     pub metrics: Vec<Metric>,
@@ -136,9 +140,12 @@ pub fn run(args: &EvalArgs) -> anyhow::Result<ExitCode> {
     let tasks_dir = args.out.join("tasks");
     check_writable(&tasks_dir.join("probe.json"))
         .context("the results could not be written, so nothing was asked of any model")?;
-    let (mut dataset, bad_lines) = Dataset::load(&args.dataset)?;
+    let (mut dataset, bad_lines) = Dataset::load_with(&args.dataset, args.allow_outside_paths)?;
     for line in &bad_lines {
-        eprintln!("mapvlm: {line}; that task was skipped");
+        eprintln!(
+            "mapvlm: {}; that task was skipped",
+            crate::sanitize::for_terminal(&line.to_string())
+        );
     }
     let dataset_tasks: Vec<String> = dataset.tasks.iter().map(|t| t.id.clone()).collect();
     dataset.tasks.retain(|task| shard.contains(&task.id));
@@ -162,7 +169,7 @@ pub fn run(args: &EvalArgs) -> anyhow::Result<ExitCode> {
             .flat_map(|a| (0..samples).map(move |k| (a, k)))
         {
             let file = tasks_dir.join(result_file(&task.id, approach, sample));
-            match read_result(&file) {
+            match existing_result(&tasks_dir, &file, &task.id, approach, sample) {
                 Some(result) if result.pg2s_scored || scorer.is_none() => done.results.push(result),
                 Some(planned) => done.add(&file, planned),
                 None if args.from_dataset_plans => match task.plans.get(approach.dataset_field()) {
@@ -237,7 +244,10 @@ impl Finished<'_> {
 
     /// Names a failed task (see [`failure_label`]) on stderr and counts it.
     fn fail(&mut self, label: String, reason: &str) {
-        eprintln!("mapvlm: {label}: {reason}");
+        eprintln!(
+            "mapvlm: {}",
+            crate::sanitize::for_terminal(&format!("{label}: {reason}"))
+        );
         self.failed.push(label);
     }
 }
@@ -437,23 +447,33 @@ fn plan_input(task: &Task) -> PlanInput {
 /// under `OUT/tasks`: `ID.APPROACH.json` for the first sample (as before
 /// samples existed), `ID.APPROACH.sK.json` for sample index K > 0.
 pub(super) fn result_file(id: &str, approach: Approach, sample: u32) -> String {
+    named_result_file(&crate::dataset::file_stem(id), approach, sample)
+}
+
+/// [`result_file`] with the file stem given.
+fn named_result_file(stem: &str, approach: Approach, sample: u32) -> String {
     if sample == 0 {
-        format!("{}.{approach}.json", safe_name(id))
+        format!("{stem}.{approach}.json")
     } else {
-        format!("{}.{approach}.s{sample}.json", safe_name(id))
+        format!("{stem}.{approach}.s{sample}.json")
     }
 }
 
-fn safe_name(id: &str) -> String {
-    id.chars()
-        .map(|c| {
-            if c.is_ascii_alphanumeric() || matches!(c, '-' | '_' | '.') {
-                c
-            } else {
-                '_'
-            }
-        })
-        .collect()
+/// The result of task `id` already in `tasks_dir` at `file`, or under the
+/// name older versions gave it (no hash suffix) when it is that task's, so
+/// that an existing output folder resumes without paying again.
+fn existing_result(
+    tasks_dir: &Path,
+    file: &Path,
+    id: &str,
+    approach: Approach,
+    sample: u32,
+) -> Option<TaskResult> {
+    read_result(file).or_else(|| {
+        let legacy = crate::dataset::legacy_file_stem(id);
+        let old = tasks_dir.join(named_result_file(&legacy, approach, sample));
+        read_result(&old).filter(|result| result.id == id)
+    })
 }
 
 fn read_result(file: &Path) -> Option<TaskResult> {

@@ -134,7 +134,7 @@ pub fn prefetch(
             progress.set_message(format!("{} {}", batch.id, status.state));
         }
         BatchEvent::Failed { batch, key, reason } => progress.suspend(|| {
-            eprintln!("mapvlm: batch {} request {key}: {reason}", batch.id);
+            eprintln!("mapvlm: {}", crate::sanitize::for_terminal(&format!("batch {} request {key}: {reason}", batch.id)));
         }),
     }
     };

@@ -206,7 +206,7 @@ fn embedding_store(max_bytes: u64) -> DiskStore {
 
 /// Prints a line about the model pack on stderr.
 fn say(line: String) {
-    eprintln!("mapvlm: {line}");
+    eprintln!("mapvlm: {}", crate::sanitize::for_terminal(&line));
 }
 
 /// Loads the models PG2S needs, side by side on threads, fetching the pack

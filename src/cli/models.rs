@@ -126,7 +126,7 @@ fn fetch(dir: &Path, args: &FetchArgs) -> anyhow::Result<ExitCode> {
         );
         sources.from = Some(from.clone());
     }
-    let report = |line: String| eprintln!("mapvlm: {line}");
+    let report = |line: String| eprintln!("mapvlm: {}", crate::sanitize::for_terminal(&line));
     let mut specs = models::default_pack();
     if args.paper {
         specs.push(models::paper_word2vec());

@@ -55,7 +55,10 @@ pub fn run(args: &ParseArgs) -> anyhow::Result<ExitCode> {
         let mut text = match text {
             Ok(text) => text,
             Err(problem) => {
-                eprintln!("mapvlm: standard input, line {n}: {problem}; that line was skipped");
+                eprintln!(
+                    "mapvlm: standard input, line {n}: {}; that line was skipped",
+                    crate::sanitize::for_terminal(&problem.to_string())
+                );
                 failed = true;
                 continue;
             }

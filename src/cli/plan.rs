@@ -21,6 +21,7 @@ use crate::agents::provider::Notifier;
 use crate::agents::replay::{Pace, Recording};
 use crate::agents::{Approach, ProviderKind};
 use crate::fsutil::check_writable;
+use crate::sanitize;
 
 /// Provider, prompt, cache and recording options shared by `plan` and `eval`.
 #[derive(Debug, Args)]
@@ -126,7 +127,9 @@ impl AgentArgs {
             flags.set_agent(spec)?;
         }
         let mut settings = Settings::resolve(&file, &env, &flags)?;
-        settings.http.notify = Some(Notifier(Arc::new(|line| eprintln!("mapvlm: {line}"))));
+        settings.http.notify = Some(Notifier(Arc::new(|line| {
+            eprintln!("mapvlm: {}", sanitize::for_terminal(line))
+        })));
         let prompts = self.prompt_set()?;
         let source = match &self.replay {
             Some(path) => {
@@ -181,7 +184,7 @@ impl AgentArgs {
     /// request, when it exceeds `--max-cost`.
     pub fn check_estimate(&self, estimate: &Estimate) -> anyhow::Result<()> {
         if estimate.requests + estimate.cached > 0 {
-            eprintln!("mapvlm: {}", estimate.line());
+            eprintln!("mapvlm: {}", sanitize::for_terminal(&estimate.line()));
         }
         estimate.check(self.max_cost).map_err(anyhow::Error::msg)
     }
@@ -302,7 +305,7 @@ pub fn run(args: &PlanArgs) -> anyhow::Result<ExitCode> {
     for record in &records {
         ledger.add_plan(record, Billing::Interactive);
     }
-    eprint!("{}", ledger.table());
+    eprint!("{}", sanitize::for_terminal(&ledger.table()));
     let mut out = std::io::stdout().lock();
     let Some(first) = records.first() else {
         anyhow::bail!("no sample was made");
@@ -312,7 +315,7 @@ pub fn run(args: &PlanArgs) -> anyhow::Result<ExitCode> {
             first,
             samples: &records,
         };
-        serde_json::to_writer_pretty(&mut out, &output)?;
+        sanitize::write_json_pretty(&mut out, &output)?;
         writeln!(out)?;
     } else {
         for record in &records {
@@ -320,7 +323,7 @@ pub fn run(args: &PlanArgs) -> anyhow::Result<ExitCode> {
                 writeln!(out, "Sample {} of {samples}:", record.sample + 1)?;
             }
             for (number, step) in record.steps.iter().enumerate() {
-                writeln!(out, "{}. {step}", number + 1)?;
+                writeln!(out, "{}. {}", number + 1, sanitize::for_terminal(step))?;
             }
         }
     }
@@ -328,7 +331,10 @@ pub fn run(args: &PlanArgs) -> anyhow::Result<ExitCode> {
     for record in &records {
         if let Some((role, error)) = record.first_error() {
             let label = sample_label(record.sample, samples);
-            eprintln!("mapvlm: {role}{label} failed: {error}");
+            eprintln!(
+                "mapvlm: {role}{label} failed: {}",
+                sanitize::for_terminal(error)
+            );
             failed = true;
         }
     }
@@ -365,6 +371,8 @@ fn print_event(label: String, event: &AgentEvent) {
             usage.output_tokens,
             if *cached { " (cached)" } else { "" }
         ),
-        AgentEvent::Failed { role, error } => eprintln!("{role}{label}: failed: {error}"),
+        AgentEvent::Failed { role, error } => {
+            eprintln!("{role}{label}: failed: {}", sanitize::for_terminal(error))
+        }
     }
 }

@@ -11,7 +11,7 @@ use clap::{Args, ValueEnum};
 use serde_json::{json, Value};
 
 use crate::agree::MetricValues;
-use crate::dataset::{open_pairs, read_text, LineError, Pair};
+use crate::dataset::{open_pairs, LineError, Pair};
 use crate::metrics::kas::{kas, KasReport};
 use crate::metrics::pg2s::{Pg2sReport, Pg2sScorer, Pg2sSettings};
 use crate::plan::{bound_steps, parse_steps};
@@ -117,7 +117,10 @@ pub fn run(args: &ScoreArgs) -> anyhow::Result<ExitCode> {
             Ok(pair) if shard.contains(&pair.id) => pair,
             Ok(_) => continue,
             Err(line) => {
-                eprintln!("mapvlm: {line}; that line was skipped, the others were scored");
+                eprintln!(
+                    "mapvlm: {}; that line was skipped, the others were scored",
+                    crate::sanitize::for_terminal(&line.to_string())
+                );
                 bad_lines += 1;
                 continue;
             }
@@ -264,14 +267,18 @@ fn bound_pair(pair: &mut Pair) {
         ("prediction", &mut pair.pred),
     ] {
         if let Some(note) = bound_steps(steps) {
-            eprintln!("mapvlm: {}: {name}: {note}", pair.id);
+            eprintln!(
+                "mapvlm: {}",
+                crate::sanitize::for_terminal(&format!("{}: {name}: {note}", pair.id))
+            );
         }
     }
 }
 
 /// Reads a step file; a file with no steps is an error.
 fn read_plan(path: &Path) -> anyhow::Result<Vec<String>> {
-    let text = read_text(path)?;
+    let text =
+        crate::dataset::read_text_within(path, crate::limits::MAX_STEP_FILE_BYTES, "a step file")?;
     let steps = parse_steps(&text);
     if steps.is_empty() {
         bail!(

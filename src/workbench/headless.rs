@@ -19,7 +19,11 @@ use crate::agents::prompt_sets;
 
 /// Reads a step file off the loop: the text, or why not.
 pub fn read_step_file(path: &Path) -> Result<String, ReadError> {
-    Ok(crate::dataset::read_text(path)?)
+    Ok(crate::dataset::read_text_within(
+        path,
+        crate::limits::MAX_STEP_FILE_BYTES,
+        "a step file",
+    )?)
 }
 
 /// Encodes the scene image for the area the app wants it in, if any, here

@@ -7,7 +7,7 @@ use crate::agents::config::AgentSettings;
 use crate::agents::pipeline::{AgentEvent, AgentRecord, PlanRecord};
 use crate::agents::prompts::{prompt_hash, template_name};
 use crate::agents::{AgentRole, Approach, ProviderKind, Usage};
-use crate::plan::parse_steps;
+use crate::plan::bounded_steps;
 use crate::workbench::agents::{self, RunError, RunRequest};
 use crate::workbench::app::{unix_now, App, Severity};
 use crate::workbench::editing::Editing;
@@ -276,7 +276,7 @@ impl App {
         }
         for (agent, resolved) in settings {
             if let Some(v) = self.runs.agents.get_mut(&agent) {
-                v.settings = resolved.without_key();
+                v.settings = resolved.for_record();
             }
         }
     }
@@ -449,7 +449,7 @@ impl App {
                         Vec::new()
                     }
                     AgentRole::Planner | AgentRole::Single => {
-                        self.plan.items = parse_steps(&self.runs.agents[&agent].output);
+                        self.plan.items = bounded_steps(&self.runs.agents[&agent].output).0;
                         vec![self.rescore()]
                     }
                     AgentRole::Gkm => Vec::new(),
@@ -475,7 +475,7 @@ impl App {
                 match agent {
                     AgentRole::Skm => self.refresh_graph(),
                     AgentRole::Planner | AgentRole::Single => {
-                        self.plan.items = parse_steps(&self.runs.agents[&agent].output);
+                        self.plan.items = bounded_steps(&self.runs.agents[&agent].output).0;
                         self.plan.selected = 0;
                     }
                     AgentRole::Gkm => {}

@@ -303,17 +303,11 @@ fn alfred_tasks(home: &Path, lines: &[usize]) -> PathBuf {
     let source = common::shared().join("data/alfred30");
     let text = std::fs::read_to_string(source.join("tasks.jsonl")).unwrap();
     let all: Vec<&str> = text.lines().collect();
-    let picked: Vec<String> = lines
-        .iter()
-        .map(|&i| {
-            let mut task: Value = serde_json::from_str(all[i]).unwrap();
-            let image = source.join(task["image"].as_str().unwrap());
-            task["image"] = json!(image.to_str().unwrap());
-            task.to_string()
-        })
-        .collect();
+    let picked: Vec<String> = lines.iter().map(|&i| all[i].to_string()).collect();
     let data = home.join("data");
     std::fs::create_dir_all(&data).unwrap();
+    // The images stay shared, linked into the dataset as clusters do.
+    std::os::unix::fs::symlink(source.join("images"), data.join("images")).unwrap();
     std::fs::write(data.join("tasks.jsonl"), picked.join("\n")).unwrap();
     data
 }

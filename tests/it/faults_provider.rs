@@ -29,8 +29,9 @@ fn strings(args: &[&str]) -> Vec<String> {
     args.iter().map(|a| a.to_string()).collect()
 }
 
-/// `eval` of `data` through the single-image agent at `base`, into `out`.
-fn eval_args(data: &Path, out: &Path, base: &str) -> Vec<String> {
+/// `eval` of `data` through the single-image agent at `base`, into `out`
+/// (also the hostile half's).
+pub(crate) fn eval_args(data: &Path, out: &Path, base: &str) -> Vec<String> {
     strings(&[
         "eval",
         "--dataset",
@@ -51,7 +52,7 @@ async fn requests(server: &MockServer) -> usize {
     server.received_requests().await.unwrap().len()
 }
 
-async fn planning_server() -> MockServer {
+pub(crate) async fn planning_server() -> MockServer {
     let server = MockServer::start().await;
     let provider = ProviderKind::Openai;
     let plan = streamed(
@@ -163,7 +164,7 @@ async fn unwritable_outputs_are_refused_before_any_request() {
 
 /// `plan --approach single-image` of a fresh scene against `base`, with
 /// `extra` flags; the image is made under `home`.
-fn plan_args(home: &Path, base: &str, extra: &[&str]) -> Vec<String> {
+pub(crate) fn plan_args(home: &Path, base: &str, extra: &[&str]) -> Vec<String> {
     let image = scene(home);
     let mut args = strings(&[
         "plan",

@@ -27,6 +27,7 @@ mod deploy;
 mod docs;
 mod en_parse;
 mod eval_batch;
+mod faults_hostile;
 mod faults_input;
 mod faults_provider;
 mod kas_golden;

@@ -153,13 +153,15 @@ fn eval_with_a_saved_prompt_set_sends_its_prompts_and_records_their_versions() {
         .next()
         .unwrap()
         .to_string();
-    let mut task: serde_json::Value = serde_json::from_str(&first).unwrap();
-    let image = common::shared()
-        .join("data/alfred30")
-        .join(task["image"].as_str().unwrap());
-    task["image"] = image.display().to_string().into();
+    let task: serde_json::Value = serde_json::from_str(&first).unwrap();
     let data = home.path().join("data");
     std::fs::create_dir_all(&data).unwrap();
+    // The images stay shared, linked into the dataset as clusters do.
+    std::os::unix::fs::symlink(
+        common::shared().join("data/alfred30/images"),
+        data.join("images"),
+    )
+    .unwrap();
     std::fs::write(data.join("tasks.jsonl"), format!("{task}\n")).unwrap();
     let out = home.path().join("out");
     let run = home

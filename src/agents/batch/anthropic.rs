@@ -103,7 +103,7 @@ pub async fn results(
         if !url.starts_with(&format!("{}/", endpoint.base_url)) {
             return Err(endpoint.invalid(format!(
                 "the results URL {url} is not under the base URL {}; the key is not sent elsewhere",
-                endpoint.base_url
+                endpoint.shown_url()
             )));
         }
         let get = || authorised(endpoint, endpoint.client.get(url));
