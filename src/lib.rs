@@ -13,6 +13,8 @@ pub mod cli;
 pub mod corrupt;
 pub mod dataset;
 pub mod demo;
+pub mod eval_record;
+pub mod lock;
 pub mod metrics;
 pub mod models;
 pub mod nlp;

@@ -125,7 +125,7 @@ impl DiskStore {
         let path = self.path_of(key);
         let parent = path.parent().unwrap_or(&self.dir);
         std::fs::create_dir_all(parent)?;
-        let mut temp = tempfile::Builder::new()
+        let mut temp = crate::agents::cache::shared_temp_file()
             .prefix(TEMP_PREFIX)
             .tempfile_in(parent)?;
         temp.write_all(bytes)?;

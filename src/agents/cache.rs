@@ -115,6 +115,16 @@ impl ResponseCache {
     }
 }
 
+/// A builder of temporary files created with mode 0666 less the umask (as
+/// any file a program creates), not tempfile's private 0600: a cache or an
+/// output folder a group shares (umask 002) stays readable by the group.
+pub fn shared_temp_file() -> tempfile::Builder<'static, 'static> {
+    use std::os::unix::fs::PermissionsExt;
+    let mut builder = tempfile::Builder::new();
+    builder.permissions(std::fs::Permissions::from_mode(0o666));
+    builder
+}
+
 /// Writes `bytes` to a uniquely named temporary file beside `path`, then
 /// renames it over `path`, so that a reader never sees half a file and
 /// concurrent writers never share a temporary file.
@@ -128,7 +138,7 @@ pub fn write_atomic(path: &Path, bytes: &[u8]) -> Result<(), AgentError> {
         .filter(|p| !p.as_os_str().is_empty())
         .unwrap_or(Path::new("."));
     std::fs::create_dir_all(parent).map_err(io)?;
-    let mut temp = tempfile::NamedTempFile::new_in(parent).map_err(io)?;
+    let mut temp = shared_temp_file().tempfile_in(parent).map_err(io)?;
     temp.write_all(bytes).map_err(io)?;
     temp.persist(path).map_err(|err| io(err.error))?;
     Ok(())

@@ -26,6 +26,7 @@ mod cli_shards;
 mod deploy;
 mod en_parse;
 mod eval_batch;
+mod eval_safety;
 mod faults_input;
 mod faults_provider;
 mod kas_golden;
