@@ -273,11 +273,11 @@ impl Dataset {
         path: &Path,
         allow_outside_paths: bool,
     ) -> Result<(Dataset, Vec<LineError>), DatasetError> {
-        let (root, file) = if path.is_dir() {
-            (path.to_path_buf(), path.join("tasks.jsonl"))
+        let file = Self::tasks_file(path);
+        let root = if path.is_dir() {
+            path.to_path_buf()
         } else {
-            let root = path.parent().map_or_else(PathBuf::new, Path::to_path_buf);
-            (root, path.to_path_buf())
+            path.parent().map_or_else(PathBuf::new, Path::to_path_buf)
         };
         let source = std::fs::File::open(&file).map_err(|error| DatasetError::Read {
             path: file.clone(),
@@ -318,6 +318,16 @@ impl Dataset {
             }
         }
         Ok((Dataset { root, tasks }, errors))
+    }
+
+    /// The tasks file [`Dataset::load`] reads for `path` (a dataset folder's
+    /// `tasks.jsonl`, or the file given): what a run's provenance hashes.
+    pub fn tasks_file(path: &Path) -> PathBuf {
+        if path.is_dir() {
+            path.join("tasks.jsonl")
+        } else {
+            path.to_path_buf()
+        }
     }
 
     /// The task with this id.

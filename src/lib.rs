@@ -15,6 +15,8 @@ pub mod dataset;
 pub mod demo;
 pub mod fsutil;
 pub mod limits;
+pub mod eval_record;
+pub mod lock;
 pub mod metrics;
 pub mod models;
 pub mod nlp;

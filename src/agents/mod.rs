@@ -15,6 +15,7 @@ pub mod prompt_sets;
 pub mod prompts;
 pub mod provider;
 pub mod replay;
+pub mod sink;
 
 use std::fmt;
 use std::path::PathBuf;

@@ -12,8 +12,8 @@ use tokio_util::sync::CancellationToken;
 
 use super::cache::{request_key, CachedAnswer};
 use super::provider::{cancellable, BoxFuture, ChatRequest, Completion, Provider, TokenSink};
+use super::sink::OutputSink;
 use super::{AgentError, ProviderKind};
-use crate::fsutil::write_atomic;
 
 /// Bumped when the layout of a recording changes.
 const FORMAT: u32 = 1;
@@ -60,11 +60,17 @@ impl Recording {
 
     /// Writes the recording atomically, pretty-printed.
     pub fn save(&self, path: &Path) -> Result<(), AgentError> {
+        self.save_through(path, &OutputSink::new(CancellationToken::new()))
+    }
+
+    /// Writes the recording atomically, pretty-printed, through a run's
+    /// output sink (a failure cancels the run).
+    pub fn save_through(&self, path: &Path, sink: &OutputSink) -> Result<(), AgentError> {
         let text = serde_json::to_string_pretty(self).map_err(|err| AgentError::Io {
             path: path.to_path_buf(),
             message: err.to_string(),
         })?;
-        Ok(write_atomic(path, text.as_bytes())?)
+        sink.write(path, text.as_bytes())
     }
 }
 

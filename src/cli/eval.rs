@@ -3,8 +3,6 @@
 //! KAS and PG2S against the ground truth; per-task JSON and the paper's
 //! Table 3 layout as Markdown and CSV.
 
-use std::collections::HashMap;
-use std::fmt::Write as _;
 use std::path::{Path, PathBuf};
 use std::process::ExitCode;
 use std::sync::Arc;
@@ -12,21 +10,26 @@ use std::sync::Arc;
 use anyhow::Context;
 use clap::Args;
 use indicatif::{ProgressBar, ProgressStyle};
-use serde::{Deserialize, Serialize};
 use tokio::sync::Semaphore;
 use tokio_util::sync::CancellationToken;
 
 use super::eval_batch::{prefetch, BatchArgs};
 use super::plan::{check_concurrency, runtime, AgentArgs};
 use super::score::Metric;
-use crate::agents::cost::{estimate_plans, PlanCost};
-use crate::agents::pipeline::{is_first_sample, PlanInput, PlanRecord, Runner};
+use crate::agents::cost::estimate_plans;
+use crate::agents::pipeline::{PlanInput, PlanRecord, Runner};
+use crate::agents::sink::OutputSink;
 use crate::agents::Approach;
-use crate::dataset::{Dataset, Task};
-use crate::fsutil::{check_writable, write_atomic};
+use crate::dataset::{Dataset, LineError, Task};
+use crate::eval_record::{
+    named_result_file, prompt_versions, result_file, write_tables, Manifest, Provenance,
+    TaskResult,
+};
+use crate::fsutil::check_writable;
+use crate::lock::Lock;
 use crate::metrics::kas::kas;
 use crate::metrics::pg2s::{Pg2sScorer, Pg2sSettings};
-use crate::stats::summary::{self, Spread};
+use crate::shard::Shard;
 
 /// Options of `mapvlm eval`.
 #[derive(Debug, Args)]
@@ -64,44 +67,6 @@ pub struct EvalArgs {
     pub shard: super::ShardArgs,
 }
 
-/// One task through one approach: the plan, where it came from, its scores.
-#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
-pub struct TaskResult {
-    /// The task's id.
-    pub id: String,
-    /// The approach.
-    pub approach: Approach,
-    /// The task.
-    pub task: String,
-    /// `dataset` (published plan) or `model` (made now).
-    pub source: String,
-    /// The reference plan.
-    pub ground_truth: Vec<String>,
-    /// The plan's steps.
-    pub steps: Vec<String>,
-    /// KAS, when applicable.
-    pub kas: Option<f64>,
-    /// Why KAS is not applicable.
-    pub kas_reason: Option<String>,
-    /// Whether PG2S was computed.
-    pub pg2s_scored: bool,
-    /// S_plan.
-    pub s_plan: Option<f64>,
-    /// S_goal.
-    pub s_goal: Option<f64>,
-    /// PG2S.
-    pub pg2s: Option<f64>,
-    /// The whole run, when a model made the plan.
-    pub record: Option<PlanRecord>,
-    /// Tokens and cost of the run that made the plan, per agent.
-    #[serde(default)]
-    pub cost: Option<PlanCost>,
-    /// Which sample of the plan this is (`--samples`; 0, and left out of
-    /// the file, for the first).
-    #[serde(default, skip_serializing_if = "is_first_sample")]
-    pub sample: u32,
-}
-
 struct Job<'a> {
     task: &'a Task,
     approach: Approach,
@@ -125,6 +90,9 @@ fn failure_label(id: &str, approach: Approach, sample: u32) -> String {
     }
 }
 
+/// The lock file in an eval's `--out`: one eval writes a folder at a time.
+const LOCK_FILE: &str = "eval.lock";
+
 /// Runs `mapvlm eval`. Every task's result is written as soon as it is
 /// scored; a task that fails is named with its reason and the others go on.
 pub fn run(args: &EvalArgs) -> anyhow::Result<ExitCode> {
@@ -140,13 +108,13 @@ pub fn run(args: &EvalArgs) -> anyhow::Result<ExitCode> {
     let tasks_dir = args.out.join("tasks");
     check_writable(&tasks_dir.join("probe.json"))
         .context("the results could not be written, so nothing was asked of any model")?;
+    let _lock = Lock::acquire(&args.out.join(LOCK_FILE), "mapvlm eval")
+        .context("another eval is writing this --out, so nothing was asked of any model")?;
     let (mut dataset, bad_lines) = Dataset::load_with(&args.dataset, args.allow_outside_paths)?;
-    for line in &bad_lines {
-        eprintln!(
-            "mapvlm: {}; that task was skipped",
-            crate::sanitize::for_terminal(&line.to_string())
-        );
-    }
+    let tasks_file = Dataset::tasks_file(&args.dataset);
+    let tasks_text = std::fs::read(&tasks_file)
+        .with_context(|| format!("{}: cannot be read", tasks_file.display()))?;
+    let bad_tasks = bad_lines_of_shard(&bad_lines, &tasks_text, shard);
     let dataset_tasks: Vec<String> = dataset.tasks.iter().map(|t| t.id.clone()).collect();
     dataset.tasks.retain(|task| shard.contains(&task.id));
     let approaches = if args.approaches.is_empty() {
@@ -155,11 +123,47 @@ pub fn run(args: &EvalArgs) -> anyhow::Result<ExitCode> {
         args.approaches.clone()
     };
     let prompt_set = args.agents.prompt_set()?;
-    let scorer = pg2s_scorer(args)?;
+    let settings = Pg2sSettings::default();
+    let scorer = pg2s_scorer(args, settings)?;
+    let (encoder, word_vectors) = match scorer {
+        Some(_) => args.models.stamps()?,
+        None => (None, None),
+    };
+    let provenance = Provenance {
+        mapvlm_version: env!("CARGO_PKG_VERSION").to_string(),
+        dataset_hash: crate::agents::sha256_hex(&tasks_text),
+        metrics: [Some("kas"), scorer.is_some().then_some("pg2s")]
+            .into_iter()
+            .flatten()
+            .map(str::to_string)
+            .collect(),
+        pg2s_settings: scorer.is_some().then_some(settings),
+        encoder,
+        word_vectors,
+        prompts: prompt_versions(&prompt_set, &approaches),
+    };
+    let manifest = |results: &[TaskResult], failed: Vec<String>| {
+        let (tasks, approaches) = (dataset_tasks.clone(), approaches.clone());
+        Manifest::new(
+            tasks,
+            approaches,
+            shard,
+            results,
+            failed,
+            provenance.clone(),
+        )
+    };
+    if let Some(before) = Manifest::read_if_any(&args.out)? {
+        let out = args.out.display().to_string();
+        before.check_resume(&out, &manifest(&[], Vec::new()))?;
+    }
+    let sink = OutputSink::new(CancellationToken::new());
     let mut done = Finished {
         scorer: scorer.as_deref(),
+        provenance: &provenance,
+        sink: &sink,
         results: Vec::new(),
-        failed: Vec::new(),
+        failed: bad_tasks,
     };
     let mut to_make = Vec::new();
     let mut skipped = 0;
@@ -170,8 +174,16 @@ pub fn run(args: &EvalArgs) -> anyhow::Result<ExitCode> {
         {
             let file = tasks_dir.join(result_file(&task.id, approach, sample));
             match existing_result(&tasks_dir, &file, &task.id, approach, sample) {
-                Some(result) if result.pg2s_scored || scorer.is_none() => done.results.push(result),
-                Some(planned) => done.add(&file, planned),
+                Some(result) => match &result.provenance {
+                    Some(before) => {
+                        let name = file.display().to_string();
+                        let advice = "give another --out, or the options of the run that wrote it";
+                        before.check_same(&name, &provenance, "this run", advice)?;
+                        done.results.push(result);
+                    }
+                    // Written before results recorded their provenance: scored again.
+                    None => done.add(&file, result),
+                },
                 None if args.from_dataset_plans => match task.plans.get(approach.dataset_field()) {
                     Some(steps) => {
                         let result = new_result(task, approach, "dataset", steps.clone(), None);
@@ -200,10 +212,7 @@ pub fn run(args: &EvalArgs) -> anyhow::Result<ExitCode> {
     let order: Vec<String> = dataset.tasks.iter().map(|t| t.id.clone()).collect();
     write_tables(&args.out, &order, &approaches, &mut results)?;
     let failures = failed.len();
-    let prompts = super::merge::prompt_versions(&prompt_set, &approaches);
-    super::merge::Manifest::new(dataset_tasks, approaches, shard, &results, failed)
-        .with_prompts(prompts)
-        .write(&args.out)?;
+    manifest(&results, failed).write(&args.out)?;
     eprintln!(
         "mapvlm: {} plans scored, {skipped} without input or plan, {failures} failed; tables in {}",
         results.len(),
@@ -212,16 +221,59 @@ pub fn run(args: &EvalArgs) -> anyhow::Result<ExitCode> {
     if failures > 0 {
         eprintln!("mapvlm: run the same command again to retry only what failed");
     }
-    Ok(if failures == 0 && bad_lines.is_empty() {
+    Ok(if failures == 0 {
         ExitCode::SUCCESS
     } else {
         ExitCode::FAILURE
     })
 }
 
+/// The bad lines of the tasks file that fail this shard, as the manifest
+/// lists them, each said on stderr: a line whose `id` can be read fails
+/// only the shard of that task (the others skip it); a line with no
+/// readable `id` fails every shard, so that `merge` refuses until it is
+/// fixed.
+fn bad_lines_of_shard(bad_lines: &[LineError], text: &[u8], shard: Shard) -> Vec<String> {
+    let text = String::from_utf8_lossy(text);
+    let mut failed = Vec::new();
+    for bad in bad_lines {
+        let id = text
+            .lines()
+            .nth(bad.line.saturating_sub(1))
+            .and_then(|line| serde_json::from_str::<serde_json::Value>(line).ok())
+            .and_then(|value| value.get("id")?.as_str().map(str::to_string));
+        match id {
+            Some(id) if !shard.contains(&id) => {}
+            Some(id) => {
+                eprintln!(
+                    "mapvlm: {}; task {} is in this shard, so the shard fails until the line is fixed",
+                    crate::sanitize::for_terminal(&bad.to_string()),
+                    crate::sanitize::for_terminal(&id)
+                );
+                failed.push(format!("{id} (line {} of the tasks file)", bad.line));
+            }
+            None => {
+                eprintln!(
+                    "mapvlm: {}; no task id can be read there, so every shard fails until the line is fixed",
+                    crate::sanitize::for_terminal(&bad.to_string())
+                );
+                failed.push(format!(
+                    "line {} of the tasks file (no readable id)",
+                    bad.line
+                ));
+            }
+        }
+    }
+    failed
+}
+
 /// The results gathered so far and how many tasks failed.
 struct Finished<'a> {
     scorer: Option<&'a Pg2sScorer>,
+    /// How this run scores: stamped on every result it writes.
+    provenance: &'a Provenance,
+    /// Where the results are written; the first failure cancels the run.
+    sink: &'a OutputSink,
     results: Vec<TaskResult>,
     /// `ID APPROACH` of every task that failed.
     failed: Vec<String>,
@@ -232,7 +284,9 @@ impl Finished<'_> {
     /// failure or a kill loses nothing already paid for; a failure is named
     /// on stderr and counted.
     fn add(&mut self, file: &Path, mut result: TaskResult) {
-        let outcome = score(&mut result, self.scorer).and_then(|()| write_result(file, &result));
+        result.provenance = Some(self.provenance.clone());
+        let outcome =
+            score(&mut result, self.scorer).and_then(|()| write_result(self.sink, file, &result));
         match outcome {
             Ok(()) => self.results.push(result),
             Err(err) => {
@@ -252,24 +306,22 @@ impl Finished<'_> {
     }
 }
 
-fn pg2s_scorer(args: &EvalArgs) -> anyhow::Result<Option<Arc<Pg2sScorer>>> {
-    let explicit = !args.metrics.is_empty();
-    if explicit && !args.metrics.contains(&Metric::Pg2s) {
+/// The PG2S scorer, when PG2S is asked for: by default, or by `--metrics`
+/// naming it. Models that cannot be loaded end the run here, before any
+/// provider is asked: KAS alone is only ever scored on request
+/// (`--metrics kas`), and the manifest records it.
+fn pg2s_scorer(args: &EvalArgs, settings: Pg2sSettings) -> anyhow::Result<Option<Arc<Pg2sScorer>>> {
+    if !args.metrics.is_empty() && !args.metrics.contains(&Metric::Pg2s) {
         return Ok(None);
     }
-    match super::load_scorer(
+    let scorer = super::load_scorer(
         &args.models.with_no_cache(args.agents.no_cache),
-        Pg2sSettings::default(),
+        settings,
         &super::say,
         &crate::models::Progress::stderr(),
-    ) {
-        Ok(scorer) => Ok(Some(Arc::new(scorer))),
-        Err(err) if !explicit => {
-            eprintln!("mapvlm: PG2S left out ({err:#}); KAS only");
-            Ok(None)
-        }
-        Err(err) => Err(err),
-    }
+    )
+    .context("PG2S could not be loaded, so nothing was asked of any model; fix the model pack (`mapvlm models verify`, `mapvlm models fetch`) or give --metrics kas to score KAS alone")?;
+    Ok(Some(Arc::new(scorer)))
 }
 
 fn has_input(task: &Task, approach: Approach) -> bool {
@@ -303,6 +355,7 @@ fn new_result(
         sample: record.as_ref().map_or(0, |r| r.sample),
         record,
         cost: None,
+        provenance: None,
     }
 }
 
@@ -338,7 +391,7 @@ fn make_plans(args: &EvalArgs, jobs: Vec<Job<'_>>, done: &mut Finished) -> anyho
         ledger.prices(),
     );
     args.agents.check_estimate(&estimate)?;
-    let cancel = CancellationToken::new();
+    let cancel = done.sink.cancel().clone();
     let runtime = runtime(&cancel)?;
     let prefetched = if args.batch.batch {
         let plans: Vec<_> = jobs
@@ -383,7 +436,9 @@ fn make_plans(args: &EvalArgs, jobs: Vec<Job<'_>>, done: &mut Finished) -> anyho
         let label = job.label();
         running.spawn_on(
             async move {
-                let _permit = limit.acquire_owned().await;
+                // Held until the result is written: a write that fails
+                // cancels the run before the next plan may start.
+                let permit = limit.acquire_owned().await;
                 let (events, mut drained) = tokio::sync::mpsc::unbounded_channel();
                 let drain = tokio::spawn(async move { while drained.recv().await.is_some() {} });
                 let record = runner
@@ -393,13 +448,14 @@ fn make_plans(args: &EvalArgs, jobs: Vec<Job<'_>>, done: &mut Finished) -> anyho
                 let _ = drain.await;
                 progress.set_message(label);
                 progress.inc(1);
-                (index, record)
+                (index, record, permit)
             },
             runtime.handle(),
         );
     }
+    let mut lines = PlainProgress::new(jobs.len());
     while let Some(joined) = runtime.block_on(running.join_next()) {
-        let (index, record) = joined.context("a planning task stopped")?;
+        let (index, record, permit) = joined.context("a planning task stopped")?;
         let job = &jobs[index];
         let approach = job.approach;
         match record {
@@ -424,14 +480,74 @@ fn make_plans(args: &EvalArgs, jobs: Vec<Job<'_>>, done: &mut Finished) -> anyho
                 }
             }
         }
+        drop(permit);
+        lines.tick(done.failed.len());
     }
     progress.finish_and_clear();
+    if done.sink.failed() {
+        eprintln!("mapvlm: the output could not be written, so no further plan was asked for; make room and run the same command again");
+    } else if cancel.is_cancelled() {
+        eprintln!("mapvlm: interrupted; what was made is kept, and the same command asks only for the rest");
+    }
     if let Some(prefetched) = &prefetched {
         prefetched.bill_stranded(&mut ledger);
     }
     eprint!("{}", ledger.table());
-    args.agents.save_recording(recording)?;
+    args.agents.save_recording(recording, done.sink)?;
     Ok(())
+}
+
+/// Plain progress lines on stderr for a log (a job's output file), where
+/// the bar does not show: every [`PlainProgress::EVERY`] plans or
+/// [`PlainProgress::SECONDS`] seconds, the plans done of all, the failures
+/// and the rate. Silent on a terminal, which has the bar.
+struct PlainProgress {
+    total: usize,
+    done: usize,
+    start: std::time::Instant,
+    last: std::time::Instant,
+    on: bool,
+}
+
+impl PlainProgress {
+    /// A line at least every this many plans.
+    const EVERY: usize = 10;
+    /// A line at least every this many seconds (when a plan ends).
+    const SECONDS: u64 = 30;
+
+    fn new(total: usize) -> Self {
+        use std::io::IsTerminal;
+        let now = std::time::Instant::now();
+        PlainProgress {
+            total,
+            done: 0,
+            start: now,
+            last: now,
+            on: !std::io::stderr().is_terminal(),
+        }
+    }
+
+    /// One plan ended; `failed` have failed so far.
+    fn tick(&mut self, failed: usize) {
+        self.done += 1;
+        let due = self.done % Self::EVERY == 0
+            || self.done == self.total
+            || self.last.elapsed().as_secs() >= Self::SECONDS;
+        if !self.on || !due {
+            return;
+        }
+        self.last = std::time::Instant::now();
+        let minutes = self.start.elapsed().as_secs_f64() / 60.0;
+        let rate = if minutes > 0.0 {
+            self.done as f64 / minutes
+        } else {
+            0.0
+        };
+        eprintln!(
+            "mapvlm: {}/{} plans, {failed} failed, {rate:.1} plans/min",
+            self.done, self.total
+        );
+    }
 }
 
 /// What a plan for `task` is made from.
@@ -440,22 +556,6 @@ fn plan_input(task: &Task) -> PlanInput {
         task: task.task.clone(),
         image: task.image.clone(),
         table: task.table.clone(),
-    }
-}
-
-/// The name of the file of sample `sample` of task `id` through `approach`
-/// under `OUT/tasks`: `ID.APPROACH.json` for the first sample (as before
-/// samples existed), `ID.APPROACH.sK.json` for sample index K > 0.
-pub(super) fn result_file(id: &str, approach: Approach, sample: u32) -> String {
-    named_result_file(&crate::dataset::file_stem(id), approach, sample)
-}
-
-/// [`result_file`] with the file stem given.
-fn named_result_file(stem: &str, approach: Approach, sample: u32) -> String {
-    if sample == 0 {
-        format!("{stem}.{approach}.json")
-    } else {
-        format!("{stem}.{approach}.s{sample}.json")
     }
 }
 
@@ -481,382 +581,8 @@ fn read_result(file: &Path) -> Option<TaskResult> {
     serde_json::from_str(&text).ok()
 }
 
-fn write_result(file: &Path, result: &TaskResult) -> anyhow::Result<()> {
+fn write_result(sink: &OutputSink, file: &Path, result: &TaskResult) -> anyhow::Result<()> {
     let text = serde_json::to_string_pretty(result)?;
-    write_atomic(file, text.as_bytes())?;
+    sink.write(file, text.as_bytes())?;
     Ok(())
-}
-
-fn cell(value: Option<f64>, digits: usize) -> String {
-    value.map_or_else(String::new, |v| format!("{v:.digits$}"))
-}
-
-/// The mean of the values present, if any.
-fn mean(values: impl Iterator<Item = Option<f64>>) -> Option<f64> {
-    let present: Vec<f64> = values.flatten().collect();
-    summary::mean(&present).ok()
-}
-
-/// Sorts `results` by task (in the order of `task_ids`, the dataset's) and
-/// approach, and writes the tables of [`tables`] as `OUT/table3.md` and
-/// `OUT/table3.csv`: the one writer of the tables, for `eval` and `merge`.
-pub(super) fn write_tables(
-    out: &Path,
-    task_ids: &[String],
-    approaches: &[Approach],
-    results: &mut [TaskResult],
-) -> anyhow::Result<()> {
-    results.sort_by_key(|r| {
-        let task = task_ids.iter().position(|id| *id == r.id);
-        let approach = approaches.iter().position(|a| *a == r.approach);
-        (task, approach, r.sample)
-    });
-    let (markdown, csv) = tables(task_ids, approaches, results);
-    write_atomic(&out.join("table3.md"), markdown.as_bytes())?;
-    write_atomic(&out.join("table3.csv"), csv.as_bytes())?;
-    Ok(())
-}
-
-/// The paper's Table 3: a row per task (in the order of `task_ids`), PG2S
-/// and KAS for each approach, and the means; as Markdown and as CSV.
-fn tables(
-    task_ids: &[String],
-    approaches: &[Approach],
-    results: &[TaskResult],
-) -> (String, String) {
-    if results.is_empty() {
-        return (String::from("No plans were scored.\n"), String::new());
-    }
-    let samples = results.iter().map(|r| r.sample + 1).max().unwrap_or(1);
-    if samples > 1 {
-        return sampled_tables(task_ids, approaches, results, samples);
-    }
-    let find = |id: &str, approach: Approach| {
-        results
-            .iter()
-            .find(|r| r.id == id && r.approach == approach)
-    };
-    let mut markdown = markdown_heading(approaches);
-    let mut csv = String::from("id,task");
-    for approach in approaches {
-        let _ = write!(csv, ",{approach}_pg2s,{approach}_kas");
-    }
-    csv.push('\n');
-    for id in task_ids {
-        let Some(first) = approaches.iter().find_map(|a| find(id, *a)) else {
-            continue;
-        };
-        let _ = write!(markdown, "| {id} | {} |", first.task.replace('|', "\\|"));
-        let _ = write!(csv, "{},{}", csv_field(id), csv_field(&first.task));
-        for approach in approaches {
-            let result = find(id, *approach);
-            let (pg2s, kas) = (result.and_then(|r| r.pg2s), result.and_then(|r| r.kas));
-            push_scores(&mut markdown, &mut csv, pg2s, kas, "");
-        }
-        markdown.push('\n');
-        csv.push('\n');
-    }
-    let _ = write!(markdown, "| **Mean** | |");
-    csv.push_str("mean,");
-    for approach in approaches {
-        let of = |r: &&TaskResult| r.approach == *approach;
-        let pg2s = mean(results.iter().filter(of).map(|r| r.pg2s));
-        let kas = mean(results.iter().filter(of).map(|r| r.kas));
-        push_scores(&mut markdown, &mut csv, pg2s, kas, "**");
-    }
-    markdown.push('\n');
-    csv.push('\n');
-    (markdown, csv)
-}
-
-/// One score Table 3 reports: its heading, its CSV column and its value.
-struct Score {
-    label: &'static str,
-    column: &'static str,
-    of: fn(&TaskResult) -> Option<f64>,
-}
-
-/// The scores whose spread over samples the tables show.
-const SCORES: [Score; 4] = [
-    Score::new("PG2S", "pg2s", |r| r.pg2s),
-    Score::new("S_plan", "s_plan", |r| r.s_plan),
-    Score::new("S_goal", "s_goal", |r| r.s_goal),
-    Score::new("KAS", "kas", |r| r.kas),
-];
-
-impl Score {
-    const fn new(
-        label: &'static str,
-        column: &'static str,
-        of: fn(&TaskResult) -> Option<f64>,
-    ) -> Self {
-        Score { label, column, of }
-    }
-}
-
-/// Table 3 over several samples of each plan. Markdown: each task's PG2S
-/// and KAS as the mean ±sd of its samples; the Mean row and a spread table
-/// over the samples' means (each sample's mean over the tasks: mean ±sd and
-/// min–max of PG2S, S_plan, S_goal and KAS). CSV: for each approach and
-/// score its mean, sd, min and max, per task over its samples and, in the
-/// `mean` row, over the samples' means.
-fn sampled_tables(
-    task_ids: &[String],
-    approaches: &[Approach],
-    results: &[TaskResult],
-    samples: u32,
-) -> (String, String) {
-    let mut by_plan: HashMap<(&str, Approach), Vec<&TaskResult>> = HashMap::new();
-    for result in results {
-        by_plan
-            .entry((result.id.as_str(), result.approach))
-            .or_default()
-            .push(result);
-    }
-    let spread_of = |plans: &[&TaskResult], score: &Score| {
-        Spread::of(plans.iter().filter_map(|r| (score.of)(r)))
-    };
-    let over_samples = |approach: Approach, score: &Score| {
-        Spread::of((0..samples).filter_map(|k| {
-            mean(
-                results
-                    .iter()
-                    .filter(|r| r.approach == approach && r.sample == k)
-                    .map(score.of),
-            )
-        }))
-    };
-    let [pg2s, _, _, kas] = &SCORES;
-    let mut markdown = markdown_heading(approaches);
-    let mut csv = String::from("id,task");
-    for approach in approaches {
-        for score in &SCORES {
-            let c = score.column;
-            let _ = write!(
-                csv,
-                ",{approach}_{c},{approach}_{c}_sd,{approach}_{c}_min,{approach}_{c}_max"
-            );
-        }
-    }
-    csv.push('\n');
-    for id in task_ids {
-        let Some(first) = approaches
-            .iter()
-            .find_map(|a| by_plan.get(&(id.as_str(), *a)).and_then(|p| p.first()))
-        else {
-            continue;
-        };
-        let _ = write!(markdown, "| {id} | {} |", first.task.replace('|', "\\|"));
-        let _ = write!(csv, "{},{}", csv_field(id), csv_field(&first.task));
-        for approach in approaches {
-            let plans = by_plan
-                .get(&(id.as_str(), *approach))
-                .map_or(&[][..], Vec::as_slice);
-            for score in [pg2s, kas] {
-                let _ = write!(markdown, " {} |", spread_cell(spread_of(plans, score), ""));
-            }
-            for score in &SCORES {
-                push_spread_csv(&mut csv, spread_of(plans, score));
-            }
-        }
-        markdown.push('\n');
-        csv.push('\n');
-    }
-    let _ = write!(markdown, "| **Mean** | |");
-    csv.push_str("mean,");
-    for approach in approaches {
-        for score in [pg2s, kas] {
-            let cell = spread_cell(over_samples(*approach, score), "**");
-            let _ = write!(markdown, " {cell} |");
-        }
-        for score in &SCORES {
-            push_spread_csv(&mut csv, over_samples(*approach, score));
-        }
-    }
-    let _ = write!(
-        markdown,
-        "\n\nSpread over {samples} samples (each sample's mean over the tasks): mean ±sd (min–max).\n\n| Approach |"
-    );
-    for score in &SCORES {
-        let _ = write!(markdown, " {} |", score.label);
-    }
-    markdown.push_str("\n| --- |");
-    markdown.push_str(&" ---: |".repeat(SCORES.len()));
-    markdown.push('\n');
-    for approach in approaches {
-        let _ = write!(markdown, "| {approach} |");
-        for score in &SCORES {
-            let cell = over_samples(*approach, score).map_or_else(
-                || "n/a".to_string(),
-                |s| format!("{} ({})", s.plus_minus(3), s.range(3)),
-            );
-            let _ = write!(markdown, " {cell} |");
-        }
-        markdown.push('\n');
-    }
-    csv.push('\n');
-    (markdown, csv)
-}
-
-/// The heading and rule of Table 3 in Markdown: the task, its
-/// instruction, then PG2S and KAS of each approach.
-fn markdown_heading(approaches: &[Approach]) -> String {
-    let mut markdown = String::from("| Task | Instruction |");
-    let mut rule = String::from("| --- | --- |");
-    for approach in approaches {
-        let _ = write!(markdown, " {approach} PG2S | {approach} KAS |");
-        rule.push_str(" ---: | ---: |");
-    }
-    let _ = writeln!(markdown, "\n{rule}");
-    markdown
-}
-
-/// A Markdown cell: `0.433 ±0.020`, emphasised, or `n/a`.
-fn spread_cell(spread: Option<Spread>, emphasis: &str) -> String {
-    spread.map_or_else(
-        || format!("{emphasis}n/a{emphasis}"),
-        |s| format!("{emphasis}{}{emphasis}", s.plus_minus(3)),
-    )
-}
-
-/// Appends a spread's mean, sd, min and max as four CSV cells (empty when
-/// unknown).
-fn push_spread_csv(csv: &mut String, spread: Option<Spread>) {
-    let (mean, sd, min, max) = match spread {
-        Some(s) => (Some(s.mean), s.sd, Some(s.min), Some(s.max)),
-        None => (None, None, None, None),
-    };
-    let _ = write!(
-        csv,
-        ",{},{},{},{}",
-        cell(mean, 6),
-        cell(sd, 6),
-        cell(min, 6),
-        cell(max, 6)
-    );
-}
-
-/// Appends one approach's PG2S and KAS cells to both tables.
-fn push_scores(
-    markdown: &mut String,
-    csv: &mut String,
-    pg2s: Option<f64>,
-    kas: Option<f64>,
-    emphasis: &str,
-) {
-    let (p, k) = (or_na(cell(pg2s, 3)), or_na(cell(kas, 3)));
-    let _ = write!(
-        markdown,
-        " {emphasis}{p}{emphasis} | {emphasis}{k}{emphasis} |"
-    );
-    let _ = write!(csv, ",{},{}", cell(pg2s, 6), cell(kas, 6));
-}
-
-fn or_na(text: String) -> String {
-    if text.is_empty() {
-        "n/a".into()
-    } else {
-        text
-    }
-}
-
-fn csv_field(text: &str) -> String {
-    if text.contains([',', '"', '\n']) {
-        format!("\"{}\"", text.replace('"', "\"\""))
-    } else {
-        text.to_string()
-    }
-}
-
-#[cfg(test)]
-mod tests {
-    use super::*;
-
-    fn scored(
-        id: &str,
-        approach: Approach,
-        sample: u32,
-        pg2s: f64,
-        kas: Option<f64>,
-    ) -> TaskResult {
-        TaskResult {
-            id: id.into(),
-            approach,
-            task: format!("Task {id}, with a comma"),
-            source: "model".into(),
-            ground_truth: vec!["Walk to the sink.".into()],
-            steps: vec!["Walk to the sink.".into()],
-            kas,
-            kas_reason: None,
-            pg2s_scored: true,
-            s_plan: Some(pg2s + 0.1),
-            s_goal: Some(pg2s - 0.1),
-            pg2s: Some(pg2s),
-            record: None,
-            cost: None,
-            sample,
-        }
-    }
-
-    fn one_sample_results() -> Vec<TaskResult> {
-        vec![
-            scored("t1", Approach::SingleImage, 0, 0.5, Some(0.25)),
-            scored("t1", Approach::MultiImage, 0, 0.625, None),
-            scored("t2", Approach::SingleImage, 0, 0.375, Some(0.75)),
-        ]
-    }
-
-    #[test]
-    fn tables_of_one_sample_are_as_before_samples() {
-        let ids = ["t1".to_string(), "t2".to_string()];
-        let approaches = [Approach::SingleImage, Approach::MultiImage];
-        let (markdown, csv) = tables(&ids, &approaches, &one_sample_results());
-        insta::assert_snapshot!("table3_one_sample_md", markdown);
-        insta::assert_snapshot!("table3_one_sample_csv", csv);
-    }
-
-    #[test]
-    fn tables_of_three_samples_show_each_tasks_spread_and_the_samples_spread() {
-        let ids = ["t1".to_string(), "t2".to_string()];
-        let approaches = [Approach::SingleImage];
-        let mut results = Vec::new();
-        for (sample, (first, second)) in [(0.5, 0.25), (0.625, 0.375), (0.75, 0.5)]
-            .into_iter()
-            .enumerate()
-        {
-            let sample = sample as u32;
-            results.push(scored(
-                "t1",
-                Approach::SingleImage,
-                sample,
-                first,
-                Some(first),
-            ));
-            results.push(scored("t2", Approach::SingleImage, sample, second, None));
-        }
-        let (markdown, csv) = tables(&ids, &approaches, &results);
-        // t1's PG2S over its samples: 0.5, 0.625, 0.75 -> mean 0.625, sd 0.125.
-        assert!(
-            markdown.contains("| t1 | Task t1, with a comma | 0.625 ±0.125 | 0.625 ±0.125 |"),
-            "{markdown}"
-        );
-        // The samples' means over the tasks: 0.375, 0.5, 0.625.
-        assert!(
-            markdown.contains("| **Mean** | | **0.500 ±0.125** | **0.625 ±0.125** |"),
-            "{markdown}"
-        );
-        assert!(markdown.contains("| single-image | 0.500 ±0.125 (0.375–0.625) | 0.600 ±0.125 (0.475–0.725) | 0.400 ±0.125 (0.275–0.525) | 0.625 ±0.125 (0.500–0.750) |"), "{markdown}");
-        let lines: Vec<&str> = csv.lines().collect();
-        assert!(lines[0].starts_with("id,task,single-image_pg2s,single-image_pg2s_sd,single-image_pg2s_min,single-image_pg2s_max,single-image_s_plan,"), "{csv}");
-        assert!(
-            lines[1]
-                .starts_with("t1,\"Task t1, with a comma\",0.625000,0.125000,0.500000,0.750000,"),
-            "{csv}"
-        );
-        assert!(lines[2].ends_with(",,,,"), "t2 has no KAS: {csv}");
-        assert!(
-            lines[3].starts_with("mean,,0.500000,0.125000,0.375000,0.625000,"),
-            "{csv}"
-        );
-    }
 }

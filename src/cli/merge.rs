@@ -1,10 +1,12 @@
 //! `mapvlm merge DIR... --out DIR`: the output folders of `eval --shard`
 //! joined into the per-task files and tables one whole run writes.
 //!
-//! Every `eval` writes `OUT/manifest.json`: the dataset's task ids, the
-//! approaches, its shard and the result files it wrote. From these a merge
+//! Every `eval` writes `OUT/manifest.json` ([`Manifest`]): the dataset's
+//! task ids, the approaches, its shard, the result files it wrote and how
+//! it scored them ([`crate::eval_record::Provenance`]). From these a merge
 //! knows what a whole run would hold, and refuses, naming the tasks, when a
-//! shard is missing or a shard's results are incomplete.
+//! shard is missing or a shard's results are incomplete, and, naming the
+//! field and the shards, when two shards were not scored alike.
 
 use std::collections::BTreeMap;
 use std::path::{Path, PathBuf};
@@ -12,16 +14,10 @@ use std::process::ExitCode;
 
 use anyhow::{bail, Context};
 use clap::Args;
-use serde::{Deserialize, Serialize};
 
-use super::eval::{result_file, write_tables, TaskResult};
-use crate::agents::prompts::PromptSet;
-use crate::agents::Approach;
+use crate::eval_record::{write_tables, CostSum, Manifest, TaskResult};
 use crate::fsutil::write_atomic;
 use crate::shard::Shard;
-
-/// The name of the manifest in an eval output folder.
-const MANIFEST: &str = "manifest.json";
 
 /// Options of `mapvlm merge`.
 #[derive(Debug, Args)]
@@ -34,105 +30,9 @@ pub struct MergeArgs {
     pub out: PathBuf,
 }
 
-/// What one `eval` run covered: enough for `merge` to know the whole.
-#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
-pub struct Manifest {
-    /// Every task id of the dataset, in its order (the rows of Table 3).
-    pub dataset_tasks: Vec<String>,
-    /// The approaches, in the order of the table's columns.
-    pub approaches: Vec<Approach>,
-    /// The shard this run evaluated (1/1 for a whole run).
-    pub shard: Shard,
-    /// The result files written under `tasks/`, one per task and approach scored.
-    pub results: Vec<String>,
-    /// `ID APPROACH` of every task that failed in this run.
-    pub failed: Vec<String>,
-    /// The prompt templates of the approaches, by name: which version ran
-    /// (`--prompts DIR`, the user folder or the shipped ones).
-    #[serde(default)]
-    pub prompts: BTreeMap<String, PromptVersion>,
-}
-
-/// Which version of a prompt template a run used.
-#[derive(Debug, Clone, PartialEq, Eq, Serialize, Deserialize)]
-pub struct PromptVersion {
-    /// The template's content hash ([`crate::agents::prompts::Template::hash`]).
-    pub hash: String,
-    /// Where it was read from: a file, or `built-in`.
-    pub source: String,
-}
-
-/// The version of every template `approaches` use in `set`.
-pub fn prompt_versions(
-    set: &PromptSet,
-    approaches: &[Approach],
-) -> BTreeMap<String, PromptVersion> {
-    approaches
-        .iter()
-        .flat_map(|&approach| {
-            approach
-                .roles()
-                .iter()
-                .map(move |&role| set.get(approach, role))
-        })
-        .flatten()
-        .map(|t| {
-            let version = PromptVersion {
-                hash: t.hash.clone(),
-                source: t.source.clone(),
-            };
-            (t.name.clone(), version)
-        })
-        .collect()
-}
-
-impl Manifest {
-    /// The manifest of a run of `shard` over `dataset_tasks` that scored `results`.
-    pub fn new(
-        dataset_tasks: Vec<String>,
-        approaches: Vec<Approach>,
-        shard: Shard,
-        results: &[TaskResult],
-        failed: Vec<String>,
-    ) -> Self {
-        Manifest {
-            dataset_tasks,
-            approaches,
-            shard,
-            results: results
-                .iter()
-                .map(|r| result_file(&r.id, r.approach, r.sample))
-                .collect(),
-            failed,
-            prompts: BTreeMap::new(),
-        }
-    }
-
-    /// The manifest with the prompt versions the run used.
-    pub fn with_prompts(self, prompts: BTreeMap<String, PromptVersion>) -> Self {
-        Manifest { prompts, ..self }
-    }
-
-    /// Writes the manifest as `OUT/manifest.json`, atomically.
-    pub fn write(&self, out: &Path) -> anyhow::Result<()> {
-        let text = serde_json::to_string_pretty(self)?;
-        write_atomic(&out.join(MANIFEST), text.as_bytes())?;
-        Ok(())
-    }
-
-    /// Reads `DIR/manifest.json`.
-    fn read(dir: &Path) -> anyhow::Result<Self> {
-        let path = dir.join(MANIFEST);
-        let text = std::fs::read_to_string(&path).with_context(|| {
-            format!(
-                "{}: no {MANIFEST}; give the --out folder of a `mapvlm eval` run",
-                dir.display()
-            )
-        })?;
-        serde_json::from_str(&text)
-            .with_context(|| format!("{}: not an eval manifest", path.display()))
-    }
-}
+/// What to do when two shards differ.
+const RERUN: &str =
+    "run that shard's eval again with the options of the others, into an empty --out";
 
 /// Runs `mapvlm merge`.
 pub fn run(args: &MergeArgs) -> anyhow::Result<ExitCode> {
@@ -142,19 +42,10 @@ pub fn run(args: &MergeArgs) -> anyhow::Result<ExitCode> {
         .map(|dir| Ok((dir.as_path(), Manifest::read(dir)?)))
         .collect::<anyhow::Result<Vec<_>>>()?;
     let (first_dir, first) = &shards[0];
+    let first_name = first_dir.display().to_string();
     let mut by_index: BTreeMap<u64, &Path> = BTreeMap::new();
     for (dir, manifest) in &shards {
-        if manifest.dataset_tasks != first.dataset_tasks
-            || manifest.approaches != first.approaches
-            || manifest.shard.count != first.shard.count
-            || manifest.prompts != first.prompts
-        {
-            bail!(
-                "{} and {} are not shards of one eval (other tasks, approaches, prompts or shard count)",
-                first_dir.display(),
-                dir.display()
-            );
-        }
+        first.check_same_run(&first_name, manifest, &dir.display().to_string(), RERUN)?;
         if let Some(other) = by_index.insert(manifest.shard.index, dir) {
             bail!(
                 "shard {} is given twice: {} and {}",
@@ -190,7 +81,7 @@ pub fn run(args: &MergeArgs) -> anyhow::Result<ExitCode> {
             missing.join(", ")
         );
     }
-    let mut results = Vec::new();
+    let mut read = Vec::new();
     for (dir, manifest) in &shards {
         for name in &manifest.results {
             let from = dir.join("tasks").join(name);
@@ -199,9 +90,21 @@ pub fn run(args: &MergeArgs) -> anyhow::Result<ExitCode> {
             })?;
             let result: TaskResult = serde_json::from_slice(&bytes)
                 .with_context(|| format!("{}: not a task result", from.display()))?;
-            write_atomic(&args.out.join("tasks").join(name), &bytes)?;
-            results.push(result);
+            let scored = result.provenance.clone().unwrap_or_default();
+            let shard_name = dir.display().to_string();
+            scored.check_same(
+                &from.display().to_string(),
+                &manifest.provenance,
+                &shard_name,
+                RERUN,
+            )?;
+            read.push((name, bytes, result));
         }
+    }
+    let mut results = Vec::new();
+    for (name, bytes, result) in read {
+        write_atomic(&args.out.join("tasks").join(name), &bytes)?;
+        results.push(result);
     }
     write_tables(
         &args.out,
@@ -209,19 +112,23 @@ pub fn run(args: &MergeArgs) -> anyhow::Result<ExitCode> {
         &first.approaches,
         &mut results,
     )?;
-    Manifest::new(
+    let mut merged = Manifest::new(
         first.dataset_tasks.clone(),
         first.approaches.clone(),
         Shard::WHOLE,
         &results,
         Vec::new(),
-    )
-    .with_prompts(first.prompts.clone())
-    .write(&args.out)?;
+        first.provenance.clone(),
+    );
+    merged.cost = shards
+        .iter()
+        .fold(CostSum::default(), |sum, (_, m)| sum.plus(&m.cost));
+    merged.write(&args.out)?;
     eprintln!(
-        "mapvlm: {} shards, {} plans merged; tables in {}",
+        "mapvlm: {} shards, {} plans merged ({}); tables in {}",
         shards.len(),
         results.len(),
+        merged.cost,
         args.out.display()
     );
     Ok(ExitCode::SUCCESS)

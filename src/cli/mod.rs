@@ -165,6 +165,35 @@ impl ModelArgs {
     }
 }
 
+impl ModelArgs {
+    /// The verification stamps of the sentence encoder and of the word
+    /// vectors these settings load (a `--vectors` file: its name and
+    /// SHA-256): what an eval's provenance records, so that results scored
+    /// with other models are never joined. Call after the models loaded.
+    fn stamps(&self) -> anyhow::Result<(Option<String>, Option<String>)> {
+        let dir = crate::models::models_dir(self.models_dir.as_deref());
+        let stamp = |folder: &str| {
+            stamped_identity(&dir, folder).map(|identity| format!("{folder}: {identity}"))
+        };
+        let vectors = match &self.vectors {
+            Some(file) => Some(format!(
+                "{}: sha256={}",
+                file.file_name().unwrap_or_default().to_string_lossy(),
+                file_sha256(file)?
+            )),
+            None if self.paper => stamp(crate::models::WORD2VEC_GOOGLE_NEWS),
+            None => stamp(crate::models::GLOVE_6B_50D),
+        };
+        Ok((stamp(crate::models::MPNET), vectors))
+    }
+}
+
+/// The SHA-256 of the file at `path`, in hex, read in pieces.
+fn file_sha256(path: &Path) -> anyhow::Result<String> {
+    crate::models::sha256_file(path, |_| {})
+        .map_err(|err| anyhow::anyhow!("{}: cannot be read ({err})", path.display()))
+}
+
 /// Which share of the work this process does, for job arrays (see [`crate::shard`]).
 #[derive(Debug, Clone, Args)]
 pub struct ShardArgs {

@@ -80,9 +80,17 @@ pub(super) fn ensure_pack(
 ) -> anyhow::Result<()> {
     models::check_pack_dir(dir)?;
     let sources = Sources::from_env(Source::Auto);
+    let mut lock = None;
     for spec in models::default_pack() {
         if models::quick_status(dir, &spec) != QuickStatus::Missing {
             continue;
+        }
+        if lock.is_none() {
+            lock = Some(pack_lock(dir, report)?);
+            // Another process may have fetched it while this one waited.
+            if models::quick_status(dir, &spec) != QuickStatus::Missing {
+                continue;
+            }
         }
         report(format!(
             "{} is not in the model pack at {}; fetching it once",
@@ -104,6 +112,10 @@ pub(super) fn ensure_paper_vectors(
 ) -> anyhow::Result<()> {
     let spec = models::paper_word2vec();
     if models::quick_status(dir, &spec) == QuickStatus::Missing {
+        let _lock = pack_lock(dir, report)?;
+        if models::quick_status(dir, &spec) != QuickStatus::Missing {
+            return Ok(());
+        }
         report(format!(
             "{} (the paper's vectors) is not in the model pack at {}; fetching it once",
             spec.folder,
@@ -116,7 +128,27 @@ pub(super) fn ensure_paper_vectors(
     Ok(())
 }
 
+/// The model pack's lock, held while models are fetched into `dir`, so
+/// that two processes (two `models fetch`, or two shards on a cold pack)
+/// never write one model at once; the second waits, told by `report` who
+/// it waits for.
+fn pack_lock(dir: &Path, report: &dyn Fn(String)) -> anyhow::Result<crate::lock::Lock> {
+    let path = dir.join(".fetch.lock");
+    let waiting = |holder: &str| {
+        report(format!(
+            "waiting for {holder}, which is fetching into {}",
+            dir.display()
+        ))
+    };
+    Ok(crate::lock::Lock::wait(
+        &path,
+        "mapvlm models fetch",
+        &waiting,
+    )?)
+}
+
 fn fetch(dir: &Path, args: &FetchArgs) -> anyhow::Result<ExitCode> {
+    let _lock = pack_lock(dir, &|line| eprintln!("mapvlm: {line}"))?;
     let mut sources = Sources::from_env(args.source);
     if let Some(from) = &args.from {
         anyhow::ensure!(

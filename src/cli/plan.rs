@@ -19,6 +19,7 @@ use crate::agents::pipeline::{AgentEvent, PlanInput, PlanRecord, Runner, Source,
 use crate::agents::prompts::PromptSet;
 use crate::agents::provider::Notifier;
 use crate::agents::replay::{Pace, Recording};
+use crate::agents::sink::OutputSink;
 use crate::agents::{Approach, ProviderKind};
 use crate::fsutil::check_writable;
 use crate::sanitize;
@@ -189,14 +190,19 @@ impl AgentArgs {
         estimate.check(self.max_cost).map_err(anyhow::Error::msg)
     }
 
-    /// Writes the recording, if one was asked for.
-    pub fn save_recording(&self, recording: Option<Arc<Mutex<Recording>>>) -> anyhow::Result<()> {
+    /// Writes the recording, if one was asked for, through the run's
+    /// output sink.
+    pub fn save_recording(
+        &self,
+        recording: Option<Arc<Mutex<Recording>>>,
+        sink: &OutputSink,
+    ) -> anyhow::Result<()> {
         if let (Some(path), Some(recording)) = (&self.record, recording) {
             let recording = recording
                 .lock()
                 .map_err(|_| anyhow::anyhow!("the recording was lost"))?
                 .clone();
-            recording.save(path)?;
+            recording.save_through(path, sink)?;
         }
         Ok(())
     }
@@ -225,17 +231,37 @@ pub struct PlanArgs {
     pub agents: AgentArgs,
 }
 
-/// Builds the async runtime the commands run on, with Ctrl-C cancelling `cancel`.
+/// Builds the async runtime the commands run on, with Ctrl-C, SIGTERM (a
+/// scheduler's time limit, `scancel`, an eviction) and SIGHUP (a lost SSH
+/// session) cancelling `cancel`: the run stops asking, and what was made is
+/// written as after Ctrl-C. The handlers are in place when this returns.
 pub fn runtime(cancel: &CancellationToken) -> anyhow::Result<tokio::runtime::Runtime> {
+    use tokio::signal::unix::{signal, SignalKind};
     let runtime = tokio::runtime::Builder::new_multi_thread()
         .enable_all()
         .build()
         .context("cannot start the async runtime")?;
-    let on_interrupt = cancel.clone();
+    let (mut terminate, mut hangup) = {
+        let _inside = runtime.enter();
+        let listen = |kind| signal(kind).context("cannot listen for signals");
+        (
+            listen(SignalKind::terminate())?,
+            listen(SignalKind::hangup())?,
+        )
+    };
+    let on_signal = cancel.clone();
     runtime.spawn(async move {
-        if tokio::signal::ctrl_c().await.is_ok() {
-            on_interrupt.cancel();
+        let interrupt = async {
+            if tokio::signal::ctrl_c().await.is_err() {
+                std::future::pending::<()>().await;
+            }
+        };
+        tokio::select! {
+            () = interrupt => {}
+            _ = terminate.recv() => {}
+            _ = hangup.recv() => {}
         }
+        on_signal.cancel();
     });
     Ok(runtime)
 }
@@ -280,6 +306,7 @@ pub fn run(args: &PlanArgs) -> anyhow::Result<ExitCode> {
     );
     args.agents.check_estimate(&estimate)?;
     let cancel = CancellationToken::new();
+    let sink = OutputSink::new(cancel.clone());
     let runtime = runtime(&cancel)?;
     let (events, mut received) = unbounded_channel();
     let quiet = args.json;
@@ -300,7 +327,7 @@ pub fn run(args: &PlanArgs) -> anyhow::Result<ExitCode> {
     ));
     drop(events);
     let _ = runtime.block_on(printer);
-    args.agents.save_recording(recording)?;
+    args.agents.save_recording(recording, &sink)?;
     let records = records?;
     for record in &records {
         ledger.add_plan(record, Billing::Interactive);

@@ -5,13 +5,13 @@
 use std::collections::HashMap;
 use std::sync::{Arc, Mutex, PoisonError};
 
-use serde::Serialize;
+use serde::{Deserialize, Serialize};
 
 use super::{FramingParser, ModelError, SentenceEncoder, WordVectors};
 use crate::nlp::Token;
 
 /// The thresholds and weight of PG2S.
-#[derive(Debug, Clone, Copy, PartialEq, Serialize)]
+#[derive(Debug, Clone, Copy, PartialEq, Serialize, Deserialize)]
 pub struct Pg2sSettings {
     /// A sentence match needs a cosine strictly above this.
     pub sentence_threshold: f64,

@@ -273,3 +273,250 @@ fn three_eval_shards_merge_into_the_single_runs_table_byte_for_byte() {
     );
     assert!(!partial.join("table3.csv").exists(), "writes nothing");
 }
+
+/// Copies the folder `from` to `to` (files and subfolders).
+fn copy_dir(from: &Path, to: &Path) {
+    std::fs::create_dir_all(to).unwrap_or_else(|e| panic!("{e}"));
+    for entry in std::fs::read_dir(from).unwrap_or_else(|e| panic!("{e}")) {
+        let entry = entry.unwrap_or_else(|e| panic!("{e}"));
+        let target = to.join(entry.file_name());
+        if entry.path().is_dir() {
+            copy_dir(&entry.path(), &target);
+        } else {
+            std::fs::copy(entry.path(), &target).unwrap_or_else(|e| panic!("{e}"));
+        }
+    }
+}
+
+fn read_json(path: &Path) -> serde_json::Value {
+    serde_json::from_slice(&read(path)).unwrap_or_else(|e| panic!("{}: {e}", path.display()))
+}
+
+fn write_json(path: &Path, value: &serde_json::Value) {
+    let text = serde_json::to_string_pretty(value).unwrap_or_else(|e| panic!("{e}"));
+    std::fs::write(path, text).unwrap_or_else(|e| panic!("{e}"));
+}
+
+#[test]
+fn merge_refuses_shards_that_differ_in_any_provenance_field_naming_it() {
+    let home = tempfile::tempdir().unwrap_or_else(|e| panic!("{e}"));
+    let shards: Vec<_> = (1..=3)
+        .map(|i| home.path().join(format!("shard{i}")))
+        .collect();
+    for (i, dir) in shards.iter().enumerate() {
+        eval(dir, Some(&format!("{}/3", i + 1)));
+    }
+    let manifest = read_json(&shards[1].join("manifest.json"));
+    let provenance = &manifest["provenance"];
+    assert_eq!(
+        provenance["metrics"],
+        serde_json::json!(["kas"]),
+        "{manifest}"
+    );
+    assert_eq!(
+        provenance["mapvlm_version"].as_str(),
+        Some(env!("CARGO_PKG_VERSION"))
+    );
+    assert_eq!(
+        provenance["dataset_hash"].as_str().map(str::len),
+        Some(64),
+        "{manifest}"
+    );
+    assert!(provenance["prompts"]
+        .as_object()
+        .is_some_and(|p| !p.is_empty()));
+    let settings =
+        serde_json::json!({"sentence_threshold": 0.675, "word_threshold": 0.708, "alpha": 0.5});
+    let table: [(&str, &str, serde_json::Value); 10] = [
+        ("provenance", "mapvlm_version", serde_json::json!("0.0.1")),
+        (
+            "provenance",
+            "dataset_hash",
+            serde_json::json!("0".repeat(64)),
+        ),
+        ("provenance", "metrics", serde_json::json!(["kas", "pg2s"])),
+        ("provenance", "pg2s_settings", settings),
+        (
+            "provenance",
+            "encoder",
+            serde_json::json!("all-mpnet-base-v2: other"),
+        ),
+        (
+            "provenance",
+            "word_vectors",
+            serde_json::json!("glove: other"),
+        ),
+        (
+            "provenance",
+            "prompts",
+            serde_json::json!({"single-image": {"hash": "0123456789abcdef", "source": "built-in"}}),
+        ),
+        ("", "dataset_tasks", serde_json::json!(["only-one"])),
+        ("", "approaches", serde_json::json!(["single-image"])),
+        ("shard", "count", serde_json::json!(4)),
+    ];
+    for (parent, field, value) in table {
+        let changed = home.path().join(format!("changed-{field}"));
+        copy_dir(&shards[1], &changed);
+        let mut manifest = read_json(&changed.join("manifest.json"));
+        match parent {
+            "" => manifest[field] = value,
+            parent => manifest[parent][field] = value,
+        }
+        write_json(&changed.join("manifest.json"), &manifest);
+        let out = home.path().join(format!("merged-{field}"));
+        let refused = merge(&[&shards[0], &changed, &shards[2]], &out);
+        let name = if parent == "shard" {
+            "`shard.count`".to_string()
+        } else {
+            format!("`{field}`")
+        };
+        assert_one_line_failure(&refused, &name);
+        let said = stderr(&refused);
+        assert!(
+            said.contains(&shards[0].display().to_string())
+                && said.contains(&changed.display().to_string()),
+            "names both shards: {said}"
+        );
+        assert!(!out.join("table3.csv").exists(), "{field}: no table");
+        assert!(!out.join("tasks").exists(), "{field}: no result copied");
+    }
+
+    // A result scored otherwise than its shard's manifest says is refused too.
+    let changed = home.path().join("changed-result");
+    copy_dir(&shards[1], &changed);
+    let name = read_json(&changed.join("manifest.json"))["results"][0]
+        .as_str()
+        .map(str::to_string)
+        .unwrap_or_default();
+    let file = changed.join("tasks").join(&name);
+    let mut result = read_json(&file);
+    result["provenance"]["metrics"] = serde_json::json!(["kas", "pg2s"]);
+    write_json(&file, &result);
+    let refused = merge(&[&shards[0], &changed, &shards[2]], &home.path().join("m"));
+    assert_one_line_failure(&refused, "`metrics`");
+    assert!(stderr(&refused).contains(&name), "{}", stderr(&refused));
+
+    // Costs are the sum of the shards'.
+    for (dir, usd) in shards.iter().zip([0.25, 0.5, 1.0]) {
+        let mut manifest = read_json(&dir.join("manifest.json"));
+        manifest["cost"] =
+            serde_json::json!({"plans": 2, "input_tokens": 100, "output_tokens": 10, "usd": usd});
+        write_json(&dir.join("manifest.json"), &manifest);
+    }
+    let merged = home.path().join("merged");
+    let shard_dirs: Vec<&Path> = shards.iter().map(|p| p.as_path()).collect();
+    let done = merge(&shard_dirs, &merged);
+    assert!(done.status.success(), "{}", stderr(&done));
+    assert_eq!(
+        read_json(&merged.join("manifest.json"))["cost"],
+        serde_json::json!({"plans": 6, "input_tokens": 300, "output_tokens": 30, "usd": 1.75})
+    );
+}
+
+#[test]
+fn eval_resuming_into_an_out_of_another_run_refuses_naming_the_field() {
+    let home = tempfile::tempdir().unwrap_or_else(|e| panic!("{e}"));
+    let out = home.path().join("out");
+    eval(&out, Some("1/3"));
+    let before = read(&out.join("manifest.json"));
+    let dataset = common::shared().join("data/alfred30");
+    let (dataset, out_arg) = (dataset.to_string_lossy(), out.to_string_lossy());
+    let again = |extra: &[&str]| {
+        let mut args = vec![
+            "eval",
+            "--dataset",
+            &dataset,
+            "--from-dataset-plans",
+            "--out",
+            &out_arg,
+        ];
+        args.extend_from_slice(extra);
+        run(&args, &[])
+    };
+    // The whole dataset (shard 1/1, the mistake of a lone `sbatch --array=1`).
+    assert_one_line_failure(&again(&["--metrics", "kas"]), "`shard.count`");
+    assert_one_line_failure(&again(&["--metrics", "kas", "--shard", "2/3"]), "`shard`");
+    assert_one_line_failure(
+        &again(&["--metrics", "kas,pg2s", "--shard", "1/3"]),
+        "`metrics`",
+    );
+    assert_eq!(
+        read(&out.join("manifest.json")),
+        before,
+        "nothing rewritten"
+    );
+    let same = again(&["--metrics", "kas", "--shard", "1/3"]);
+    assert!(same.status.success(), "{}", stderr(&same));
+}
+
+#[test]
+fn a_bad_tasks_line_fails_only_its_shard_and_one_without_an_id_fails_every_shard() {
+    let home = tempfile::tempdir().unwrap_or_else(|e| panic!("{e}"));
+    let data = home.path().join("data");
+    std::fs::create_dir_all(&data).unwrap_or_else(|e| panic!("{e}"));
+    let good = |i: usize| {
+        format!(
+            r#"{{"id": "t-{i}", "task": "Wash mug {i}", "ground_truth": ["Walk to the sink.", "Wash the mug."], "single_agent_image": ["Go to the sink.", "Wash the mug."]}}"#
+        )
+    };
+    let mut lines: Vec<String> = (1..=6).map(good).collect();
+    // Line 7: task "bad" has no instruction.
+    lines.push(r#"{"id": "bad", "ground_truth": ["Walk."]}"#.to_string());
+    std::fs::write(data.join("tasks.jsonl"), lines.join("\n") + "\n")
+        .unwrap_or_else(|e| panic!("{e}"));
+    let owner = mapvlm::shard::Shard::of("bad", 3);
+    let eval_shard = |i: u64, out: &Path| {
+        let (d, o) = (data.to_string_lossy(), out.to_string_lossy());
+        let shard = format!("{i}/3");
+        let args = [
+            "eval",
+            "--dataset",
+            &d,
+            "--from-dataset-plans",
+            "--metrics",
+            "kas",
+            "--out",
+            &o,
+            "--shard",
+            &shard,
+        ];
+        run(&args, &[])
+    };
+    let dirs: Vec<_> = (1..=3).map(|i| home.path().join(format!("s{i}"))).collect();
+    for (i, dir) in (1..=3).zip(&dirs) {
+        let done = eval_shard(i, dir);
+        let said = stderr(&done);
+        if i == owner {
+            assert!(!done.status.success(), "shard {i}: {said}");
+            assert!(
+                said.contains("tasks.jsonl:7") && said.contains("bad"),
+                "{said}"
+            );
+        } else {
+            assert!(done.status.success(), "shard {i}: {said}");
+            assert!(!said.contains("tasks.jsonl:7"), "shard {i}: {said}");
+        }
+    }
+    let shard_dirs: Vec<&Path> = dirs.iter().map(|p| p.as_path()).collect();
+    let refused = merge(&shard_dirs, &home.path().join("m1"));
+    assert_one_line_failure(&refused, "bad (line 7 of the tasks file)");
+
+    // No readable id: every shard reports the line, and merge names it.
+    lines[6] = "{not json".to_string();
+    std::fs::write(data.join("tasks.jsonl"), lines.join("\n") + "\n")
+        .unwrap_or_else(|e| panic!("{e}"));
+    let fresh: Vec<_> = (1..=3).map(|i| home.path().join(format!("n{i}"))).collect();
+    for (i, dir) in (1..=3).zip(&fresh) {
+        let done = eval_shard(i, dir);
+        assert!(!done.status.success(), "shard {i}");
+        assert!(
+            stderr(&done).contains("tasks.jsonl:7"),
+            "shard {i}: {}",
+            stderr(&done)
+        );
+    }
+    let shard_dirs: Vec<&Path> = fresh.iter().map(|p| p.as_path()).collect();
+    let refused = merge(&shard_dirs, &home.path().join("m2"));
+    assert_one_line_failure(&refused, "line 7 of the tasks file (no readable id)");
+}

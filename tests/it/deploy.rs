@@ -54,42 +54,74 @@ fn the_slurm_script_passes_shellcheck() {
     );
 }
 
+/// Runs the Slurm script on `dataset` into `out` as one stage (an array
+/// task, the merge) with `vars` and the binary `binary`.
+fn slurm_stage(out: &Path, binary: &Path, vars: &[(&str, &str)]) -> std::process::Output {
+    let dataset = common::shared().join("data/alfred30");
+    let mut command = Command::new("bash");
+    command
+        .arg(repo("deploy/slurm/eval-array.sh"))
+        .arg(&dataset)
+        .arg(out)
+        .args(["3", "--", "--from-dataset-plans", "--metrics", "kas"])
+        .env("MAPVLM", binary)
+        .env_remove("MAPVLM_SCRIPT")
+        .env_remove("MAPVLM_STAGE")
+        .env_remove("MAPVLM_SHARED_CACHE")
+        .env_remove("MAPVLM_SHARD_COUNT")
+        .env_remove("JOB_COMPLETION_INDEX");
+    for name in [
+        "SLURM_ARRAY_TASK_ID",
+        "SLURM_ARRAY_TASK_MIN",
+        "SLURM_ARRAY_TASK_COUNT",
+    ] {
+        command.env_remove(name);
+    }
+    command.envs(vars.iter().copied());
+    command.output().unwrap_or_else(|e| panic!("bash: {e}"))
+}
+
 #[test]
-fn the_slurm_script_runs_each_array_task_and_the_merge() {
+fn the_slurm_script_runs_each_array_task_and_the_merge_and_reports_a_failed_shard() {
     let home = tempfile::tempdir().unwrap_or_else(|e| panic!("{e}"));
     let out = home.path().join("out");
-    let dataset = common::shared().join("data/alfred30");
-    let script = repo("deploy/slurm/eval-array.sh");
-    let stage = |vars: &[(&str, &str)]| {
-        let mut command = Command::new("bash");
-        command
-            .arg(&script)
-            .arg(&dataset)
-            .arg(&out)
-            .args(["3", "--", "--from-dataset-plans", "--metrics", "kas"])
-            .env("MAPVLM", env!("CARGO_BIN_EXE_mapvlm"))
-            .env_remove("MAPVLM_SHARED_CACHE")
-            .env_remove("MAPVLM_SHARD_COUNT")
-            .env_remove("JOB_COMPLETION_INDEX");
-        for name in [
-            "SLURM_ARRAY_TASK_ID",
-            "SLURM_ARRAY_TASK_MIN",
-            "SLURM_ARRAY_TASK_COUNT",
-        ] {
-            command.env_remove(name);
-        }
-        command.envs(vars.iter().copied());
-        let run = command.output().unwrap_or_else(|e| panic!("bash: {e}"));
-        assert!(run.status.success(), "{vars:?}: {}", common::stderr(&run));
-    };
-    for id in ["7", "8", "9"] {
-        stage(&[
+    let mapvlm = Path::new(env!("CARGO_BIN_EXE_mapvlm"));
+    let task = |id: &str, binary: &Path| {
+        let vars = [
             ("SLURM_ARRAY_TASK_ID", id),
-            ("SLURM_ARRAY_TASK_MIN", "7"),
-            ("SLURM_ARRAY_TASK_COUNT", "3"),
-        ]);
+            ("SLURM_ARRAY_TASK_MIN", "1"),
+            ("SLURM_ARRAY_TASK_COUNT", "1"),
+        ];
+        slurm_stage(&out, binary, &vars)
+    };
+    for id in ["1", "3"] {
+        let run = task(id, mapvlm);
+        assert!(run.status.success(), "{id}: {}", common::stderr(&run));
     }
-    stage(&[("MAPVLM_STAGE", "merge")]);
+    // Shard 2 fails: its binary is one that exits 1.
+    let failing = task("2", Path::new("false"));
+    assert!(!failing.status.success());
+    let merge = slurm_stage(&out, mapvlm, &[("MAPVLM_STAGE", "merge")]);
+    assert!(!merge.status.success());
+    let said = common::stderr(&merge);
+    assert!(said.contains("shard 2 (exit status 1)"), "{said}");
+    assert!(
+        !said.contains("shard 1") && !said.contains("shard 3 ("),
+        "{said}"
+    );
+    assert!(said.contains("sbatch --array=K"), "{said}");
+    assert!(!out.join("merged/table3.csv").exists(), "no table");
+
+    let one = std::fs::read(out.join("shard-1/table3.csv")).unwrap_or_else(|e| panic!("{e}"));
+    let rerun = task("2", mapvlm);
+    assert!(rerun.status.success(), "{}", common::stderr(&rerun));
+    assert_eq!(
+        std::fs::read(out.join("shard-1/table3.csv")).ok(),
+        Some(one),
+        "shard 1 untouched"
+    );
+    let merge = slurm_stage(&out, mapvlm, &[("MAPVLM_STAGE", "merge")]);
+    assert!(merge.status.success(), "{}", common::stderr(&merge));
     let csv =
         std::fs::read_to_string(out.join("merged/table3.csv")).unwrap_or_else(|e| panic!("{e}"));
     assert_eq!(csv.lines().count(), 1 + 30 + 1, "{csv}");
@@ -98,6 +130,28 @@ fn the_slurm_script_runs_each_array_task_and_the_merge() {
     }
     let merged = std::fs::read_dir(out.join("merged/tasks")).map(Iterator::count);
     assert_eq!(merged.ok(), Some(120));
+}
+
+#[test]
+fn the_slurm_script_says_how_to_call_it_when_arguments_are_missing() {
+    let home = tempfile::tempdir().unwrap_or_else(|e| panic!("{e}"));
+    for args in [
+        &[][..],
+        &["data"][..],
+        &["data", "out"][..],
+        &["data", "out", "x"][..],
+    ] {
+        let run = Command::new("bash")
+            .arg(repo("deploy/slurm/eval-array.sh"))
+            .args(args)
+            .current_dir(home.path())
+            .output()
+            .unwrap_or_else(|e| panic!("bash: {e}"));
+        assert_eq!(run.status.code(), Some(2), "{args:?}");
+        let said = common::stderr(&run);
+        assert!(said.contains("usage: eval-array.sh"), "{args:?}: {said}");
+        assert!(!said.contains("unbound variable"), "{args:?}: {said}");
+    }
 }
 
 #[test]

@@ -28,6 +28,7 @@ mod docs;
 mod en_parse;
 mod eval_batch;
 mod faults_hostile;
+mod eval_safety;
 mod faults_input;
 mod faults_provider;
 mod kas_golden;
