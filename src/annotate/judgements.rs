@@ -108,7 +108,10 @@ impl StepLabelKind {
     }
 }
 
-/// A label on one step: `{step, label}`, `step` 0-based in the plan shown.
+/// A label on one step: `{step, label}`. In the annotations file (JSON)
+/// `step` is the 0-based index of the step in the item's `pred`, as
+/// `corrupt`'s `edits` count; the screen and the CSV export number steps
+/// from 1, as a person reads them.
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Hash, Deserialize, Serialize)]
 pub struct StepLabel {
     /// The 0-based index of the step in the plan.
@@ -141,7 +144,7 @@ pub struct Judgement {
     pub subject: Subject,
     /// Who judged it.
     pub annotator: String,
-    /// When, in Unix seconds.
+    /// When, in Unix seconds (0 when a line from another tool left it out).
     pub at: u64,
     /// The judgement, or `None` for a withdrawal (`withdrawn: true`).
     pub verdict: Option<Verdict>,
@@ -166,6 +169,8 @@ struct Line {
     step_labels: Option<Vec<StepLabel>>,
     #[serde(default, skip_serializing_if = "Option::is_none")]
     note: Option<String>,
+    /// A line from another tool may leave the time out: 0, unknown.
+    #[serde(default)]
     at: u64,
     #[serde(default, skip_serializing_if = "Option::is_none")]
     seconds: Option<u64>,
@@ -387,7 +392,9 @@ impl Current {
 
     /// The current judgements as CSV, one row each, with a header:
     /// `item,left,right,annotator,rating,preference,step_labels,note,at,seconds,guidelines`
-    /// (`step_labels` as `STEP:LABEL` joined by `;`).
+    /// (`step_labels` as `STEP:LABEL` joined by `;`, steps numbered from 1
+    /// as on screen). A cell that a spreadsheet would read as a formula is
+    /// protected ([`csv_field`]).
     pub fn to_csv(&self) -> String {
         let mut out = String::from(
             "item,left,right,annotator,rating,preference,step_labels,note,at,seconds,guidelines\n",
@@ -401,7 +408,7 @@ impl Current {
             let labels: Vec<String> = v
                 .step_labels
                 .iter()
-                .map(|l| format!("{}:{}", l.step, l.label.as_str()))
+                .map(|l| format!("{}:{}", l.step + 1, l.label.as_str()))
                 .collect();
             let fields = [
                 item.to_string(),
@@ -426,12 +433,21 @@ impl Current {
     }
 }
 
-/// One CSV field, quoted (RFC 4180) when it holds a comma, quote or line break.
+/// One CSV field, quoted (RFC 4180) when it holds a comma, quote or line
+/// break. A field that starts with `=`, `+`, `-`, `@`, a tab or a carriage
+/// return gets a leading `'`, so that a spreadsheet shows it as text
+/// instead of running it as a formula (notes may come from crowd workers;
+/// OWASP's advice on CSV injection).
 fn csv_field(text: &str) -> String {
+    let text = if text.starts_with(['=', '+', '-', '@', '\t', '\r']) {
+        format!("'{text}")
+    } else {
+        text.to_string()
+    };
     if text.contains([',', '"', '\n', '\r']) {
         format!("\"{}\"", text.replace('"', "\"\""))
     } else {
-        text.to_string()
+        text
     }
 }
 
@@ -487,7 +503,14 @@ impl AnnotationWriter {
 
     /// Appends `judgement` as one line and flushes it to disk.
     pub fn append(&mut self, judgement: &Judgement) -> Result<(), WriteError> {
-        let mut line = judgement.to_line();
+        self.append_text(&judgement.to_line())
+    }
+
+    /// Appends one line of JSON (without its newline) the same way: whole,
+    /// locked and flushed (the skips file beside the annotations is
+    /// written so too).
+    pub fn append_text(&mut self, text: &str) -> Result<(), WriteError> {
+        let mut line = text.to_string();
         line.push('\n');
         self.append_line(line).map_err(|error| WriteError {
             path: self.path.clone(),
@@ -757,8 +780,50 @@ mod tests {
             text,
             "item,left,right,annotator,rating,preference,step_labels,note,at,seconds,guidelines\n\
              a,,,ana,5,,,,2,3,abcd1234\n\
-             b,,,ana,3,,1:unsafe;2:missing step before,\"too long, \"\"really\"\"\",4,3,abcd1234\n"
+             b,,,ana,3,,2:unsafe;3:missing step before,\"too long, \"\"really\"\"\",4,3,abcd1234\n"
         );
+    }
+
+    #[test]
+    fn export_protects_cells_a_spreadsheet_would_run_as_formulas() {
+        let lines: Vec<Judgement> = [
+            "=HYPERLINK(\"http://x\")",
+            "+1",
+            "-2",
+            "@SUM(A1)",
+            "\tx",
+            "\rx",
+            "fine = yes",
+        ]
+        .iter()
+        .enumerate()
+        .map(|(n, note)| {
+            let mut j = rated(&format!("i{n}"), "ana", 3, 1);
+            if let Some(v) = j.verdict.as_mut() {
+                v.note = (*note).into();
+            }
+            j
+        })
+        .collect();
+        let csv = Current::of(&lines).to_csv();
+        assert!(csv.contains(",\"'=HYPERLINK(\"\"http://x\"\")\","), "{csv}");
+        assert!(
+            csv.contains(",'+1,") && csv.contains(",'-2,") && csv.contains(",'@SUM(A1),"),
+            "{csv}"
+        );
+        assert!(
+            csv.contains(",'\tx,") && csv.contains(",\"'\rx\","),
+            "{csv}"
+        );
+        assert!(csv.contains(",fine = yes,"), "{csv}");
+    }
+
+    #[test]
+    fn a_line_without_at_is_read() {
+        let j = Judgement::from_line(r#"{"item": "a", "annotator": "ana", "rating": 4}"#)
+            .unwrap_or_else(|e| panic!("{e}"));
+        assert_eq!(j.at, 0);
+        assert_eq!(j.verdict.and_then(|v| v.rating), Some(4));
     }
 
     #[test]

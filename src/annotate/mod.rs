@@ -5,6 +5,7 @@
 pub mod guidelines;
 pub mod judgements;
 pub mod order;
+pub mod skips;
 
 pub use judgements::{
     default_annotations_path, export_csv, guidelines_hash, AnnotationWriter, Annotations, Current,

@@ -8,6 +8,7 @@ use anyhow::{bail, Context};
 use clap::Args;
 
 use crate::annotate::guidelines::Guidelines;
+use crate::annotate::skips::{load_skips, skips_path};
 use crate::annotate::{
     default_annotations_path, export_csv, AnnotationWriter, Annotations, Current,
 };
@@ -40,7 +41,10 @@ pub struct AnnotateArgs {
     #[arg(long, value_name = "FILE")]
     pub out: Option<PathBuf>,
     /// Write the current judgements (superseded and withdrawn ones left
-    /// out) of the annotations file as CSV, and exit.
+    /// out) of the annotations file as CSV, and exit. Steps are numbered
+    /// from 1 there, as on screen (the annotations file's `step` counts
+    /// from 0, as `corrupt`'s edits do); a cell a spreadsheet would run as
+    /// a formula starts with `'`.
     #[arg(long, value_name = "FILE.csv")]
     pub export: Option<PathBuf>,
     /// The theme: dark, light, high-contrast or one of yours.
@@ -107,7 +111,13 @@ pub fn run(args: AnnotateArgs) -> anyhow::Result<ExitCode> {
             "{unknown} judgements in the annotations file are of items not in this file; they are kept"
         ));
     }
+    let skips_file = skips_path(&annotations);
+    let (skipped, skip_errors) = load_skips(&skips_file, annotator)?;
+    for error in &skip_errors {
+        warn(format!("{error} (the line is left as it is)"));
+    }
     let writer = AnnotationWriter::open(&annotations)?;
+    let skips = AnnotationWriter::open(&skips_file)?;
     let (themes, problems) = theme::load_themes(theme::user_theme_dir().as_deref());
     problems.iter().for_each(warn);
     let theme = if theme::no_color_requested() {
@@ -133,9 +143,11 @@ pub fn run(args: AnnotateArgs) -> anyhow::Result<ExitCode> {
             show_gt: args.show_gt,
             guidelines,
             existing,
+            skipped,
             notices,
         },
         writer,
+        skips,
         theme,
         picker: args
             .halfblocks

@@ -123,6 +123,47 @@ pub fn wrap_hanging(prefix: &[Span<'_>], body: &[Span<'_>], width: usize) -> Vec
     lines
 }
 
+/// Packs whole `entries` (a key and its words, a rating and its name) into
+/// lines of `width` columns, `separator` between two on a line: an entry
+/// never breaks across lines unless it is wider than a line alone (then it
+/// is wrapped by [`wrap_hanging`]). Always at least one line.
+pub fn pack(entries: &[Vec<Span<'_>>], separator: &Span<'_>, width: usize) -> Vec<Line<'static>> {
+    let owned = |spans: &[Span<'_>]| -> Vec<Span<'static>> {
+        spans
+            .iter()
+            .map(|s| Span::styled(s.content.to_string(), s.style))
+            .collect()
+    };
+    let gap = separator.content.width();
+    let mut lines: Vec<Line<'static>> = Vec::new();
+    let mut current: Vec<Span<'static>> = Vec::new();
+    let mut used = 0;
+    for entry in entries {
+        let w: usize = entry.iter().map(|s| s.content.width()).sum();
+        if !current.is_empty() && used + gap + w <= width {
+            current.push(Span::styled(separator.content.to_string(), separator.style));
+            current.extend(owned(entry));
+            used += gap + w;
+            continue;
+        }
+        if !current.is_empty() {
+            lines.push(Line::from(std::mem::take(&mut current)));
+        }
+        if w > width {
+            let mut wrapped = wrap_hanging(&[], entry, width);
+            let last = wrapped.pop().unwrap_or_default();
+            lines.extend(wrapped);
+            used = last.width();
+            current = last.spans;
+        } else {
+            current = owned(entry);
+            used = w;
+        }
+    }
+    lines.push(Line::from(current));
+    lines
+}
+
 /// The pieces of `text`: runs of blanks and runs of other characters, each
 /// marked whether it is blank.
 fn tokens(text: &str) -> impl Iterator<Item = (bool, &str)> + '_ {
@@ -461,6 +502,24 @@ mod tests {
         );
         assert_eq!(text(&styled), ["1. Open it.", "   [wrong", "   order]"]);
         assert_eq!(styled[1].spans[1].style, Style::new().bold());
+    }
+
+    #[test]
+    fn packing_keeps_each_entry_whole() {
+        let entries: Vec<Vec<Span>> = ["1 Useless", "2 Poor", "3 Fair", "4 Good", "5 Excellent"]
+            .iter()
+            .map(|e| vec![Span::raw(*e)])
+            .collect();
+        let lines = pack(&entries, &Span::raw("  "), 24);
+        assert_eq!(
+            text(&lines),
+            ["1 Useless  2 Poor", "3 Fair  4 Good", "5 Excellent"]
+        );
+        assert_eq!(
+            text(&pack(&entries[..1], &Span::raw(" "), 4)),
+            ["1", "Usel", "ess"]
+        );
+        assert_eq!(text(&pack(&[], &Span::raw(" "), 4)), [""]);
     }
 
     #[test]

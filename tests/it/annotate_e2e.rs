@@ -220,3 +220,144 @@ fn bad_input_gets_one_clear_line_and_loses_no_judgement() {
     assert_eq!(rows.lines().count(), current.judgements().len() + 1);
     assert!(rows.starts_with("item,left,right,annotator,rating,"));
 }
+
+#[test]
+fn labels_after_a_rating_undo_a_formula_note_and_a_skip_are_kept_as_meant() {
+    let dir = tempfile::tempdir().unwrap();
+    let items_path = write_items(dir.path(), "");
+    let ann = dir.path().join("items.annotations.jsonl");
+    let skips = dir.path().join("items.annotations.skips.jsonl");
+    let order: Vec<Subject> = single_units(&items(), "ana")
+        .into_iter()
+        .map(|u| match u {
+            Unit::Single(i) | Unit::Pair(i, _) => Subject::Item(format!("item-{i}")),
+        })
+        .collect();
+    let args = format!("{} --annotator ana", items_path.display());
+    let tmux = Tmux::new("annotate-meant");
+    tmux.cmd(&["new-session", "-d", "-s", "keep", "sleep 300"]);
+    open(&tmux, "one", dir.path(), &args);
+    tmux.wait_for("one", "the first item", |s| s.contains("Item 1 of 4"));
+    let on_disk = |n: usize, what: &str| {
+        wait(what, || {
+            (lines_of(&ann) == n)
+                .then_some(())
+                .ok_or(tmux.screen("one"))
+        })
+    };
+
+    // Labels and a note added after the rating: one line each, with it.
+    tmux.keys("one", &["4"]);
+    on_disk(1, "the rating on disk");
+    tmux.wait_for("one", "the second item", |s| s.contains("Item 2 of 4"));
+    tmux.keys("one", &["p"]);
+    tmux.wait_for("one", "the first item, its rating in words", |s| {
+        s.contains("Item 1 of 4") && s.contains("yours: 4 (Good)")
+    });
+    tmux.keys("one", &["w"]);
+    on_disk(2, "the label saved with the rating");
+    tmux.keys("one", &["e"]);
+    tmux.wait_for("one", "the note editor", |s| {
+        s.contains("Enter keeps the note")
+    });
+    tmux.keys("one", &["-l", "=HYPERLINK(\"http://x\")"]);
+    tmux.keys("one", &["Enter"]);
+    on_disk(3, "the note saved with the rating");
+
+    // 3, then 4, then undo: back to 3.
+    tmux.keys("one", &["n"]);
+    tmux.wait_for("one", "the second item", |s| s.contains("Item 2 of 4"));
+    tmux.keys("one", &["3"]);
+    on_disk(4, "the second item rated 3");
+    tmux.wait_for("one", "the third item", |s| s.contains("Item 3 of 4"));
+    tmux.keys("one", &["p"]);
+    tmux.wait_for("one", "the second item rated 3", |s| {
+        s.contains("Item 2 of 4") && s.contains("yours: 3 (Fair)")
+    });
+    tmux.keys("one", &["4"]);
+    on_disk(5, "the second item rated 4");
+    tmux.wait_for("one", "the third item again", |s| s.contains("Item 3 of 4"));
+    tmux.keys("one", &["u"]);
+    on_disk(6, "the undo on disk");
+    tmux.wait_for("one", "back at the second item, rated 3", |s| {
+        s.contains("Item 2 of 4") && s.contains("yours: 3 (Fair)")
+    });
+
+    // A skip, then quit.
+    tmux.keys("one", &["n"]);
+    tmux.wait_for("one", "the third item", |s| s.contains("Item 3 of 4"));
+    tmux.keys("one", &["s"]);
+    tmux.wait_for("one", "the fourth item", |s| s.contains("Item 4 of 4"));
+    wait("the skip on disk", || {
+        (lines_of(&skips) == 1)
+            .then_some(())
+            .ok_or(tmux.screen("one"))
+    });
+    tmux.keys("one", &["q"]);
+    wait("mapvlm to quit", || {
+        (!tmux.cmd(&["list-sessions"]).contains("one:"))
+            .then_some(())
+            .ok_or(tmux.screen("one"))
+    });
+
+    // The file reads as annotate.md §3 says.
+    let read = Annotations::load(&ann).unwrap();
+    assert_eq!(read.errors.len(), 0);
+    let lines: Vec<_> = read.lines.iter().map(|(_, j)| j.clone()).collect();
+    assert_eq!(lines.len(), 6);
+    assert_eq!(lines[5].subject, order[1]);
+    assert_eq!(
+        lines[5].verdict, lines[3].verdict,
+        "the undo is a whole copy of the 3"
+    );
+    let current = read.current();
+    let mut ratings: Vec<_> = current
+        .ratings()
+        .map(|(i, _, r)| (i.to_string(), r))
+        .collect();
+    ratings.sort();
+    let mut wanted = vec![(order[0].to_string(), 4), (order[1].to_string(), 3)];
+    wanted.sort();
+    assert_eq!(ratings, wanted);
+    let first = current
+        .judgements()
+        .iter()
+        .find(|j| j.subject == order[0])
+        .and_then(|j| j.verdict.clone())
+        .unwrap();
+    assert_eq!(first.note, "=HYPERLINK(\"http://x\")");
+    assert_eq!(first.step_labels.len(), 1);
+    assert_eq!(first.step_labels[0].step, 0);
+
+    // Reopened: the skipped item is left for last, the labels are there.
+    open(&tmux, "two", dir.path(), &args);
+    tmux.wait_for("two", "the first item neither judged nor skipped", |s| {
+        s.contains("Item 4 of 4") && s.contains("2/4 judged · 1 skipped")
+    });
+    tmux.keys("two", &["p", "p", "p"]);
+    tmux.wait_for("two", "the first item with its label", |s| {
+        s.contains("Item 1 of 4") && s.contains("[wrong object]") && s.contains("yours: 4")
+    });
+    tmux.keys("two", &["q"]);
+    wait("mapvlm to quit", || {
+        (!tmux.cmd(&["list-sessions"]).contains("two:"))
+            .then_some(())
+            .ok_or(tmux.screen("two"))
+    });
+
+    // The note cannot run as a formula in a spreadsheet; steps count from 1.
+    let csv = dir.path().join("out.csv");
+    let (ok, err) = mapvlm(&[
+        "--out",
+        ann.to_str().unwrap(),
+        "--export",
+        csv.to_str().unwrap(),
+    ]);
+    assert!(ok, "{err}");
+    let rows = std::fs::read_to_string(&csv).unwrap();
+    assert!(
+        rows.contains(",\"'=HYPERLINK(\"\"http://x\"\")\","),
+        "{rows}"
+    );
+    assert!(rows.contains(",1:wrong object,"), "{rows}");
+}

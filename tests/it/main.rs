@@ -15,6 +15,7 @@ mod agents_providers;
 mod agents_recorded;
 mod agents_replay;
 mod annotate_e2e;
+mod annotate_screen;
 mod cache_cli;
 mod cli_agree;
 mod cli_completions;

@@ -55,17 +55,20 @@ pub(crate) fn setup(pairwise: bool, existing: Annotations) -> Setup {
         show_gt: false,
         guidelines: Guidelines::built_in(),
         existing,
+        skipped: Default::default(),
         notices: vec![],
     }
 }
 
-/// The screen opened at a fixed time.
+/// The screen opened at a fixed time in a 100 × 30 window.
 pub(crate) fn open(setup: Setup) -> (Judging, Vec<Cmd>) {
     let clock = Clock {
         elapsed: Duration::ZERO,
         unix: 1_700_000_000,
     };
-    Judging::new(setup, clock)
+    let (mut screen, cmds) = Judging::new(setup, clock);
+    screen.update(Msg::Resize(100, 30));
+    (screen, cmds)
 }
 
 pub(crate) fn press(screen: &mut Judging, c: char) -> Vec<Cmd> {
@@ -79,7 +82,7 @@ pub(crate) fn appended(cmds: &[Cmd]) -> Vec<Judgement> {
     cmds.iter()
         .filter_map(|c| match c {
             Cmd::Append { judgement, .. } => Some((**judgement).clone()),
-            Cmd::LoadImage(_) => None,
+            Cmd::LoadImage(_) | Cmd::Skip { .. } => None,
         })
         .collect()
 }

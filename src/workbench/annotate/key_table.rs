@@ -14,9 +14,11 @@ use crate::workbench::component::Component;
 use crate::workbench::keymap::{self, Action, Context, BINDINGS};
 use crate::workbench::theme::Theme;
 
-/// The screen drawn (text and styles: a selection shows in its style).
+/// The screen drawn in its window (text and styles: a selection shows in
+/// its style).
 fn drawn(screen: &Judging) -> Buffer {
-    let mut terminal = Terminal::new(TestBackend::new(100, 30)).unwrap_or_else(|e| panic!("{e}"));
+    let (w, h) = screen.size.unwrap_or((100, 30));
+    let mut terminal = Terminal::new(TestBackend::new(w, h)).unwrap_or_else(|e| panic!("{e}"));
     terminal
         .draw(|f| {
             let area = f.area();
@@ -36,15 +38,25 @@ fn changes(screen: &mut Judging, key: KeyEvent) -> bool {
 
 /// A screen where `context`'s keys apply; `warm` also moves to the second
 /// item and labels its second step, so "previous", "up" and "take the label
-/// off" have something to do.
+/// off" have something to do (in the help: scrolls it down a line). The
+/// reference plan is shown for its key; the help opens in a window too
+/// small for it, so that it scrolls.
 fn state_for(context: Context, warm: bool) -> Judging {
-    let (mut s, _) = open(setup(
-        context == Context::AnnotatePairwise,
-        Annotations::default(),
-    ));
+    let mut init = setup(context == Context::AnnotatePairwise, Annotations::default());
+    init.show_gt = context == Context::AnnotateReference;
+    let (mut s, _) = open(init);
+    if context == Context::AnnotateHelp {
+        s.update(Msg::Resize(60, 20));
+        press(&mut s, '?');
+        assert!(matches!(s.mode, Mode::Help));
+        if warm {
+            press(&mut s, 'j');
+        }
+        return s;
+    }
     if warm {
         let keys: &[char] = if s.pairwise {
-            &['n']
+            &['n', 'j']
         } else {
             &['n', 'j', 'w', 'k']
         };

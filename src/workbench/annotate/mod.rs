@@ -18,14 +18,16 @@ pub mod view;
 
 use std::time::{Duration, Instant};
 
-use crossterm::event::Event;
+use crossterm::event::{Event, MouseEventKind};
 use ratatui::layout::Rect;
 use ratatui_image::picker::Picker;
 use tokio::sync::mpsc;
 
+use crate::annotate::skips::skip_line;
 use crate::annotate::{AnnotationWriter, Judgement, Verdict};
 use crate::workbench::component::Component;
 use crate::workbench::scene_image;
+use crate::workbench::scroll::WHEEL_LINES;
 use crate::workbench::terminal_query::{query_picker, QUERY_TIMEOUT};
 use crate::workbench::theme::Theme;
 use crate::workbench::TuiError;
@@ -37,6 +39,8 @@ pub struct Options {
     pub setup: Setup,
     /// The writer of the annotations file, opened already.
     pub writer: AnnotationWriter,
+    /// The writer of the skips file beside it ([`crate::annotate::skips`]).
+    pub skips: AnnotationWriter,
     /// The theme.
     pub theme: Theme,
     /// How images are drawn: `None` asks the terminal.
@@ -60,24 +64,41 @@ fn unix_now() -> u64 {
         .map_or(0, |d| d.as_secs())
 }
 
+/// A line for the writer thread.
+enum Write {
+    /// A judgement, and what was current before it (restored if the
+    /// line cannot be written).
+    Judgement(Box<Judgement>, Option<Verdict>),
+    /// A line of the skips file.
+    Skip(String),
+}
+
 /// Starts the writer thread: it appends each line in the order sent and
-/// reports a failure back as [`Msg::NotSaved`].
+/// reports a failure back as [`Msg::NotSaved`] (a judgement) or as a
+/// warning (a skip).
 fn spawn_writer(
     mut writer: AnnotationWriter,
+    mut skips: AnnotationWriter,
     msgs: mpsc::UnboundedSender<Msg>,
-) -> (
-    std::sync::mpsc::Sender<(Judgement, Option<Verdict>)>,
-    std::thread::JoinHandle<()>,
-) {
-    let (tx, rx) = std::sync::mpsc::channel::<(Judgement, Option<Verdict>)>();
+) -> (std::sync::mpsc::Sender<Write>, std::thread::JoinHandle<()>) {
+    let (tx, rx) = std::sync::mpsc::channel::<Write>();
     let handle = std::thread::spawn(move || {
-        for (judgement, previous) in rx {
-            if let Err(e) = writer.append(&judgement) {
-                let _ = msgs.send(Msg::NotSaved {
-                    subject: judgement.subject,
-                    previous,
-                    error: e.to_string(),
-                });
+        for line in rx {
+            match line {
+                Write::Judgement(judgement, previous) => {
+                    if let Err(e) = writer.append(&judgement) {
+                        let _ = msgs.send(Msg::NotSaved {
+                            subject: judgement.subject,
+                            previous,
+                            error: e.to_string(),
+                        });
+                    }
+                }
+                Write::Skip(text) => {
+                    if let Err(e) = skips.append_text(&text) {
+                        let _ = msgs.send(Msg::SkipNotSaved(e.to_string()));
+                    }
+                }
             }
         }
     });
@@ -88,6 +109,11 @@ fn spawn_input(msgs: mpsc::UnboundedSender<Msg>, resized: mpsc::UnboundedSender<
     std::thread::spawn(move || loop {
         let msg = match crossterm::event::read() {
             Ok(Event::Key(key)) => Msg::Key(key),
+            Ok(Event::Mouse(mouse)) => match mouse.kind {
+                MouseEventKind::ScrollDown => Msg::Wheel(WHEEL_LINES),
+                MouseEventKind::ScrollUp => Msg::Wheel(-WHEEL_LINES),
+                _ => continue,
+            },
             Ok(Event::Resize(w, h)) => {
                 if resized.send((w, h)).is_err() {
                     return;
@@ -193,15 +219,24 @@ async fn run_async(options: Options) -> Result<Outcome, TuiError> {
     };
     spawn_input(msg_tx.clone(), size_tx.clone());
     spawn_signal_watch(size_tx);
-    let (writer, writer_thread) = spawn_writer(options.writer, msg_tx.clone());
+    let size = terminal.size()?;
+    screen.update(Msg::Resize(size.width, size.height));
+    let (writer, writer_thread) = spawn_writer(options.writer, options.skips, msg_tx.clone());
+    let annotator = screen.annotator.clone();
     let mut failures = Vec::new();
     let execute = |cmd: Cmd, failures: &mut Vec<String>| match cmd {
         Cmd::Append {
             judgement,
             previous,
         } => {
-            if writer.send((*judgement, previous)).is_err() {
+            if writer.send(Write::Judgement(judgement, previous)).is_err() {
                 failures.push("the writer stopped; judgements after this were not saved".into());
+            }
+        }
+        Cmd::Skip { subject, skipped } => {
+            let line = skip_line(&subject, &annotator, skipped, unix_now());
+            if writer.send(Write::Skip(line)).is_err() {
+                failures.push("the writer stopped; skips after this were not saved".into());
             }
         }
         Cmd::LoadImage(path) => {
@@ -229,6 +264,7 @@ async fn run_async(options: Options) -> Result<Outcome, TuiError> {
                 Some((0, 0)) | None => break,
                 Some((w, h)) => {
                     terminal.resize(Rect::new(0, 0, w, h))?;
+                    screen.update(Msg::Resize(w, h));
                     continue;
                 }
             },

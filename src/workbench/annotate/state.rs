@@ -18,6 +18,7 @@ use crate::annotate::{Annotations, Judgement, StepLabelKind, Subject, Verdict};
 use crate::dataset::Pair;
 use crate::workbench::keymap::Context;
 use crate::workbench::scene_image::{Encoded, SceneImageError};
+use crate::workbench::scroll::Scroll;
 
 /// The clock as the screen knows it: time since start (for the seconds
 /// spent on an item) and the wall clock (for `at`).
@@ -61,6 +62,13 @@ pub enum Msg {
     ImageReady(PathBuf, Encoded),
     /// The scene image read from this file cannot be drawn on this terminal.
     ImageUndrawable(PathBuf, String),
+    /// A line of the skips file could not be written (file and cause).
+    SkipNotSaved(String),
+    /// The terminal has this size (columns, rows): the screen lays itself
+    /// out for it, and keeps the selected steps in view.
+    Resize(u16, u16),
+    /// The mouse wheel turned this many lines down (+) or up (-).
+    Wheel(isize),
 }
 
 /// What goes out.
@@ -76,6 +84,14 @@ pub enum Cmd {
     },
     /// Read this scene image.
     LoadImage(PathBuf),
+    /// Record in the skips file that this unit is skipped (or, `false`,
+    /// no longer), so that a later sitting still leaves it for last.
+    Skip {
+        /// The item or pair.
+        subject: Subject,
+        /// Skipped, or judged after all.
+        skipped: bool,
+    },
 }
 
 /// The scene image of the unit on screen.
@@ -96,8 +112,35 @@ pub enum Mode {
     Judging,
     /// Writing the note.
     Note(Box<TextArea<'static>>),
-    /// The key list is open; any key closes it.
+    /// The key list is open: the scroll keys scroll it, any other key
+    /// closes it.
     Help,
+}
+
+/// Which list the movement keys move in when the reference plan is shown.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Default)]
+pub enum Focus {
+    /// The plan judged (or both plans of a pair).
+    #[default]
+    Plan,
+    /// The reference plan.
+    Reference,
+}
+
+/// The scroll position of each list of the screen (see
+/// [`crate::workbench::scroll`]).
+#[derive(Debug, Clone, Copy, Default, PartialEq, Eq)]
+pub struct Scrolls {
+    /// The plan rated.
+    pub plan: Scroll,
+    /// The left plan of a pair.
+    pub left: Scroll,
+    /// The right plan of a pair.
+    pub right: Scroll,
+    /// The reference plan.
+    pub reference: Scroll,
+    /// The help.
+    pub help: Scroll,
 }
 
 /// The labels and note being made for the unit on screen.
@@ -125,6 +168,8 @@ pub struct Setup {
     pub guidelines: Guidelines,
     /// The annotations file as it was when the screen opened.
     pub existing: Annotations,
+    /// What this annotator skipped in earlier sittings (the skips file).
+    pub skipped: HashSet<Subject>,
     /// One-line notices to show at start.
     pub notices: Vec<String>,
 }
@@ -148,14 +193,25 @@ pub struct Judging {
     pub pos: usize,
     /// This annotator's current judgements.
     pub current: HashMap<Subject, Verdict>,
-    /// Positions skipped in this sitting.
+    /// Positions skipped, in this sitting or an earlier one.
     pub skipped: HashSet<usize>,
-    /// The judgements that `u` withdraws, last on top.
-    pub(super) undo: Vec<Subject>,
+    /// What `u` undoes, last on top: each judgement line of this annotator
+    /// with the judgement it replaced (`None`: there was none, so undo
+    /// withdraws it).
+    pub(super) undo: Vec<(Subject, Option<Verdict>)>,
     /// The labels and note being made.
     pub draft: Draft,
-    /// The selected step.
+    /// The selected step (of the plan, or of both plans of a pair).
     pub step: usize,
+    /// The selected step of the reference plan.
+    pub reference_step: usize,
+    /// Where the movement keys move.
+    pub focus: Focus,
+    /// How far each list is scrolled.
+    pub scrolls: Scrolls,
+    /// The terminal's size (columns, rows), once known: nothing can be
+    /// judged before the screen knows what it shows.
+    pub size: Option<(u16, u16)>,
     /// Help, note editing or judging.
     pub mode: Mode,
     /// The clock.
@@ -193,14 +249,16 @@ impl Judging {
             .map(|(_, j)| j)
             .filter(|j| j.annotator == setup.annotator)
             .collect();
-        let resolved = crate::annotate::Current::of(mine);
-        let mut current = HashMap::new();
+        // Replaying the lines in order gives what is current and, for each
+        // line, what it replaced: what undo brings back.
+        let mut current: HashMap<Subject, Verdict> = HashMap::new();
         let mut undo = Vec::new();
-        for j in resolved.judgements() {
-            if let Some(v) = &j.verdict {
-                current.insert(j.subject.clone(), v.clone());
-                undo.push(j.subject.clone());
-            }
+        for j in mine {
+            let replaced = match &j.verdict {
+                Some(v) => current.insert(j.subject.clone(), v.clone()),
+                None => current.remove(&j.subject),
+            };
+            undo.push((j.subject.clone(), replaced));
         }
         let mut screen = Judging {
             items: setup.items,
@@ -216,6 +274,10 @@ impl Judging {
             undo,
             draft: Draft::default(),
             step: 0,
+            reference_step: 0,
+            focus: Focus::Plan,
+            scrolls: Scrolls::default(),
+            size: None,
             mode: Mode::Judging,
             clock,
             shown_at: clock.elapsed,
@@ -230,6 +292,13 @@ impl Judging {
             requested: None,
             quit: false,
         };
+        screen.skipped = (0..screen.units.len())
+            .filter(|&p| {
+                screen
+                    .subject(p)
+                    .is_some_and(|s| setup.skipped.contains(&s))
+            })
+            .collect();
         let first = screen.next_unjudged_from(0).unwrap_or(0);
         let cmds = screen.go_to(first);
         if screen.status.is_none() && screen.judged() == screen.units.len() {
@@ -323,6 +392,11 @@ impl Judging {
         self.shown_at = self.clock.elapsed;
         self.pos = pos.min(self.units.len().saturating_sub(1));
         self.step = 0;
+        self.reference_step = 0;
+        self.scrolls = Scrolls {
+            help: self.scrolls.help,
+            ..Scrolls::default()
+        };
         self.draft = match self.verdict() {
             Some(v) => Draft {
                 labels: v.step_labels.iter().map(|l| (l.step, l.label)).collect(),
@@ -353,17 +427,25 @@ impl Judging {
     }
 
     /// The key-table contexts of the screen as it is now, the first that
-    /// binds a key winning: Ctrl-C always; in the help nothing else (any
-    /// key closes it); while writing a note, its keys (the rest are typed).
+    /// binds a key winning: Ctrl-C always; in the help its scroll keys (any
+    /// other key closes it); while writing a note, its keys (the rest are
+    /// typed); the reference plan's key when it is shown.
     pub fn contexts(&self) -> Vec<Context> {
         let mut contexts = vec![Context::Always];
         match self.mode {
-            Mode::Help => {}
+            Mode::Help => contexts.push(Context::AnnotateHelp),
             Mode::Note(_) => contexts.push(Context::AnnotateNote),
-            Mode::Judging if self.pairwise => {
-                contexts.extend([Context::AnnotatePairwise, Context::Annotate]);
+            Mode::Judging => {
+                contexts.push(if self.pairwise {
+                    Context::AnnotatePairwise
+                } else {
+                    Context::AnnotateRating
+                });
+                if self.show_gt {
+                    contexts.push(Context::AnnotateReference);
+                }
+                contexts.push(Context::Annotate);
             }
-            Mode::Judging => contexts.extend([Context::AnnotateRating, Context::Annotate]),
         }
         contexts
     }

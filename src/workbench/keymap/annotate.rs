@@ -3,12 +3,29 @@
 
 use crossterm::event::KeyCode;
 
-use super::row::{bind, ch, hinted, key, MOVE_KEYS};
-use super::{Action, Binding, Context};
+use super::row::{bind, ch, hinted, key};
+use super::{Action, Binding, Context, Key};
 use crate::annotate::{Preference, StepLabelKind};
 
 use Action as A;
 use Context as C;
+
+/// The keys that move through a list or scroll a text: a line with ↑↓ j k,
+/// a page with PgUp PgDn, the ends with Home End (read by
+/// [`crate::workbench::scroll::Motion::of_move`]).
+const SCROLL_KEYS: &[(Key, Action)] = &[
+    (key(KeyCode::Up), A::Move(-1)),
+    (key(KeyCode::Down), A::Move(1)),
+    (ch('k'), A::Move(-1)),
+    (ch('j'), A::Move(1)),
+    (key(KeyCode::PageUp), A::Move(-10)),
+    (key(KeyCode::PageDown), A::Move(10)),
+    (key(KeyCode::Home), A::Move(isize::MIN)),
+    (key(KeyCode::End), A::Move(isize::MAX)),
+];
+
+/// How the help shows [`SCROLL_KEYS`].
+const SCROLL_LABEL: &str = "↑↓ j k, PgUp PgDn, Home End";
 
 /// Every binding of the annotation screen.
 pub(super) const ANNOTATE: &[Binding] = &[
@@ -61,18 +78,28 @@ pub(super) const ANNOTATE: &[Binding] = &[
     hinted(
         bind(
             C::AnnotateRating,
-            MOVE_KEYS,
-            "↓ j, ↑ k",
-            "select the next or previous step",
+            SCROLL_KEYS,
+            SCROLL_LABEL,
+            "select a step; a long plan scrolls to it, a long step scrolls inside itself (also the mouse wheel)",
         ),
         "↑↓",
         "step",
+    ),
+    hinted(
+        bind(
+            C::AnnotatePairwise,
+            SCROLL_KEYS,
+            SCROLL_LABEL,
+            "move through the steps of both plans; long plans scroll (also the mouse wheel)",
+        ),
+        "↑↓",
+        "steps",
     ),
     bind(
         C::AnnotateRating,
         &[(ch('o'), A::Label(StepLabelKind::Ok))],
         "o",
-        "label the step: ok",
+        "label the step: ok. Every label moves the selection on to the next step; the same label again takes it off",
     ),
     hinted(
         bind(
@@ -159,7 +186,7 @@ pub(super) const ANNOTATE: &[Binding] = &[
             C::Annotate,
             &[(ch('s'), A::SkipItem)],
             "s",
-            "skip: leave this one for later",
+            "skip: leave this one for last (kept for the next sitting too)",
         ),
         "s",
         "skip",
@@ -169,7 +196,7 @@ pub(super) const ANNOTATE: &[Binding] = &[
             C::Annotate,
             &[(ch('u'), A::Undo)],
             "u",
-            "undo the last judgement (it is withdrawn)",
+            "undo the last change you saved: what was there before comes back (a first judgement is withdrawn)",
         ),
         "u",
         "undo",
@@ -188,6 +215,22 @@ pub(super) const ANNOTATE: &[Binding] = &[
         ),
         "q",
         "quit",
+    ),
+    hinted(
+        bind(
+            C::AnnotateReference,
+            &[(ch('g'), A::NextPane)],
+            "g",
+            "move in the reference plan (the keys above then scroll it), or back in the plan",
+        ),
+        "g",
+        "reference",
+    ),
+    bind(
+        C::AnnotateHelp,
+        SCROLL_KEYS,
+        "↑↓ j k, PgUp PgDn, Home End (help)",
+        "scroll this help (also the mouse wheel); any other key closes it",
     ),
     hinted(
         bind(

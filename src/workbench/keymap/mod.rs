@@ -54,6 +54,10 @@ pub enum Context {
     AnnotatePairwise,
     /// Writing a note on the annotation screen.
     AnnotateNote,
+    /// The annotation screen showing the reference plan.
+    AnnotateReference,
+    /// The annotation screen's help, open.
+    AnnotateHelp,
 }
 
 impl Context {
@@ -81,6 +85,8 @@ impl Context {
                 | Context::AnnotateRating
                 | Context::AnnotatePairwise
                 | Context::AnnotateNote
+                | Context::AnnotateReference
+                | Context::AnnotateHelp
         )
     }
 
