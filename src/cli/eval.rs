@@ -49,6 +49,9 @@ pub struct EvalArgs {
     /// Model settings for PG2S.
     #[command(flatten)]
     pub models: super::ModelArgs,
+    /// The PG2S thresholds and weight.
+    #[command(flatten)]
+    pub pg2s: super::Pg2sArgs,
     /// Provider batch options.
     #[command(flatten)]
     pub batch: BatchArgs,
@@ -87,6 +90,10 @@ pub struct TaskResult {
     pub s_goal: Option<f64>,
     /// PG2S.
     pub pg2s: Option<f64>,
+    /// The PG2S settings the scores were computed with (absent in results
+    /// written before they were recorded: those used the defaults).
+    #[serde(default)]
+    pub pg2s_settings: Option<Pg2sSettings>,
     /// The whole run, when a model made the plan.
     pub record: Option<PlanRecord>,
     /// Tokens and cost of the run that made the plan, per agent.
@@ -163,7 +170,7 @@ pub fn run(args: &EvalArgs) -> anyhow::Result<ExitCode> {
         {
             let file = tasks_dir.join(result_file(&task.id, approach, sample));
             match read_result(&file) {
-                Some(result) if result.pg2s_scored || scorer.is_none() => done.results.push(result),
+                Some(result) if scored_as(&result, scorer.as_deref()) => done.results.push(result),
                 Some(planned) => done.add(&file, planned),
                 None if args.from_dataset_plans => match task.plans.get(approach.dataset_field()) {
                     Some(steps) => {
@@ -249,7 +256,7 @@ fn pg2s_scorer(args: &EvalArgs) -> anyhow::Result<Option<Arc<Pg2sScorer>>> {
     }
     match super::load_scorer(
         &args.models.with_no_cache(args.agents.no_cache),
-        Pg2sSettings::default(),
+        args.pg2s.settings()?,
         &super::say,
         &crate::models::Progress::stderr(),
     ) {
@@ -260,6 +267,14 @@ fn pg2s_scorer(args: &EvalArgs) -> anyhow::Result<Option<Arc<Pg2sScorer>>> {
         }
         Err(err) => Err(err),
     }
+}
+
+/// Whether a result read back needs no scoring again: PG2S is not asked
+/// for, or it was computed with the settings asked for now.
+fn scored_as(result: &TaskResult, scorer: Option<&Pg2sScorer>) -> bool {
+    scorer.is_none_or(|s| {
+        result.pg2s_scored && result.pg2s_settings.unwrap_or_default() == s.settings()
+    })
 }
 
 fn has_input(task: &Task, approach: Approach) -> bool {
@@ -290,6 +305,7 @@ fn new_result(
         s_plan: None,
         s_goal: None,
         pg2s: None,
+        pg2s_settings: None,
         sample: record.as_ref().map_or(0, |r| r.sample),
         record,
         cost: None,
@@ -308,6 +324,7 @@ fn score(result: &mut TaskResult, scorer: Option<&Pg2sScorer>) -> anyhow::Result
         result.s_goal = report.s_goal();
         result.pg2s = report.pg2s();
         result.pg2s_scored = true;
+        result.pg2s_settings = Some(report.settings);
     }
     Ok(())
 }
@@ -772,6 +789,7 @@ mod tests {
             s_plan: Some(pg2s + 0.1),
             s_goal: Some(pg2s - 0.1),
             pg2s: Some(pg2s),
+            pg2s_settings: None,
             record: None,
             cost: None,
             sample,
