@@ -66,6 +66,10 @@ pub struct AgreeArgs {
     /// Model settings, for scoring the items without --scores.
     #[command(flatten)]
     pub models: super::ModelArgs,
+    /// The PG2S thresholds and weight: the items are scored with them, or
+    /// the --scores file must have been made with them.
+    #[command(flatten)]
+    pub pg2s: super::Pg2sArgs,
 }
 
 /// Runs `mapvlm agree`.
@@ -78,21 +82,23 @@ pub fn run(args: &AgreeArgs) -> anyhow::Result<ExitCode> {
             bail!("{flag} {n} is more than {MAX_RESAMPLES}; ask for fewer");
         }
     }
+    let pg2s = args.pg2s.settings()?;
     let mut bad_lines = 0usize;
     let mut items = read_items(args, &mut bad_lines)?;
     let scores = match &args.scores {
         Some(path) => {
-            let (scores, errors) = load_scores(path)?;
-            for e in &errors {
+            let loaded = load_scores(path)?;
+            loaded.check_settings(path, pg2s)?;
+            for e in &loaded.errors {
                 eprintln!(
                     "mapvlm: {}; that line was skipped",
                     crate::sanitize::for_terminal(&e.to_string())
                 );
             }
-            bad_lines += errors.len();
-            scores
+            bad_lines += loaded.errors.len();
+            loaded.values
         }
-        None => super::score::metric_values(&mut items, &args.models)?,
+        None => super::score::metric_values(&mut items, &args.models, pg2s)?,
     };
     let judged = if args.annotations.is_empty() {
         None

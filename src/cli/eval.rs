@@ -56,6 +56,9 @@ pub struct EvalArgs {
     /// Model settings for PG2S.
     #[command(flatten)]
     pub models: super::ModelArgs,
+    /// The PG2S thresholds and weight.
+    #[command(flatten)]
+    pub pg2s: super::Pg2sArgs,
     /// Provider batch options.
     #[command(flatten)]
     pub batch: BatchArgs,
@@ -123,7 +126,7 @@ pub fn run(args: &EvalArgs) -> anyhow::Result<ExitCode> {
         args.approaches.clone()
     };
     let prompt_set = args.agents.prompt_set()?;
-    let settings = Pg2sSettings::default();
+    let settings = args.pg2s.settings()?;
     let scorer = pg2s_scorer(args, settings)?;
     let (encoder, word_vectors) = match scorer {
         Some(_) => args.models.stamps()?,

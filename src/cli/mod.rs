@@ -194,6 +194,37 @@ fn file_sha256(path: &Path) -> anyhow::Result<String> {
         .map_err(|err| anyhow::anyhow!("{}: cannot be read ({err})", path.display()))
 }
 
+/// The PG2S thresholds and weight, the same flags on every command that
+/// scores (`score`, `eval`, `agree`, the workbench), so that their scores
+/// can be compared.
+#[derive(Debug, Clone, Copy, Args)]
+pub struct Pg2sArgs {
+    /// A sentence match needs a cosine strictly above this (-1 to 1).
+    #[arg(long, allow_negative_numbers = true, value_name = "COSINE", default_value_t = Pg2sSettings::default().sentence_threshold)]
+    pub sentence_threshold: f64,
+    /// A verb match needs a similarity above this; nouns agree at or above it (-1 to 1).
+    #[arg(long, allow_negative_numbers = true, value_name = "COSINE", default_value_t = Pg2sSettings::default().word_threshold)]
+    pub word_threshold: f64,
+    /// The weight of S_goal in PG2S: (1 - alpha) S_plan + alpha S_goal (0 to 1).
+    #[arg(long, allow_negative_numbers = true, value_name = "WEIGHT", default_value_t = Pg2sSettings::default().alpha)]
+    pub alpha: f64,
+}
+
+impl Pg2sArgs {
+    /// The settings of these flags, or which flag is out of range and why.
+    pub fn settings(&self) -> anyhow::Result<Pg2sSettings> {
+        use crate::metrics::pg2s::Pg2sSetting;
+        Pg2sSettings::new(self.sentence_threshold, self.word_threshold, self.alpha).map_err(|e| {
+            let flag = match e.setting {
+                Pg2sSetting::SentenceThreshold => "--sentence-threshold",
+                Pg2sSetting::WordThreshold => "--word-threshold",
+                Pg2sSetting::Alpha => "--alpha",
+            };
+            anyhow::anyhow!("{flag}: {e}")
+        })
+    }
+}
+
 /// Which share of the work this process does, for job arrays (see [`crate::shard`]).
 #[derive(Debug, Clone, Args)]
 pub struct ShardArgs {

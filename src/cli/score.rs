@@ -49,28 +49,12 @@ pub struct ScoreArgs {
     /// Neither read nor write any cache (here: the embedding cache).
     #[arg(long)]
     pub no_cache: bool,
-    /// A sentence match needs a cosine strictly above this.
-    #[arg(long, allow_negative_numbers = true, default_value_t = Pg2sSettings::default().sentence_threshold)]
-    pub sentence_threshold: f64,
-    /// A verb match needs a similarity above this; nouns agree at or above it.
-    #[arg(long, allow_negative_numbers = true, default_value_t = Pg2sSettings::default().word_threshold)]
-    pub word_threshold: f64,
-    /// The weight of S_goal in PG2S.
-    #[arg(long, allow_negative_numbers = true, default_value_t = Pg2sSettings::default().alpha)]
-    pub alpha: f64,
+    /// The PG2S thresholds and weight.
+    #[command(flatten)]
+    pub pg2s: super::Pg2sArgs,
     /// Which pairs of `--pairs` this process scores.
     #[command(flatten)]
     pub shard: super::ShardArgs,
-}
-
-impl ScoreArgs {
-    fn settings(&self) -> Pg2sSettings {
-        Pg2sSettings {
-            sentence_threshold: self.sentence_threshold,
-            word_threshold: self.word_threshold,
-            alpha: self.alpha,
-        }
-    }
 }
 
 /// One pair's scores.
@@ -82,17 +66,7 @@ struct Scored<'a> {
 
 /// Runs `mapvlm score`.
 pub fn run(args: &ScoreArgs) -> anyhow::Result<ExitCode> {
-    if !(0.0..=1.0).contains(&args.alpha) {
-        bail!("--alpha {} is outside 0..=1", args.alpha);
-    }
-    for (flag, value) in [
-        ("--sentence-threshold", args.sentence_threshold),
-        ("--word-threshold", args.word_threshold),
-    ] {
-        if !(-1.0..=1.0).contains(&value) {
-            bail!("{flag} {value} is outside -1..=1 (a cosine similarity)");
-        }
-    }
+    let settings = args.pg2s.settings()?;
     let shard = args.shard.shard()?;
     if args.shard.shard.is_some() && args.pairs.is_none() {
         bail!("--shard splits a pairs file: give --pairs FILE");
@@ -101,7 +75,7 @@ pub fn run(args: &ScoreArgs) -> anyhow::Result<ExitCode> {
     let scorer = if args.metrics.contains(&Metric::Pg2s) {
         Some(super::load_scorer(
             &args.models.with_no_cache(args.no_cache),
-            args.settings(),
+            settings,
             &super::say,
             &crate::models::Progress::stderr(),
         )?)
@@ -190,18 +164,19 @@ fn score_chunk(
 }
 
 /// The four metric values of every item (in the order of
-/// [`crate::agree::METRICS`]), scored with the model pack and the default
-/// settings, for `agree` without `--scores`.
+/// [`crate::agree::METRICS`]), scored with the model pack and `settings`,
+/// for `agree` without `--scores`.
 pub(super) fn metric_values(
     items: &mut [Pair],
     models: &super::ModelArgs,
+    settings: Pg2sSettings,
 ) -> anyhow::Result<HashMap<String, MetricValues>> {
     for item in items.iter_mut() {
         bound_pair(item);
     }
     let scorer = super::load_scorer(
         models,
-        Pg2sSettings::default(),
+        settings,
         &super::say,
         &crate::models::Progress::stderr(),
     )?;
@@ -305,6 +280,7 @@ fn to_json(s: &Scored) -> Value {
         obj["s_plan"] = json!(p.s_plan);
         obj["s_goal"] = json!(p.s_goal());
         obj["pg2s"] = json!(p.pg2s());
+        obj["pg2s_settings"] = json!(p.settings);
         obj["sentence_matches"] = p
             .sentence_matches
             .iter()

@@ -15,7 +15,6 @@ use crate::agents::pipeline::MAX_SAMPLES;
 use crate::agents::prompts::PromptSet;
 use crate::agents::replay::Pace;
 use crate::corrupt::{user_vocabulary_dir, Vocabulary};
-use crate::metrics::pg2s::Pg2sSettings;
 use crate::workbench::agents::{prompt_texts, AgentsPipeline, ProviderConfig};
 use crate::workbench::corrupting::{CorruptError, CorruptionModels};
 use crate::workbench::scoring::{LoadError, Loaded};
@@ -55,6 +54,9 @@ pub struct TuiArgs {
     /// Model settings shared with the other model-backed commands.
     #[command(flatten)]
     pub models: super::ModelArgs,
+    /// The PG2S thresholds and weight the plans are scored with.
+    #[command(flatten)]
+    pub pg2s: super::Pg2sArgs,
 }
 
 /// Runs the workbench.
@@ -87,6 +89,7 @@ pub fn run(args: TuiArgs) -> anyhow::Result<ExitCode> {
     )
     .context("the workbench cannot start")?;
     let models = args.models;
+    let settings = args.pg2s.settings()?;
     let options = Options {
         samples: args.samples,
         dataset: args.dataset,
@@ -96,7 +99,7 @@ pub fn run(args: TuiArgs) -> anyhow::Result<ExitCode> {
             progress("loading the models".to_string());
             let (scorer, parser, vectors) = super::load_models(
                 &models,
-                Pg2sSettings::default(),
+                settings,
                 progress,
                 &crate::models::Progress::hidden(),
             )

@@ -10,7 +10,8 @@ use serde::{Deserialize, Serialize};
 use super::{FramingParser, ModelError, SentenceEncoder, WordVectors};
 use crate::nlp::Token;
 
-/// The thresholds and weight of PG2S.
+/// The thresholds and weight of PG2S. Settings from outside (flags, files)
+/// are made with [`Pg2sSettings::new`], which refuses values out of range.
 #[derive(Debug, Clone, Copy, PartialEq, Serialize, Deserialize)]
 pub struct Pg2sSettings {
     /// A sentence match needs a cosine strictly above this.
@@ -29,6 +30,98 @@ impl Default for Pg2sSettings {
             word_threshold: 0.708,
             alpha: 0.5,
         }
+    }
+}
+
+impl std::fmt::Display for Pg2sSettings {
+    /// The settings in words, for messages that compare two of them.
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        write!(
+            f,
+            "settings (sentence threshold {}, word threshold {}, alpha {})",
+            self.sentence_threshold, self.word_threshold, self.alpha
+        )
+    }
+}
+
+/// One of the three numbers of [`Pg2sSettings`], to say which was refused.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub enum Pg2sSetting {
+    /// [`Pg2sSettings::sentence_threshold`].
+    SentenceThreshold,
+    /// [`Pg2sSettings::word_threshold`].
+    WordThreshold,
+    /// [`Pg2sSettings::alpha`].
+    Alpha,
+}
+
+impl Pg2sSetting {
+    /// The range the setting must lie in (bounds included), and what the
+    /// number is, for the message that refuses it.
+    pub fn range(self) -> (f64, f64, &'static str) {
+        match self {
+            Self::SentenceThreshold | Self::WordThreshold => (-1.0, 1.0, "a cosine similarity"),
+            Self::Alpha => (0.0, 1.0, "the weight of S_goal"),
+        }
+    }
+}
+
+impl std::fmt::Display for Pg2sSetting {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        f.write_str(match self {
+            Self::SentenceThreshold => "sentence threshold",
+            Self::WordThreshold => "word threshold",
+            Self::Alpha => "alpha",
+        })
+    }
+}
+
+/// A PG2S setting outside its range (NaN included): which, and its value.
+#[derive(Debug, Clone, Copy, PartialEq, thiserror::Error)]
+#[error(
+    "the PG2S {setting} {value} is outside {}..={} ({}): give a value in that range",
+    setting.range().0,
+    setting.range().1,
+    setting.range().2
+)]
+pub struct Pg2sSettingsError {
+    /// The setting refused.
+    pub setting: Pg2sSetting,
+    /// Its value.
+    pub value: f64,
+}
+
+impl Pg2sSettings {
+    /// The settings, once each number is known to lie in its range
+    /// ([`Pg2sSetting::range`]); the first that does not is refused.
+    pub fn new(
+        sentence_threshold: f64,
+        word_threshold: f64,
+        alpha: f64,
+    ) -> Result<Self, Pg2sSettingsError> {
+        let settings = Self {
+            sentence_threshold,
+            word_threshold,
+            alpha,
+        };
+        settings.validate()?;
+        Ok(settings)
+    }
+
+    /// Checks that every number lies in its range; settings built field by
+    /// field, or read from a file, are checked with this before use.
+    pub fn validate(&self) -> Result<(), Pg2sSettingsError> {
+        for (setting, value) in [
+            (Pg2sSetting::SentenceThreshold, self.sentence_threshold),
+            (Pg2sSetting::WordThreshold, self.word_threshold),
+            (Pg2sSetting::Alpha, self.alpha),
+        ] {
+            let (low, high, _) = setting.range();
+            if !(low..=high).contains(&value) {
+                return Err(Pg2sSettingsError { setting, value });
+            }
+        }
+        Ok(())
     }
 }
 
@@ -389,6 +482,35 @@ impl Pg2sScorer {
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    #[test]
+    fn settings_out_of_range_are_refused_naming_the_setting() {
+        assert_eq!(
+            Pg2sSettings::new(0.675, 0.708, 0.5),
+            Ok(Pg2sSettings::default())
+        );
+        assert!(
+            Pg2sSettings::new(-1.0, 1.0, 0.0).is_ok(),
+            "bounds are allowed"
+        );
+        let refused = |s: f64, w: f64, a: f64| Pg2sSettings::new(s, w, a).unwrap_err().setting;
+        assert_eq!(refused(f64::NAN, 0.7, 0.5), Pg2sSetting::SentenceThreshold);
+        assert_eq!(refused(0.7, 7.0, 0.5), Pg2sSetting::WordThreshold);
+        assert_eq!(refused(0.7, 0.7, -1.0), Pg2sSetting::Alpha);
+        let message = Pg2sSettings::new(0.7, 0.7, 1.5).unwrap_err().to_string();
+        assert_eq!(
+            message,
+            "the PG2S alpha 1.5 is outside 0..=1 (the weight of S_goal): give a value in that range"
+        );
+        let built = Pg2sSettings {
+            word_threshold: -1.01,
+            ..Pg2sSettings::default()
+        };
+        assert_eq!(
+            built.validate().unwrap_err().setting,
+            Pg2sSetting::WordThreshold
+        );
+    }
 
     struct Table(Vec<(&'static str, Vec<f32>)>);
 

@@ -278,3 +278,63 @@ fn without_annotations_only_the_corruption_table_is_reported() {
         text(&out.stderr)
     );
 }
+
+#[test]
+fn the_pg2s_flags_score_the_items_as_score_does_and_other_settings_are_refused() {
+    let dir = tempfile::tempdir().unwrap_or_else(|e| panic!("{e}"));
+    let (items, annotations) = (golden("items.jsonl"), golden("annotations.jsonl"));
+    let scores = dir.path().join("scores.jsonl");
+    let scored = mapvlm(&[
+        "score",
+        "--pairs",
+        &items,
+        "--json",
+        "--sentence-threshold",
+        "0.7",
+    ]);
+    assert!(scored.status.success(), "{}", text(&scored.stderr));
+    std::fs::write(&scores, &scored.stdout).unwrap_or_else(|e| panic!("{e}"));
+    let scores = scores.to_string_lossy().into_owned();
+    let agree = |extra: &[&str]| {
+        let mut args = vec![
+            "agree",
+            "--items",
+            &items,
+            "--annotations",
+            &annotations,
+            "--json",
+            "--bootstrap",
+            "50",
+            "--permutations",
+            "50",
+        ];
+        args.extend_from_slice(extra);
+        mapvlm(&args)
+    };
+    let now = agree(&["--sentence-threshold", "0.7"]);
+    assert!(now.status.success(), "{}", text(&now.stderr));
+    let from_file = agree(&["--sentence-threshold", "0.7", "--scores", &scores]);
+    assert!(from_file.status.success(), "{}", text(&from_file.stderr));
+    assert_eq!(
+        text(&now.stdout),
+        text(&from_file.stdout),
+        "agree scores the items with the flag exactly as score does"
+    );
+    let defaults = agree(&[]);
+    assert!(defaults.status.success(), "{}", text(&defaults.stderr));
+    assert_ne!(
+        text(&defaults.stdout),
+        text(&now.stdout),
+        "the threshold changes the agreement"
+    );
+
+    let refused = agree(&["--scores", &scores]);
+    common::assert_one_line_failure(&refused, "scores.jsonl:1:");
+    assert!(
+        text(&refused.stderr).contains("sentence threshold 0.7"),
+        "{}",
+        text(&refused.stderr)
+    );
+    let unrecorded = agree(&["--scores", &golden("scores.jsonl"), "--alpha", "0.4"]);
+    common::assert_one_line_failure(&unrecorded, "do not record their PG2S settings");
+}

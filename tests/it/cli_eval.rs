@@ -317,16 +317,7 @@ fn no_cache_turns_the_embedding_cache_off_too() {
     };
     for (out, extra) in [("uncached", Some("--no-cache")), ("cached", None)] {
         let out = home.path().join(out);
-        let mut args = vec![
-            "eval",
-            "--dataset",
-            data.to_str().unwrap(),
-            "--from-dataset-plans",
-            "--metrics",
-            "kas,pg2s",
-            "--out",
-            out.to_str().unwrap(),
-        ];
+        let mut args = dataset_plans_args(&data, &out, &["--metrics", "kas,pg2s"]);
         args.extend(extra);
         let run = mapvlm_command(&args, home.path())
             .env("MAPVLM_MODELS", &pack)
@@ -395,4 +386,93 @@ async fn eval_samples_are_written_one_file_each_and_a_rerun_asks_only_for_missin
     )
     .unwrap();
     assert_eq!(manifest["results"].as_array().unwrap().len(), 6);
+}
+
+/// `eval` of the published plans of `data` into `out`, with `extra` flags.
+fn dataset_plans_args<'a>(data: &'a Path, out: &'a Path, extra: &[&'a str]) -> Vec<&'a str> {
+    let mut args = vec![
+        "eval",
+        "--dataset",
+        data.to_str().unwrap(),
+        "--from-dataset-plans",
+        "--out",
+        out.to_str().unwrap(),
+    ];
+    args.extend_from_slice(extra);
+    args
+}
+
+/// The results of an eval output folder by file name.
+fn results_of(out: &Path) -> std::collections::BTreeMap<String, Value> {
+    std::fs::read_dir(out.join("tasks"))
+        .unwrap()
+        .map(|e| {
+            let path = e.unwrap().path();
+            let name = path.file_name().unwrap().to_string_lossy().into_owned();
+            (
+                name,
+                serde_json::from_slice(&std::fs::read(&path).unwrap()).unwrap(),
+            )
+        })
+        .collect()
+}
+
+#[test]
+fn the_pg2s_flags_change_the_scores_as_score_does_and_a_resume_with_others_is_refused() {
+    let home = tempfile::tempdir().unwrap();
+    let (out, raised_out) = (home.path().join("eval"), home.path().join("raised"));
+    let dataset = common::shared().join("data/alfred30");
+    let eval = |out: &Path, extra: &[&str]| {
+        let mut args = dataset_plans_args(&dataset, out, &["--approaches", "multi-image"]);
+        args.extend_from_slice(extra);
+        common::mapvlm(&args)
+    };
+    let run = eval(&out, &[]);
+    assert!(run.status.success(), "{}", common::stderr(&run));
+    let defaults = results_of(&out);
+    assert_eq!(defaults.len(), 30);
+    // The folder was scored with the defaults: resuming it with another
+    // threshold would mix two settings, so it is refused, naming them.
+    let mixed = eval(&out, &["--sentence-threshold", "0.7"]);
+    let err = common::stderr(&mixed);
+    assert!(!mixed.status.success() && err.contains("pg2s"), "{err}");
+    let run = eval(&raised_out, &["--sentence-threshold", "0.7"]);
+    assert!(run.status.success(), "{}", common::stderr(&run));
+    let raised = results_of(&raised_out);
+
+    let mut pairs = String::new();
+    for (name, result) in &raised {
+        let pair =
+            serde_json::json!({"id": name, "gt": result["ground_truth"], "pred": result["steps"]});
+        pairs.push_str(&format!("{pair}\n"));
+        assert_eq!(
+            result["provenance"]["pg2s_settings"]["sentence_threshold"], 0.7,
+            "{name}"
+        );
+    }
+    let pairs_file = home.path().join("pairs.jsonl");
+    std::fs::write(&pairs_file, pairs).unwrap();
+    let scored = common::mapvlm(&[
+        "score",
+        "--pairs",
+        pairs_file.to_str().unwrap(),
+        "--json",
+        "--sentence-threshold",
+        "0.7",
+    ]);
+    assert!(scored.status.success(), "{}", common::stderr(&scored));
+    let mut changed = 0;
+    for line in String::from_utf8_lossy(&scored.stdout).lines() {
+        let score: Value = serde_json::from_str(line).unwrap();
+        let name = score["id"].as_str().unwrap();
+        let result = &raised[name];
+        for field in ["s_plan", "s_goal", "pg2s"] {
+            assert_eq!(result[field], score[field], "{name} {field}: eval as score");
+        }
+        changed += usize::from(defaults[name]["s_plan"] != result["s_plan"]);
+    }
+    assert!(
+        changed > 0,
+        "another threshold gives other scores: some S_plan moves"
+    );
 }

@@ -406,3 +406,28 @@ fn rust_log_trace_writes_nothing_over_the_screen_and_events_go_to_the_log_file()
         );
     }
 }
+
+#[test]
+fn the_workbench_weighs_pg2s_with_the_alpha_flag() {
+    let dir = tempfile::tempdir().unwrap();
+    let session = dir.path().join("session.json");
+    let tmux = start_with("pg2s-flags", dir.path(), &session, "--halfblocks --alpha 1");
+    let screen = tmux.wait_for(E2E, "the demo's scores", |s| {
+        s.contains("run 1 finished")
+            && ["PG2S", "S_plan", "S_goal"]
+                .iter()
+                .all(|name| score_on(s, name).is_some())
+    });
+    let (pg2s, s_plan, s_goal) = (
+        score_on(&screen, "PG2S"),
+        score_on(&screen, "S_plan"),
+        score_on(&screen, "S_goal"),
+    );
+    assert_ne!(s_plan, s_goal, "the weight matters for the demo:\n{screen}");
+    assert_eq!(
+        pg2s, s_goal,
+        "with --alpha 1, PG2S is S_goal alone:\n{screen}"
+    );
+    tmux.keys(E2E, &["q"]);
+    assert_eq!(exit_status(dir.path()), "0");
+}
