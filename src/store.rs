@@ -183,11 +183,17 @@ impl DiskStore {
         let now = SystemTime::now();
         for shard in shards {
             let shard = shard?;
-            if !shard.file_type()?.is_dir() {
+            let shard_name = shard.file_name().to_string_lossy().into_owned();
+            if !shard.file_type()?.is_dir() || !is_shard_name(&shard_name) {
                 continue;
             }
             for entry in std::fs::read_dir(shard.path())? {
                 let entry = entry?;
+                let name = entry.file_name().to_string_lossy().into_owned();
+                let temporary = name.starts_with(TEMP_PREFIX);
+                if !temporary && !is_entry_name(&shard_name, &name) {
+                    continue; // not ours: never counted, never removed
+                }
                 let Ok(meta) = entry.metadata() else {
                     continue; // removed by another process meanwhile
                 };
@@ -210,6 +216,20 @@ impl DiskStore {
         }
         Ok((found, stale))
     }
+}
+
+/// Whether `name` is a shard folder's: two lowercase hex digits.
+fn is_shard_name(name: &str) -> bool {
+    name.len() == 2 && name.bytes().all(|b| matches!(b, b'0'..=b'9' | b'a'..=b'f'))
+}
+
+/// Whether `name` in shard `shard` is an entry's: 64 lowercase hex digits
+/// starting with the shard's two (the response cache adds `.json`).
+fn is_entry_name(shard: &str, name: &str) -> bool {
+    let stem = name.strip_suffix(".json").unwrap_or(name);
+    stem.len() == 64
+        && stem.starts_with(shard)
+        && stem.bytes().all(|b| matches!(b, b'0'..=b'9' | b'a'..=b'f'))
 }
 
 /// Marks the entry at `path` as just used, unless it was used within
@@ -266,6 +286,32 @@ mod tests {
                 bytes: 3
             }
         );
+    }
+
+    #[test]
+    fn clear_removes_only_entries() {
+        let dir = tempfile::tempdir().unwrap_or_else(|e| panic!("{e}"));
+        let store = DiskStore::new(dir.path(), DEFAULT_MAX_BYTES);
+        store.put(&key(1), b"abc").unwrap_or_else(|e| panic!("{e}"));
+        let entry = key(1).hex();
+        let shard = dir.path().join(&entry[..2]);
+        let theirs = [
+            dir.path().join("sub/a.bin"),
+            shard.join("notes.txt"),
+            shard.join(format!("{}.bak", &entry)),
+            dir.path().join("zz").join(&entry),
+        ];
+        for file in &theirs {
+            let parent = file.parent().unwrap_or_else(|| panic!("a parent"));
+            std::fs::create_dir_all(parent).unwrap_or_else(|e| panic!("{e}"));
+            std::fs::write(file, b"keep").unwrap_or_else(|e| panic!("{e}"));
+        }
+        let removed = store.clear().unwrap_or_else(|e| panic!("{e}"));
+        assert_eq!(removed.entries, 1);
+        assert!(!shard.join(&entry).exists());
+        for file in &theirs {
+            assert!(file.exists(), "{} was kept", file.display());
+        }
     }
 
     #[test]

@@ -748,7 +748,15 @@ impl Runner {
             .filter(|_| matches!(self.source, Source::Live))
         {
             if let Err(err) = cache.put(&answer) {
-                tracing::warn!(%err, "could not write the response cache");
+                // Said once a run: a read-only cache fails every answer alike.
+                static SAID: std::sync::atomic::AtomicBool =
+                    std::sync::atomic::AtomicBool::new(false);
+                if !SAID.swap(true, std::sync::atomic::Ordering::Relaxed) {
+                    tracing::warn!(
+                        "the response cache {} cannot be written ({err}); this run's answers are not kept",
+                        cache.dir().display()
+                    );
+                }
             }
         }
         if let Some(recorder) = &self.recorder {

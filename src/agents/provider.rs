@@ -154,6 +154,9 @@ impl HttpEndpoint {
         settings: HttpSettings,
     ) -> Result<Self, AgentError> {
         let client = reqwest::Client::builder()
+            // A redirect would send the prompt and image to another origin
+            // (a POST may even become a GET): it is named, never followed.
+            .redirect(reqwest::redirect::Policy::none())
             .connect_timeout(settings.connect_timeout)
             .timeout(settings.total_timeout)
             .build()
@@ -171,9 +174,19 @@ impl HttpEndpoint {
         })
     }
 
-    /// The full URL of `path` under the base URL.
+    /// The full URL of `path` under the base URL; a query string of the
+    /// base URL (`?api-version=…`) is kept after the path.
     pub fn url(&self, path: &str) -> String {
-        format!("{}/{}", self.base_url, path.trim_start_matches('/'))
+        let (base, query) = match self.base_url.split_once('?') {
+            Some((base, query)) => (base.trim_end_matches('/'), Some(query)),
+            None => (self.base_url.as_str(), None),
+        };
+        let mut url = format!("{base}/{}", path.trim_start_matches('/'));
+        if let Some(query) = query {
+            url.push('?');
+            url.push_str(query);
+        }
+        url
     }
 
     /// An unreadable-answer error for this provider, the key removed.
@@ -217,6 +230,21 @@ impl HttpEndpoint {
             let status = response.status();
             if status.is_success() {
                 return self.not_a_web_page(response);
+            }
+            if status.is_redirection() {
+                let to = response
+                    .headers()
+                    .get(reqwest::header::LOCATION)
+                    .map(|v| String::from_utf8_lossy(v.as_bytes()).into_owned())
+                    .unwrap_or_else(|| "nowhere said".into());
+                return Err(AgentError::Http {
+                    provider: self.provider,
+                    status: status.as_u16(),
+                    message: format!(
+                        "a redirect to {}: redirects are not followed, so the prompt and image go nowhere else; set the base URL to where the API is",
+                        shorten(&crate::sanitize::for_terminal(&self.redact(&to)), 200)
+                    ),
+                });
             }
             if status == StatusCode::UNAUTHORIZED || status == StatusCode::FORBIDDEN {
                 return Err(AgentError::KeyRefused {

@@ -3,6 +3,7 @@
 
 use std::process::ExitCode;
 
+use anyhow::Context;
 use clap::{Args, Subcommand, ValueEnum};
 use serde_json::json;
 
@@ -81,7 +82,7 @@ pub fn run(args: &CacheArgs) -> anyhow::Result<ExitCode> {
         CacheAction::Stats { json } => {
             let mut report = serde_json::Map::new();
             for (name, store) in &caches {
-                let stats = store.stats()?;
+                let stats = store.stats().with_context(|| in_cache(name, store))?;
                 if *json {
                     report.insert(
                         (*name).into(),
@@ -97,19 +98,29 @@ pub fn run(args: &CacheArgs) -> anyhow::Result<ExitCode> {
         }
         CacheAction::Prune { max_mb } => {
             let (name, store) = &caches[0];
-            let removed = store.prune(max_mb << 20)?;
+            let removed = store
+                .prune(max_mb << 20)
+                .with_context(|| in_cache(name, store))?;
             println!("{name}: removed {}", describe(removed));
         }
         CacheAction::Clear { which } => {
             for (name, store) in &caches {
                 if which.includes(name) {
-                    let removed = store.clear()?;
+                    let removed = store.clear().with_context(|| in_cache(name, store))?;
                     println!("{name}: removed {}", describe(removed));
                 }
             }
         }
     }
     Ok(ExitCode::SUCCESS)
+}
+
+/// What an error about the cache `name` is about: its folder.
+fn in_cache(name: &str, store: &DiskStore) -> String {
+    format!(
+        "the {name} cache at {}",
+        crate::sanitize::for_terminal(&store.dir().display().to_string())
+    )
 }
 
 /// "N entries, X.Y MB".

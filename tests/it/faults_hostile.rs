@@ -818,3 +818,81 @@ async fn task_ids_are_unique_valid_and_injective_on_disk() {
         "resumed from the old name: {err}"
     );
 }
+
+#[tokio::test(flavor = "multi_thread")]
+async fn a_base_url_keeps_its_query_and_a_redirect_is_named_not_followed() {
+    use wiremock::matchers::{method, path, query_param};
+    let server = MockServer::start().await;
+    wiremock::Mock::given(method("POST"))
+        .and(path("/v1/chat/completions"))
+        .and(query_param("api-version", "2024-06-01"))
+        .respond_with(whole(
+            ProviderKind::Openai,
+            "1. Walk to the sink.\n2. Wash the mug.",
+        ))
+        .mount(&server)
+        .await;
+    let home = tempfile::tempdir().unwrap();
+    let base = format!("{}/v1?api-version=2024-06-01", server.uri());
+    let out = run(
+        plan_args(home.path(), &base, "single-image", &[]),
+        home.path(),
+    )
+    .await;
+    let err = String::from_utf8_lossy(&out.stderr).into_owned();
+    assert!(out.status.success(), "{err}");
+    assert!(String::from_utf8_lossy(&out.stdout).contains("2. Wash the mug."));
+
+    let elsewhere = MockServer::start().await;
+    for status in [302, 307] {
+        let redirecting = MockServer::start().await;
+        let to = format!("{}/v1/chat/completions", elsewhere.uri());
+        let response =
+            wiremock::ResponseTemplate::new(status).insert_header("location", to.as_str());
+        answer(&redirecting, ProviderKind::Openai, PLANNER_MARK, response).await;
+        let home = tempfile::tempdir().unwrap();
+        let base = base_url(&redirecting, ProviderKind::Openai);
+        let out = run(
+            plan_args(home.path(), &base, "single-image", &[]),
+            home.path(),
+        )
+        .await;
+        let err = String::from_utf8_lossy(&out.stderr).into_owned();
+        assert!(!out.status.success(), "{status}: {err}");
+        assert!(
+            err.contains(&format!("answered HTTP {status}: a redirect to {to}")),
+            "{err}"
+        );
+        assert!(err.contains("redirects are not followed"), "{err}");
+    }
+    assert_eq!(
+        asked(&elsewhere).await,
+        0,
+        "nothing went to the other origin"
+    );
+}
+
+#[tokio::test(flavor = "multi_thread")]
+async fn a_cache_that_cannot_be_written_is_said_once_naming_its_path() {
+    let server = MockServer::start().await;
+    for mark in [SKM_MARK, GKM_MARK, PLANNER_MARK] {
+        let text = hostile_answer(mark).replace(HOSTILE, "");
+        answer_whole(&server, mark, &text).await;
+    }
+    let home = tempfile::tempdir().unwrap();
+    let blocker = home.path().join("not-a-folder");
+    std::fs::write(&blocker, b"x").unwrap();
+    let base = base_url(&server, ProviderKind::Openai);
+    let mut args = plan_args(home.path(), &base, "multi-image", &[]);
+    args.retain(|a| a != "--no-cache");
+    args.extend(strings(&["--cache-dir", blocker.to_str().unwrap()]));
+    let out = run(args, home.path()).await;
+    let err = String::from_utf8_lossy(&out.stderr).into_owned();
+    assert!(out.status.success(), "the run goes on: {err}");
+    let said: Vec<&str> = err
+        .lines()
+        .filter(|l| l.contains("cannot be written"))
+        .collect();
+    assert_eq!(said.len(), 1, "{err}");
+    assert!(said[0].contains(blocker.to_str().unwrap()), "{err}");
+}
