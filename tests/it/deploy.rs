@@ -214,3 +214,237 @@ fn the_indexed_job_shards_by_completion_index_over_a_shared_volume() {
         Some(claim_name)
     );
 }
+
+/// A private one-node Slurm cluster (tests/it/slurm/cluster.sh), stopped
+/// when dropped.
+struct Cluster {
+    dir: PathBuf,
+    conf: String,
+}
+
+impl Cluster {
+    fn start(dir: &Path) -> Cluster {
+        let started = Command::new("bash")
+            .arg(repo("tests/it/slurm/cluster.sh"))
+            .arg("start")
+            .arg(dir)
+            .output()
+            .unwrap_or_else(|e| panic!("bash: {e}"));
+        assert!(
+            started.status.success(),
+            "the private Slurm cluster did not start (it needs slurm-wlm and munge: apt-get install slurm-wlm munge; .ci/run does): {}",
+            common::stderr(&started)
+        );
+        let conf = String::from_utf8_lossy(&started.stdout).trim().to_string();
+        Cluster {
+            dir: dir.to_path_buf(),
+            conf,
+        }
+    }
+
+    /// A command of the cluster's (`sbatch`, `squeue`, `bash SCRIPT`...).
+    fn command(&self, program: &str) -> Command {
+        let mut command = Command::new(program);
+        command.env("SLURM_CONF", &self.conf);
+        for name in [
+            "MAPVLM_SCRIPT",
+            "MAPVLM_STAGE",
+            "MAPVLM_SHARED_CACHE",
+            "MAPVLM_SHARD_COUNT",
+            "JOB_COMPLETION_INDEX",
+        ] {
+            command.env_remove(name);
+        }
+        command
+    }
+
+    /// Waits until no job is queued or running (at most 20 minutes).
+    fn drain(&self) {
+        let start = std::time::Instant::now();
+        loop {
+            let queue = self
+                .command("squeue")
+                .args(["-h", "-o", "%i %T %r"])
+                .output()
+                .unwrap_or_else(|e| panic!("squeue: {e}"));
+            let queue = String::from_utf8_lossy(&queue.stdout).to_string();
+            if queue.trim().is_empty() {
+                return;
+            }
+            assert!(
+                start.elapsed() < std::time::Duration::from_secs(1200),
+                "jobs still queued: {queue}"
+            );
+            std::thread::sleep(std::time::Duration::from_millis(500));
+        }
+    }
+}
+
+impl Drop for Cluster {
+    fn drop(&mut self) {
+        let _ = Command::new("bash")
+            .arg(repo("tests/it/slurm/cluster.sh"))
+            .arg("stop")
+            .arg(&self.dir)
+            .status();
+    }
+}
+
+/// Every file under `dir`, by path relative to it, with its bytes.
+fn tree(dir: &Path) -> std::collections::BTreeMap<PathBuf, Vec<u8>> {
+    let mut files = std::collections::BTreeMap::new();
+    let mut stack = vec![dir.to_path_buf()];
+    while let Some(folder) = stack.pop() {
+        for entry in std::fs::read_dir(&folder).unwrap_or_else(|e| panic!("{e}")) {
+            let path = entry.unwrap_or_else(|e| panic!("{e}")).path();
+            if path.is_dir() {
+                stack.push(path);
+            } else {
+                let bytes = std::fs::read(&path).unwrap_or_else(|e| panic!("{e}"));
+                let name = path.strip_prefix(dir).unwrap_or(&path).to_path_buf();
+                files.insert(name, bytes);
+            }
+        }
+    }
+    files
+}
+
+/// The tables and result files of an eval or merge folder.
+fn outputs(dir: &Path) -> std::collections::BTreeMap<PathBuf, Vec<u8>> {
+    let mut files = tree(&dir.join("tasks"));
+    for table in ["table3.csv", "table3.md"] {
+        let bytes = std::fs::read(dir.join(table)).unwrap_or_else(|e| panic!("{table}: {e}"));
+        files.insert(PathBuf::from(table), bytes);
+    }
+    files
+}
+
+#[test]
+fn on_a_private_slurm_cluster_the_array_merges_like_one_machine_and_a_failed_shard_reruns_alone() {
+    let home = tempfile::tempdir().unwrap_or_else(|e| panic!("{e}"));
+    let cluster = Cluster::start(&home.path().join("cluster"));
+    let dataset = common::shared().join("data/alfred30");
+    let single = home.path().join("single");
+    let whole = common::mapvlm_command()
+        .arg("eval")
+        .arg("--dataset")
+        .arg(&dataset)
+        .arg("--from-dataset-plans")
+        .arg("--out")
+        .arg(&single)
+        .output()
+        .unwrap_or_else(|e| panic!("{e}"));
+    assert!(whole.status.success(), "{}", common::stderr(&whole));
+
+    // The binary through a wrapper that gives array task 2 an empty model
+    // pack while the file `fail-2` exists.
+    let empty = home.path().join("no-models");
+    std::fs::create_dir_all(&empty).unwrap_or_else(|e| panic!("{e}"));
+    let flag = home.path().join("fail-2");
+    let wrapper = home.path().join("mapvlm-wrapper");
+    std::fs::write(
+        &wrapper,
+        format!(
+            "#!/bin/sh\nif [ \"${{SLURM_ARRAY_TASK_ID:-}}\" = 2 ] && [ -e '{}' ]; then\n    export MAPVLM_MODELS='{}' HF_HUB_OFFLINE=1 PATH=/nonexistent\nfi\nexec '{}' \"$@\"\n",
+            flag.display(),
+            empty.display(),
+            env!("CARGO_BIN_EXE_mapvlm")
+        ),
+    )
+    .unwrap_or_else(|e| panic!("{e}"));
+    let chmod = Command::new("chmod").arg("+x").arg(&wrapper).status();
+    assert!(chmod.is_ok_and(|s| s.success()));
+    let script = repo("deploy/slurm/eval-array.sh");
+    let resources = ["--cpus-per-task=1", "--mem=1G"];
+    // `program` (bash or sbatch) with `options`, the script, its own
+    // options, DATASET OUT 3 and `eval_options`, through the wrapper.
+    let job = |program: &str, options: &[&str], own: &[&str], out: &Path, eval_options: &[&str]| {
+        let run = cluster
+            .command(program)
+            .args(options)
+            .arg(&script)
+            .args(own)
+            .arg(&dataset)
+            .arg(out)
+            .arg("3")
+            .args(eval_options)
+            .env("MAPVLM", &wrapper)
+            .env("XDG_CACHE_HOME", common::test_cache_home())
+            .env("MAPVLM_MODELS", common::pack_dir())
+            .output()
+            .unwrap_or_else(|e| panic!("{e}"));
+        assert!(run.status.success(), "{}", common::stderr(&run));
+    };
+    let eval_options = ["--", "--from-dataset-plans"];
+    let submit = |out: &Path| job("bash", &[], &resources, out, &eval_options);
+    let merge_log = |out: &Path| -> String {
+        tree(&out.join("logs"))
+            .into_iter()
+            .filter(|(name, _)| name.to_string_lossy().starts_with("merge-"))
+            .map(|(_, bytes)| String::from_utf8_lossy(&bytes).into_owned())
+            .collect()
+    };
+
+    let clean = home.path().join("clean");
+    submit(&clean);
+    cluster.drain();
+    assert_eq!(
+        outputs(&clean.join("merged")),
+        outputs(&single),
+        "{}",
+        merge_log(&clean)
+    );
+
+    let out = home.path().join("out");
+    std::fs::write(&flag, "").unwrap_or_else(|e| panic!("{e}"));
+    submit(&out);
+    cluster.drain();
+    let said = merge_log(&out);
+    assert!(said.contains("shard 2 (exit status 1)"), "{said}");
+    assert!(
+        !said.contains("shard 1 (") && !said.contains("shard 3 ("),
+        "{said}"
+    );
+    assert!(!out.join("merged/table3.csv").exists(), "no table: {said}");
+    let shard_2_log: String = tree(&out.join("logs"))
+        .into_iter()
+        .filter(|(name, _)| name.to_string_lossy().starts_with("shard-2-"))
+        .map(|(_, bytes)| String::from_utf8_lossy(&bytes).into_owned())
+        .collect();
+    assert!(
+        shard_2_log.contains("PG2S could not be loaded"),
+        "{shard_2_log}"
+    );
+
+    // The documented reruns: shard 2 alone, then the merge alone.
+    std::fs::remove_file(&flag).unwrap_or_else(|e| panic!("{e}"));
+    let others = (tree(&out.join("shard-1")), tree(&out.join("shard-3")));
+    let logs = out.join("logs");
+    let shard_log = format!("--output={}/shard-%a-%A.out", logs.display());
+    let rerun = [
+        &resources[..],
+        &["--array=2", &shard_log, "--open-mode=append"],
+    ]
+    .concat();
+    job("sbatch", &rerun, &[], &out, &eval_options);
+    cluster.drain();
+    let merge_output = format!("--output={}/merge-%j.out", logs.display());
+    let merge = [
+        &resources[..],
+        &["--export=ALL,MAPVLM_STAGE=merge", &merge_output],
+    ]
+    .concat();
+    job("sbatch", &merge, &[], &out, &[]);
+    cluster.drain();
+    assert_eq!(
+        (tree(&out.join("shard-1")), tree(&out.join("shard-3"))),
+        others,
+        "the other shards' files untouched"
+    );
+    assert_eq!(
+        outputs(&out.join("merged")),
+        outputs(&single),
+        "{}",
+        merge_log(&out)
+    );
+}

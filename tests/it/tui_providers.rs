@@ -204,9 +204,14 @@ fn eval_with_a_saved_prompt_set_sends_its_prompts_and_records_their_versions() {
     assert_ne!(hash, &skm.hash, "the edited prompt is another version");
     let manifest: serde_json::Value =
         serde_json::from_str(&std::fs::read_to_string(out.join("manifest.json")).unwrap()).unwrap();
-    let recorded = &manifest["prompts"]["multi-image-skm"];
+    let recorded = &manifest["provenance"]["prompts"]["multi-image-skm"];
     assert_eq!(&recorded["hash"], hash.as_str(), "{manifest}");
     let file = dir.join("multi-image-skm.txt");
     assert_eq!(recorded["source"], file.display().to_string());
-    assert_eq!(manifest["prompts"].as_object().map(|m| m.len()), Some(3));
+    assert_eq!(
+        manifest["provenance"]["prompts"]
+            .as_object()
+            .map(|m| m.len()),
+        Some(3)
+    );
 }
