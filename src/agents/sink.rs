@@ -8,8 +8,8 @@ use std::sync::atomic::{AtomicBool, Ordering};
 
 use tokio_util::sync::CancellationToken;
 
-use crate::fsutil::write_atomic;
 use super::AgentError;
+use crate::fsutil::write_atomic;
 
 /// Writes a run's output files; on the first failure, cancels `cancel`.
 #[derive(Debug)]

@@ -22,8 +22,7 @@ use crate::agents::sink::OutputSink;
 use crate::agents::Approach;
 use crate::dataset::{Dataset, LineError, Task};
 use crate::eval_record::{
-    named_result_file, prompt_versions, result_file, write_tables, Manifest, Provenance,
-    TaskResult,
+    named_result_file, prompt_versions, result_file, write_tables, Manifest, Provenance, TaskResult,
 };
 use crate::fsutil::check_writable;
 use crate::lock::Lock;

@@ -11,10 +11,10 @@ use std::path::{Path, PathBuf};
 
 use serde::{Deserialize, Serialize};
 
-use crate::fsutil::write_atomic;
 use crate::agents::cost::PlanCost;
 use crate::agents::pipeline::{is_first_sample, PlanRecord};
 use crate::agents::Approach;
+use crate::fsutil::write_atomic;
 
 pub use manifest::{
     prompt_versions, CostSum, Manifest, Mismatch, PromptVersion, Provenance, Sides, MANIFEST,
