@@ -9,10 +9,26 @@ use std::time::Duration;
 
 use serde::{Deserialize, Serialize};
 
-use super::cost::Price;
 use super::images::DEFAULT_MAX_EDGE;
 use super::provider::HttpSettings;
 use super::{AgentRole, ProviderKind, Secret};
+
+/// What one model costs, in US dollars per million tokens, as written in
+/// the config file under `[prices.PROVIDER."MODEL"]`.
+#[derive(Debug, Clone, Copy, PartialEq, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct Price {
+    /// Dollars per million input tokens.
+    pub input_per_million: f64,
+    /// Dollars per million output tokens.
+    pub output_per_million: f64,
+    /// Dollars per million input tokens sent in a provider batch (default:
+    /// half of `input_per_million`, as both providers charge).
+    pub batch_input_per_million: Option<f64>,
+    /// Dollars per million output tokens written in a provider batch
+    /// (default: half of `output_per_million`).
+    pub batch_output_per_million: Option<f64>,
+}
 
 /// A configuration that could not be used.
 #[derive(Debug, thiserror::Error)]

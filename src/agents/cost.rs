@@ -4,7 +4,8 @@
 //! run before its first request.
 //!
 //! The estimate counts about [`CHARS_PER_TOKEN`] characters a token for the
-//! prompts, [`TOKENS_PER_IMAGE`] tokens for each image, and every agent's
+//! prompts, [`TOKENS_PER_IMAGE`] tokens for each image
+//! ([`ChatRequest::estimated_usage`](super::provider::ChatRequest::estimated_usage)), and every agent's
 //! `max_tokens` as its output: an upper bound on the output, a rough figure
 //! for the input (tokenisers differ by model and by language).
 
@@ -13,36 +14,10 @@ use std::fmt::Write as _;
 
 use serde::{Deserialize, Serialize};
 
-use super::config::ConfigError;
+use super::config::{ConfigError, Price};
 use super::pipeline::{AgentRecord, PlanInput, PlanRecord, Runner};
-use super::provider::ChatRequest;
+use super::provider::{CHARS_PER_TOKEN, TOKENS_PER_IMAGE};
 use super::{AgentRole, Approach, ProviderKind, Usage};
-
-/// Characters counted as one token in an estimate (English prose averages
-/// about four with the tokenisers of both providers).
-pub const CHARS_PER_TOKEN: u64 = 4;
-
-/// Tokens counted for one image in an estimate: an image downscaled to the
-/// default longest edge of 1024 pixels costs between about 800 (OpenAI, high
-/// detail) and 1,400 (Anthropic) tokens.
-pub const TOKENS_PER_IMAGE: u64 = 1_000;
-
-/// What one model costs, in US dollars per million tokens, as written in
-/// the config file under `[prices.PROVIDER."MODEL"]`.
-#[derive(Debug, Clone, Copy, PartialEq, Deserialize)]
-#[serde(deny_unknown_fields)]
-pub struct Price {
-    /// Dollars per million input tokens.
-    pub input_per_million: f64,
-    /// Dollars per million output tokens.
-    pub output_per_million: f64,
-    /// Dollars per million input tokens sent in a provider batch (default:
-    /// half of `input_per_million`, as both providers charge).
-    pub batch_input_per_million: Option<f64>,
-    /// Dollars per million output tokens written in a provider batch
-    /// (default: half of `output_per_million`).
-    pub batch_output_per_million: Option<f64>,
-}
 
 /// How an answer was paid for.
 #[derive(Debug, Clone, Copy, PartialEq, Eq, PartialOrd, Ord, Serialize, Deserialize)]
@@ -338,18 +313,6 @@ pub fn dollars(usd: Option<f64>) -> String {
     usd.map_or_else(|| "no price".to_string(), |v| format!("{v:.4}"))
 }
 
-/// A rough count of the tokens `request` uses: its text at
-/// [`CHARS_PER_TOKEN`] characters a token plus [`TOKENS_PER_IMAGE`] per
-/// image in, its `max_tokens` out (an upper bound).
-pub fn estimate_usage(request: &ChatRequest) -> Usage {
-    let chars = (request.system.chars().count() + request.user.chars().count()) as u64;
-    Usage {
-        input_tokens: chars.div_ceil(CHARS_PER_TOKEN)
-            + TOKENS_PER_IMAGE * request.images.len() as u64,
-        output_tokens: u64::from(request.max_tokens),
-    }
-}
-
 /// What a run is expected to cost, made before anything is sent.
 #[derive(Debug, Clone, Default, PartialEq)]
 pub struct Estimate {
@@ -451,7 +414,7 @@ pub fn estimate_plans<'a>(
         };
         for pending in &stage.requests {
             let billing = if pending.free { Billing::Cached } else { paid };
-            let usage = estimate_usage(&pending.request);
+            let usage = pending.request.estimated_usage();
             estimate.add(
                 prices,
                 pending.provider,
@@ -480,6 +443,7 @@ pub fn check_max_cost(value: Option<f64>) -> Result<(), String> {
 #[cfg(test)]
 mod tests {
     use super::*;
+    use crate::agents::provider::ChatRequest;
 
     fn table() -> PriceTable {
         let section: BTreeMap<String, BTreeMap<String, Price>> = toml::from_str(
@@ -581,7 +545,7 @@ mod tests {
             stream: false,
             json_schema: None,
         };
-        let usage = estimate_usage(&request);
+        let usage = request.estimated_usage();
         assert_eq!(usage.input_tokens, 1 + 3);
         assert_eq!(usage.output_tokens, 300);
     }

@@ -482,3 +482,53 @@ pub fn sha256_hex(bytes: &[u8]) -> String {
         .map(|b| format!("{b:02x}"))
         .collect()
 }
+
+/// Properties both providers' stream decoders share (here, where both
+/// providers are in reach, rather than in `provider`, which they build on).
+#[cfg(test)]
+mod decoder_properties {
+    use proptest::prelude::*;
+
+    use super::provider::{Assembler, EventDecoder, SseEvent};
+    use super::{anthropic, openai, Secret};
+
+    /// A key with no border, as in `provider`'s properties.
+    const KEY: &str = "sk-abc123";
+
+    fn key() -> Option<Secret> {
+        Secret::new(KEY)
+    }
+
+    proptest! {
+        #![proptest_config(ProptestConfig::with_cases(256))]
+
+        /// Either provider's decoder on any event: no panic, and a key
+        /// inside the event's text never reaches the answer.
+        #[test]
+        fn decoders_never_panic_nor_pass_the_key(
+            kind in prop::sample::select(vec!["content_block_delta", "message_start", "message_delta", "error", "message_stop", "x"]),
+            text in "(sk-abc123|[a-z \"\\\\{}])*",
+            raw in "[ -~]{0,30}",
+        ) {
+            let text_json = serde_json::to_string(&text).unwrap_or_default();
+            let datas = [
+                format!(r#"{{"choices":[{{"delta":{{"content":{text_json}}},"finish_reason":null}}]}}"#),
+                format!(r#"{{"type":"{kind}","delta":{{"text":{text_json}}},"usage":{{"output_tokens":3}}}}"#),
+                format!(r#"{{"error":{{"message":{text_json}}}}}"#),
+                raw,
+            ];
+            for data in datas {
+                let event = SseEvent { event: None, data };
+                let decoders: [EventDecoder; 2] = [openai::apply_event, anthropic::apply_event];
+                for decode in decoders {
+                    let sink = |piece: &str| assert!(!piece.contains(KEY));
+                    let mut answer = Assembler::new(&sink, key());
+                    let _ = decode(&event, &mut answer);
+                    if let Ok(done) = answer.finish("p", "m") {
+                        prop_assert!(!done.text.contains(KEY));
+                    }
+                }
+            }
+        }
+    }
+}

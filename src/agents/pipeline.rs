@@ -16,7 +16,6 @@ use tokio_util::sync::CancellationToken;
 use super::anthropic::Anthropic;
 use super::cache::{request_key, sample_key, CachedAnswer, ResponseCache};
 use super::config::{AgentSettings, Settings};
-use super::cost::estimate_usage;
 use super::graph::{parse_triples, triples_schema, KnowledgeGraph, ParsedTriples};
 use super::images::prepare_image;
 use super::openai::OpenAi;
@@ -694,7 +693,7 @@ impl Runner {
             });
         }
         let (blank, _, _) = self.request(&prepared, AgentRole::Planner)?;
-        let mut usage = estimate_usage(&blank);
+        let mut usage = blank.estimated_usage();
         usage.input_tokens += miners
             .iter()
             .map(|m| u64::from(m.request.max_tokens))

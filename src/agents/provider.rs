@@ -54,6 +54,30 @@ pub struct ChatRequest {
     pub json_schema: Option<serde_json::Value>,
 }
 
+/// Characters counted as one token in an estimate (English prose averages
+/// about four with the tokenisers of both providers).
+pub const CHARS_PER_TOKEN: u64 = 4;
+
+/// Tokens counted for one image in an estimate: an image downscaled to the
+/// default longest edge of 1024 pixels costs between about 800 (OpenAI, high
+/// detail) and 1,400 (Anthropic) tokens.
+pub const TOKENS_PER_IMAGE: u64 = 1_000;
+
+impl ChatRequest {
+    /// A rough count of the tokens this request uses, for the estimate made
+    /// before anything is sent: its text at [`CHARS_PER_TOKEN`] characters
+    /// a token plus [`TOKENS_PER_IMAGE`] per image in, its `max_tokens` out
+    /// (an upper bound).
+    pub fn estimated_usage(&self) -> Usage {
+        let chars = (self.system.chars().count() + self.user.chars().count()) as u64;
+        Usage {
+            input_tokens: chars.div_ceil(CHARS_PER_TOKEN)
+                + TOKENS_PER_IMAGE * self.images.len() as u64,
+            output_tokens: u64::from(self.max_tokens),
+        }
+    }
+}
+
 /// A piece of a streamed answer and when it arrived.
 #[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
 pub struct Chunk {
@@ -932,7 +956,6 @@ mod tests {
 
     mod properties {
         use super::super::*;
-        use crate::agents::{anthropic, openai};
         use proptest::prelude::*;
 
         /// A key with no border (no proper prefix that is also a suffix),
@@ -1025,35 +1048,6 @@ mod tests {
                     Err(_) => prop_assert!(want.trim().is_empty()),
                 }
                 prop_assert_eq!(shown.lock().map(|s| s.clone()).unwrap_or_default(), want);
-            }
-
-            /// Either provider's decoder on any event: no panic, and a key
-            /// inside the event's text never reaches the answer.
-            #[test]
-            fn decoders_never_panic_nor_pass_the_key(
-                kind in prop::sample::select(vec!["content_block_delta", "message_start", "message_delta", "error", "message_stop", "x"]),
-                text in "(sk-abc123|[a-z \"\\\\{}])*",
-                raw in "[ -~]{0,30}",
-            ) {
-                let text_json = serde_json::to_string(&text).unwrap_or_default();
-                let datas = [
-                    format!(r#"{{"choices":[{{"delta":{{"content":{text_json}}},"finish_reason":null}}]}}"#),
-                    format!(r#"{{"type":"{kind}","delta":{{"text":{text_json}}},"usage":{{"output_tokens":3}}}}"#),
-                    format!(r#"{{"error":{{"message":{text_json}}}}}"#),
-                    raw,
-                ];
-                for data in datas {
-                    let event = SseEvent { event: None, data };
-                    let decoders: [EventDecoder; 2] = [openai::apply_event, anthropic::apply_event];
-                    for decode in decoders {
-                        let sink = |piece: &str| assert!(!piece.contains(KEY));
-                        let mut answer = Assembler::new(&sink, key());
-                        let _ = decode(&event, &mut answer);
-                        if let Ok(done) = answer.finish("p", "m") {
-                            prop_assert!(!done.text.contains(KEY));
-                        }
-                    }
-                }
             }
         }
     }

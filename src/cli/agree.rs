@@ -124,9 +124,7 @@ pub fn run(args: &AgreeArgs) -> anyhow::Result<ExitCode> {
     } else {
         report::render(&agreement)
     };
-    if std::io::stdout().lock().write_all(text.as_bytes()).is_err() {
-        return Ok(ExitCode::FAILURE);
-    }
+    std::io::stdout().lock().write_all(text.as_bytes())?;
     Ok(if bad_lines == 0 {
         ExitCode::SUCCESS
     } else {

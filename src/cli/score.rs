@@ -3,6 +3,7 @@
 
 use std::collections::HashMap;
 use std::fmt::Write as _;
+use std::io::Write as _;
 use std::path::{Path, PathBuf};
 use std::process::ExitCode;
 
@@ -103,16 +104,13 @@ pub fn run(args: &ScoreArgs) -> anyhow::Result<ExitCode> {
         chunk_steps += pair.gt.len() + pair.pred.len();
         chunk.push(pair);
         if chunk_steps >= CHUNK_STEPS {
-            if !score_chunk(args, scorer.as_ref(), &chunk, &mut out)? {
-                return Ok(ExitCode::FAILURE);
-            }
+            score_chunk(args, scorer.as_ref(), &chunk, &mut out)?;
             chunk.clear();
             chunk_steps = 0;
         }
     }
-    if !score_chunk(args, scorer.as_ref(), &chunk, &mut out)? {
-        return Ok(ExitCode::FAILURE);
-    }
+    score_chunk(args, scorer.as_ref(), &chunk, &mut out)?;
+    out.flush()?;
     Ok(if bad_lines == 0 {
         ExitCode::SUCCESS
     } else {
@@ -125,14 +123,15 @@ pub fn run(args: &ScoreArgs) -> anyhow::Result<ExitCode> {
 /// all the memory a run keeps, whatever the number of pairs.
 const CHUNK_STEPS: usize = 4_096;
 
-/// Scores `pairs` and writes each one's lines to `out`; `false` when `out`
-/// is closed (e.g. a pipe into `head`).
+/// Scores `pairs` and writes each one's lines to `out`. A failed write is
+/// returned as the `io::Error` it is, so that a closed pipe (`| head`) ends
+/// the run quietly (see `main`).
 fn score_chunk(
     args: &ScoreArgs,
     scorer: Option<&Pg2sScorer>,
     pairs: &[Pair],
     out: &mut impl std::io::Write,
-) -> anyhow::Result<bool> {
+) -> anyhow::Result<()> {
     if let Some(scorer) = scorer {
         warm_up(scorer, pairs)?;
     }
@@ -156,11 +155,9 @@ fn score_chunk(
         } else {
             explain(&scored)
         };
-        if out.write_all(text.as_bytes()).is_err() {
-            return Ok(false);
-        }
+        out.write_all(text.as_bytes())?;
     }
-    Ok(true)
+    Ok(())
 }
 
 /// The four metric values of every item (in the order of

@@ -9,7 +9,7 @@ use std::path::{Path, PathBuf};
 
 use serde::Serialize;
 
-use super::fetch::{install, remove_stale_staging, Staging};
+use super::staging::{install, remove_stale_staging, Staging};
 use super::verify::write_stamp;
 use super::{ModelSpec, ModelsError};
 

@@ -10,6 +10,7 @@ mod hf_cache;
 mod hub;
 mod link;
 mod sources;
+mod staging;
 mod verify;
 
 use std::path::{Path, PathBuf};

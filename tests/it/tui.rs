@@ -705,7 +705,8 @@ fn the_whole_graph_is_the_default_and_the_neighbourhood_a_mode() {
 /// each agent and the run cost; an unpriced model shows `no price`.
 #[test]
 fn run_history_shows_each_agent_and_run_cost_from_the_price_table() {
-    use mapvlm::agents::cost::{Price, PriceTable};
+    use mapvlm::agents::config::Price;
+    use mapvlm::agents::cost::PriceTable;
     use mapvlm::agents::Usage;
     use std::collections::BTreeMap;
 
