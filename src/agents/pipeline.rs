@@ -66,6 +66,10 @@ pub enum AgentEvent {
         role: AgentRole,
         /// What went wrong, in one line.
         error: String,
+        /// Milliseconds from its request to the failure (0 when no request
+        /// was sent), so a failed call counts its own time, never another's.
+        #[serde(default)]
+        elapsed_ms: u64,
     },
 }
 
@@ -237,6 +241,7 @@ pub struct Runner {
     recorder: Option<Arc<Mutex<Recording>>>,
     answers: Option<(Arc<Recording>, Pace)>,
     images: Arc<Mutex<HashMap<PathBuf, ImageInput>>>,
+    fresh: bool,
 }
 
 /// The encoded bytes of prepared images a runner keeps (see
@@ -262,6 +267,7 @@ impl Runner {
             recorder: None,
             answers: None,
             images: Arc::default(),
+            fresh: false,
         }
     }
 
@@ -276,6 +282,13 @@ impl Runner {
     /// recorded agents can run beside live ones.
     pub fn with_answers(mut self, recording: Arc<Recording>, pace: Pace) -> Self {
         self.answers = Some((recording, pace));
+        self
+    }
+
+    /// Asks every provider afresh: the response cache is not read, and the
+    /// new answers replace the cached ones (the workbench's `R`).
+    pub fn fresh(mut self) -> Self {
+        self.fresh = true;
         self
     }
 
@@ -504,6 +517,7 @@ impl Runner {
         let _ = events.send(AgentEvent::Failed {
             role,
             error: error.clone(),
+            elapsed_ms: 0,
         });
         Ok(AgentRecord {
             error: Some(error),
@@ -526,6 +540,7 @@ impl Runner {
                 let _ = events.send(AgentEvent::Failed {
                     role,
                     error: error.clone(),
+                    elapsed_ms: 0,
                 });
                 return AgentRecord {
                     error: Some(error),
@@ -599,6 +614,7 @@ impl Runner {
                 let _ = events.send(AgentEvent::Failed {
                     role,
                     error: error.clone(),
+                    elapsed_ms: record.elapsed_ms,
                 });
                 record.error = Some(error);
             }
@@ -606,11 +622,12 @@ impl Runner {
         record
     }
 
-    /// The cached answer to the request keyed `key` (live runs only).
+    /// The cached answer to the request keyed `key` (live runs only, and
+    /// none when asking afresh).
     fn cached(&self, key: &str) -> Option<CachedAnswer> {
         self.cache
             .as_ref()
-            .filter(|_| matches!(self.source, Source::Live))
+            .filter(|_| matches!(self.source, Source::Live) && !self.fresh)
             .and_then(|c| c.get(key))
     }
 

@@ -364,6 +364,6 @@ fn print_event(label: String, event: &AgentEvent) {
             usage.output_tokens,
             if *cached { " (cached)" } else { "" }
         ),
-        AgentEvent::Failed { role, error } => eprintln!("{role}{label}: failed: {error}"),
+        AgentEvent::Failed { role, error, .. } => eprintln!("{role}{label}: failed: {error}"),
     }
 }

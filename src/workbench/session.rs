@@ -20,7 +20,7 @@ mod repair;
 pub use file::{decode, default_path, restore, save, DecodeError, Restored, SessionError};
 
 /// The format version written into every session file.
-pub const SESSION_VERSION: u32 = 4;
+pub const SESSION_VERSION: u32 = 5;
 
 /// Where the ground truth in use came from.
 #[derive(Debug, Clone, PartialEq, Eq, Serialize, Deserialize)]
@@ -100,8 +100,18 @@ pub struct RunRecord {
     pub ground_truth: Vec<String>,
     /// Its scores, once computed.
     pub scores: Option<ScoreRecord>,
-    /// Whether the user cancelled it.
-    pub cancelled: bool,
+    /// What became of it: only a finished run, and the complete samples of
+    /// a partial one, count as scored plans.
+    pub state: RunState,
+    /// The first failure of its agents as they reported it (`Planner: …`),
+    /// when one failed.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub error: Option<String>,
+    /// Why it is not simply finished, in words the history and the panes
+    /// show (cancelled, quit during the run, a partial plan kept, samples
+    /// that failed).
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub reason: Option<String>,
     /// Set when the run's plan was made by corrupting a plan (the Plan
     /// pane's `c`), not by agents: where that plan came from and the edits.
     #[serde(default, skip_serializing_if = "Option::is_none")]
@@ -116,6 +126,44 @@ pub struct RunRecord {
     /// a run of one sample, and every run saved before version 3, has none).
     #[serde(default)]
     pub samples: Vec<SampleRecord>,
+}
+
+/// What became of a run. A run that is not finished is never scored as a
+/// plan: it stays out of the sparkline, the means and the diff's verdict;
+/// a partial run counts over its complete samples only.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Serialize, Deserialize)]
+#[serde(rename_all = "snake_case")]
+pub enum RunState {
+    /// Its agents are still at work (a session saved during the run; it is
+    /// restored as cancelled).
+    Running,
+    /// Every agent of every sample answered.
+    Finished,
+    /// An agent of its first sample failed: it has no plan to score (a plan
+    /// broken off mid-stream is kept, marked, unscored).
+    Failed,
+    /// Cancelled by the user, or the workbench stopped during it.
+    Cancelled,
+    /// Some later samples failed: scored over its complete samples only.
+    Partial,
+}
+
+impl RunState {
+    /// The word the history, the panes and the diff show for it.
+    pub fn word(self) -> &'static str {
+        match self {
+            RunState::Running => "running",
+            RunState::Finished => "finished",
+            RunState::Failed => "failed",
+            RunState::Cancelled => "cancelled",
+            RunState::Partial => "partial",
+        }
+    }
+
+    /// Whether the run's (complete) samples count as scored plans.
+    pub fn is_scored(self) -> bool {
+        matches!(self, RunState::Finished | RunState::Partial)
+    }
 }
 
 /// A later sample of a run (see [`RunRecord::samples`]): the same agents,
@@ -160,6 +208,20 @@ pub struct CorruptedFrom {
 }
 
 impl RunRecord {
+    /// What became of it in one line, as every view says it: `finished`, or
+    /// the state's word with the failure and the reason (`failed: Planner:
+    /// HTTP 500 … (no plan, not scored)`).
+    pub fn state_text(&self) -> String {
+        let word = self.state.word();
+        match (&self.error, &self.reason) {
+            (Some(error), Some(reason)) => format!("{word}: {error} ({reason})"),
+            (Some(error), None) => format!("{word}: {error}"),
+            (None, Some(reason)) if reason.starts_with(word) => reason.clone(),
+            (None, Some(reason)) => format!("{word}: {reason}"),
+            (None, None) => word.to_string(),
+        }
+    }
+
     /// The wall time of all its agents, in milliseconds.
     pub fn total_ms(&self) -> u64 {
         self.agents.iter().map(|a| a.elapsed_ms).sum()
@@ -306,7 +368,9 @@ mod tests {
             plan: vec!["Wash the mug.".into()],
             ground_truth: vec!["Wash the mug.".into()],
             scores: None,
-            cancelled: false,
+            state: RunState::Finished,
+            error: None,
+            reason: None,
             corrupted: None,
             steps: Vec::new(),
             samples: Vec::new(),
@@ -452,7 +516,13 @@ mod tests {
                                 kas,
                                 ..ScoreRecord::default()
                             }),
-                            cancelled: image,
+                            state: if image {
+                                RunState::Cancelled
+                            } else {
+                                RunState::Finished
+                            },
+                            error: None,
+                            reason: image.then(|| "cancelled".to_string()),
                             corrupted: None,
                             steps: Vec::new(),
                             samples: Vec::new(),

@@ -21,7 +21,7 @@ use crate::agents::cost::{dollars, Billing, PriceTable};
 use crate::agents::pipeline::AgentRecord;
 use crate::agents::{AgentRole, Usage};
 use crate::workbench::runs::sample_scores;
-use crate::workbench::session::{RunRecord, StepScore};
+use crate::workbench::session::{RunRecord, RunState, StepScore};
 
 /// A setting whose value differs between the runs.
 #[derive(Debug, Clone, PartialEq, Eq)]
@@ -247,6 +247,10 @@ pub struct RunDiff {
     pub costs: [Option<f64>; 2],
     /// The plans step by step.
     pub steps: Vec<StepRow>,
+    /// What became of each run ([`RunRecord::state_text`]) when it did not
+    /// finish, and what of it the verdicts count (nothing, or its complete
+    /// samples).
+    pub unfinished: [Option<String>; 2],
 }
 
 impl RunDiff {
@@ -299,6 +303,14 @@ impl RunDiff {
             agents,
             costs: runs.map(|r| run_cost(prices, r)),
             steps: step_rows(before, after),
+            unfinished: runs.map(|r| {
+                let counted = match r.state {
+                    RunState::Finished => return None,
+                    RunState::Partial => "only its complete samples are in the verdict",
+                    _ => "not in the verdict",
+                };
+                Some(format!("{} — {counted}", r.state_text()))
+            }),
         }
     }
 }
@@ -340,7 +352,9 @@ mod tests {
                 kas: Some(kas),
                 ..ScoreRecord::default()
             }),
-            cancelled: false,
+            state: RunState::Finished,
+            error: None,
+            reason: None,
             corrupted: None,
             steps: plan
                 .iter()

@@ -23,12 +23,52 @@ pub(super) fn migrate(mut value: Value) -> Result<Value, DecodeError> {
             1 => v1_to_v2(&mut value),
             2 => v2_to_v3(&mut value),
             3 => v3_to_v4(&mut value),
+            4 => v4_to_v5(&mut value),
             _ => return Err(DecodeError::TooOld(version)),
         }
         version += 1;
         value["version"] = version.into();
     }
     Ok(value)
+}
+
+/// Version 5 says what became of each run: `cancelled` becomes the state
+/// `cancelled`; a run one of whose agents failed becomes `failed`, with
+/// that failure as its error (its scores are kept in the file but no
+/// longer count as a plan's); a run with a failed later sample becomes
+/// `partial`; every other run is `finished`.
+fn v4_to_v5(value: &mut Value) {
+    for run in runs(value) {
+        let cancelled = run.remove("cancelled").and_then(|c| c.as_bool()) == Some(true);
+        let failure = agents(run).find_map(|agent| {
+            let error = agent.get("error").and_then(Value::as_str)?.to_string();
+            let role = agent.get("role").and_then(Value::as_str).unwrap_or("agent");
+            Some(format!("{role}: {error}"))
+        });
+        let failed_samples = run
+            .get("samples")
+            .and_then(Value::as_array)
+            .map_or(0, |s| s.iter().filter(|s| !s["error"].is_null()).count());
+        let (state, reason) = if cancelled {
+            ("cancelled", Some("cancelled".to_string()))
+        } else if failure.is_some() {
+            ("failed", Some("not scored".to_string()))
+        } else if failed_samples > 0 {
+            (
+                "partial",
+                Some(format!("{failed_samples} later samples failed")),
+            )
+        } else {
+            ("finished", None)
+        };
+        run.insert("state".into(), state.into());
+        if let Some(error) = failure {
+            run.insert("error".into(), error.into());
+        }
+        if let Some(reason) = reason {
+            run.insert("reason".into(), reason.into());
+        }
+    }
 }
 
 /// Version 4 keeps every sample of a run: each run gains its later samples
@@ -161,7 +201,7 @@ fn upgrade_settings(settings: &mut Value) {
 mod tests {
     use std::path::Path;
 
-    use super::super::{restore, Restored, Session};
+    use super::super::{restore, Restored, RunState, Session};
     use super::*;
 
     /// The fixture `name` restored from a copy, with its JSON as saved.
@@ -181,19 +221,80 @@ mod tests {
         assert_eq!(session.version, SESSION_VERSION);
         assert_eq!(session.runs.len(), old["runs"].as_array().unwrap().len());
         assert!(session.runs.len() >= 2);
+        (*session, old)
+    }
+
+    /// Runs saved before version 4 are one finished sample each.
+    fn assert_one_finished_sample(session: &Session) {
         for run in &session.runs {
             assert!(run.samples.is_empty(), "an older run is one sample");
+            assert_eq!(run.state, RunState::Finished);
             let scores = crate::workbench::runs::sample_scores(run);
             assert_eq!(scores.len(), 1, "its one sample's scores");
             assert_eq!(Some(scores[0]), run.scores);
         }
         assert_eq!(session.samples, 1, "older runs were made with one sample");
-        (*session, old)
+    }
+
+    #[test]
+    fn a_session_saved_by_version_4_keeps_everything_and_says_what_became_of_each_run() {
+        let (s, old) = restored("session-v4.json");
+        assert_eq!(old["version"], 4);
+        let old_runs = old["runs"].as_array().unwrap();
+        for (run, old_run) in s.runs.iter().zip(old_runs) {
+            assert_eq!(run.id, old_run["id"]);
+            assert_eq!(
+                run.plan,
+                serde_json::from_value::<Vec<String>>(old_run["plan"].clone()).unwrap()
+            );
+            assert_eq!(
+                run.agents.len(),
+                old_run["agents"].as_array().unwrap().len()
+            );
+            assert_eq!(
+                run.samples.len(),
+                old_run["samples"].as_array().unwrap().len()
+            );
+            assert_eq!(
+                run.scores,
+                serde_json::from_value(old_run["scores"].clone()).unwrap(),
+                "the scores stay in the file"
+            );
+            assert_eq!(run.total_ms(), old_run["agents"][0]["elapsed_ms"]);
+        }
+        let states: Vec<RunState> = s.runs.iter().map(|r| r.state).collect();
+        assert_eq!(
+            states,
+            [
+                RunState::Finished,
+                RunState::Cancelled,
+                RunState::Failed,
+                RunState::Partial
+            ]
+        );
+        assert_eq!(
+            s.runs[2].error.as_deref(),
+            Some("single: HTTP 500 Internal Server Error")
+        );
+        assert_eq!(s.runs[2].plan, ["Walk"], "the broken-off plan is kept");
+        let scored: Vec<usize> = s
+            .runs
+            .iter()
+            .map(|r| crate::workbench::runs::sample_scores(r).len())
+            .collect();
+        assert_eq!(
+            scored,
+            [1, 0, 0, 2],
+            "the failed and cancelled runs count for nothing, the partial one over its complete samples"
+        );
+        assert_eq!(s.samples, 3);
+        assert_eq!(s.plan_source, super::super::PlanSource::Run { run: 4 });
     }
 
     #[test]
     fn a_session_saved_by_version_1_loads_with_its_run_history() {
         let (s, old) = restored("session-v1.json");
+        assert_one_finished_sample(&s);
         assert_eq!(old["version"], 1);
         for (run, old_run) in s.runs.iter().zip(old["runs"].as_array().unwrap()) {
             assert_eq!(run.plan.len(), old_run["plan"].as_array().unwrap().len());
@@ -207,6 +308,7 @@ mod tests {
     #[test]
     fn a_session_saved_by_version_2_loads_with_its_runs_prompts_and_settings() {
         let (s, old) = restored("session-v2.json");
+        assert_one_finished_sample(&s);
         assert_eq!(old["version"], 2);
         for (run, old_run) in s.runs.iter().zip(old["runs"].as_array().unwrap()) {
             assert_eq!(
