@@ -417,10 +417,7 @@ impl Runner {
             record.steps = parse_steps(text);
         }
         record.agents.push(planner);
-        record.usage = record.agents.iter().fold(Usage::default(), |sum, a| Usage {
-            input_tokens: sum.input_tokens + a.usage.input_tokens,
-            output_tokens: sum.output_tokens + a.usage.output_tokens,
-        });
+        record.usage = record.agents.iter().map(|a| &a.usage).sum();
         record.elapsed_ms = elapsed_ms(start);
         Ok(record)
     }

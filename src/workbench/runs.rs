@@ -76,11 +76,7 @@ pub const SAMPLE_STEPS: [u32; 4] = [1, 3, 5, 10];
 fn sample_record(record: &PlanRecord) -> SampleRecord {
     SampleRecord {
         sample: record.sample,
-        outputs: record
-            .agents
-            .iter()
-            .filter_map(|a| Some((a.role, a.output.clone()?)))
-            .collect(),
+        agents: record.agents.clone(),
         plan: record.steps.clone(),
         usage: record.usage,
         error: record
@@ -154,6 +150,9 @@ pub struct ActiveRun {
     pub started_unix: u64,
     /// The agents it runs.
     pub agents: Vec<AgentRole>,
+    /// Every agent that reported in it, those answered from the cache
+    /// included: the run's record keeps each.
+    pub reported: Vec<AgentRole>,
     /// Its later samples that came in before its first finished.
     pub samples: Vec<SampleRecord>,
     /// The plan the Plan pane showed when it started, put back when the run
@@ -280,7 +279,14 @@ impl App {
         if matches!(self.editing, Editing::Prompt) {
             self.store_prompt_editor();
         }
-        let to_run = self.agents_to_run(all);
+        // More samples than the last run asked for: every agent runs, its
+        // earlier samples answered from the cache.
+        let more_samples = self
+            .runs
+            .history
+            .last()
+            .is_some_and(|r| r.samples.len() as u32 + 1 < self.samples);
+        let to_run = self.agents_to_run(all || more_samples);
         if to_run.is_empty() {
             self.set_status(
                 "nothing changed since the last run: R re-runs every agent",
@@ -319,6 +325,7 @@ impl App {
             id,
             started_unix: unix_now(),
             agents: to_run.clone(),
+            reported: Vec::new(),
             samples: Vec::new(),
             kept: KeptPlan {
                 items: self.plan.items.clone(),
@@ -375,7 +382,12 @@ impl App {
         let mut prompts = BTreeMap::new();
         let mut agents = Vec::new();
         let mut error = None;
-        for &a in &active.agents {
+        let roles = self
+            .approach
+            .roles()
+            .iter()
+            .filter(|a| active.agents.contains(a) || active.reported.contains(a));
+        for &a in roles {
             let Some(v) = self.runs.agents.get(&a) else {
                 continue;
             };
@@ -577,6 +589,11 @@ impl App {
         }
         match event {
             AgentEvent::Started { role: agent } => {
+                if let Some(active) = self.runs.active.as_mut() {
+                    if !active.reported.contains(&agent) {
+                        active.reported.push(agent);
+                    }
+                }
                 if let Some(v) = self.runs.agents.get_mut(&agent) {
                     v.status = AgentStatus::Running;
                     v.begin_call();

@@ -173,8 +173,10 @@ impl RunState {
 pub struct SampleRecord {
     /// Which sample (1 for the second; the run itself is sample 0).
     pub sample: u32,
-    /// Each agent's answer, by agent.
-    pub outputs: BTreeMap<AgentRole, String>,
+    /// Each agent's call of this sample, in the order they started: its
+    /// answer, failure, tokens, time and whether it came from the cache
+    /// (a sample saved before version 5 has its answers only).
+    pub agents: Vec<AgentRecord>,
     /// The plan it produced.
     pub plan: Vec<String>,
     /// Token use over its agents.
@@ -222,17 +224,26 @@ impl RunRecord {
         }
     }
 
-    /// The wall time of all its agents, in milliseconds.
-    pub fn total_ms(&self) -> u64 {
-        self.agents.iter().map(|a| a.elapsed_ms).sum()
-    }
-
-    /// The tokens all its agents sent and wrote.
-    pub fn total_tokens(&self) -> u64 {
+    /// Every agent call it made, sample by sample: its own agents (sample
+    /// 0), then each later sample's.
+    pub fn calls(&self) -> impl Iterator<Item = &AgentRecord> {
         self.agents
             .iter()
-            .map(|a| a.usage.input_tokens + a.usage.output_tokens)
-            .sum()
+            .chain(self.samples.iter().flat_map(|s| &s.agents))
+    }
+
+    /// The time of every call it made, summed, in milliseconds.
+    pub fn total_ms(&self) -> u64 {
+        self.calls().map(|a| a.elapsed_ms).sum()
+    }
+
+    /// The tokens every call it made sent and wrote, summed (a later
+    /// sample counts its own total, which sessions before version 5 kept
+    /// without the split by agent).
+    pub fn total_tokens(&self) -> u64 {
+        let tokens = |u: &Usage| u.input_tokens + u.output_tokens;
+        self.agents.iter().map(|a| tokens(&a.usage)).sum::<u64>()
+            + self.samples.iter().map(|s| tokens(&s.usage)).sum::<u64>()
     }
 }
 

@@ -855,7 +855,7 @@ fn scores_of_a_sampled_run_show_their_spread() {
         .into_iter()
         .map(|(sample, pg2s, kas)| SampleRecord {
             sample,
-            outputs: Default::default(),
+            agents: Vec::new(),
             plan: first.plan.clone(),
             usage: Default::default(),
             error: None,
@@ -1072,7 +1072,7 @@ fn a_partial_sampled_run_is_scored_over_its_complete_samples() {
     run.samples = vec![
         SampleRecord {
             sample: 1,
-            outputs: Default::default(),
+            agents: Vec::new(),
             plan: run.plan.clone(),
             usage: Default::default(),
             error: None,
@@ -1080,7 +1080,7 @@ fn a_partial_sampled_run_is_scored_over_its_complete_samples() {
         },
         SampleRecord {
             sample: 2,
-            outputs: Default::default(),
+            agents: Vec::new(),
             plan: Vec::new(),
             usage: Default::default(),
             error: Some("Planner: HTTP 500".into()),

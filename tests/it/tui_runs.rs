@@ -110,3 +110,102 @@ fn a_500_and_a_dropped_stream_are_failed_runs_unscored_and_the_good_plan_stays()
         "the session keeps the last good plan in the Plan pane"
     );
 }
+
+/// A run of three samples of the three agents: the history's tokens, cost
+/// and time are the sums over every request the server saw, and each agent
+/// says how many calls it made.
+#[test]
+fn a_sampled_runs_tokens_cost_and_time_in_the_history_are_sums_over_every_request() {
+    use common::server::{GKM_ANSWER, PLAN_ANSWER, SKM_ANSWER};
+    use std::time::Duration;
+
+    let server = LocalServer::start();
+    server.delay_answers(Duration::from_millis(200));
+    let home = UserHome::new();
+    home.write_config(&format!(
+        "max_retries = 0\n[defaults]\nprovider = \"openai\"\nbase_url = \"{}\"\nmodel = \"{LOCAL_MODEL}\"\n\
+         [prices.openai.\"{LOCAL_MODEL}\"]\ninput_per_million = 10.0\noutput_per_million = 40.0\n",
+        server.base_url()
+    ));
+    let workbench = Workbench::start_on_alfred30("sampled-sums", &home);
+    workbench.keys(&["S"]);
+    workbench.wait_for("three samples a run", |s| s.contains("samples per run: 3"));
+    workbench.keys(&["r"]);
+    let requests = server.wait_for_requests(9);
+    workbench.keys(&["H"]);
+    let history = workbench.wait_for("the run with its three samples", |s| {
+        s.contains("3/3 finished")
+    });
+    let requests_now = server.requests();
+    assert_eq!(
+        requests_now.len(),
+        9,
+        "three agents, three samples: {requests:?}"
+    );
+    // The server's usage: 120 tokens in, a token a four characters out.
+    let written = |role| match role {
+        AgentRole::Skm => SKM_ANSWER.len().div_ceil(4) as u64,
+        AgentRole::Gkm => GKM_ANSWER.len().div_ceil(4) as u64,
+        _ => PLAN_ANSWER.len().div_ceil(4) as u64,
+    };
+    let input = 120 * requests_now.len() as u64;
+    let output: u64 = requests_now.iter().map(|r| written(r.role)).sum();
+    let cost = (input as f64 * 10.0 + output as f64 * 40.0) / 1e6;
+    let row = history
+        .lines()
+        .find(|l| l.contains("#1 ") && l.contains("3/3 finished"))
+        .unwrap_or_else(|| panic!("no row of run 1: {history}"));
+    assert!(row.contains(&format!(" {} ", input + output)), "{row}");
+    assert!(
+        row.contains(&format!("${cost:.4}")),
+        "{row} (expected ${cost:.4})"
+    );
+    for agent in ["SKM", "GKM", "Planner"] {
+        let line = history
+            .lines()
+            .find(|l| l.contains(&format!("  {agent:<8}openai/")))
+            .unwrap_or_else(|| panic!("no line of {agent}: {history}"));
+        assert!(line.contains("· 3 calls"), "{line}");
+    }
+    workbench.keys(&["Escape"]);
+    assert_eq!(workbench.quit(), "0");
+
+    let session: serde_json::Value =
+        serde_json::from_str(&std::fs::read_to_string(home.session_file()).unwrap()).unwrap();
+    let run = &session["runs"][0];
+    let calls: Vec<&serde_json::Value> = run["agents"]
+        .as_array()
+        .unwrap()
+        .iter()
+        .chain(
+            run["samples"]
+                .as_array()
+                .unwrap()
+                .iter()
+                .flat_map(|s| s["agents"].as_array().unwrap()),
+        )
+        .collect();
+    assert_eq!(calls.len(), 9, "each request its own record: {run}");
+    let ms: u64 = calls
+        .iter()
+        .map(|c| c["elapsed_ms"].as_u64().unwrap())
+        .sum();
+    assert!(
+        calls
+            .iter()
+            .all(|c| c["elapsed_ms"].as_u64().unwrap() >= 200),
+        "each call waited for its answer: {run}"
+    );
+    assert!(
+        row.contains(&format!(" {ms} ")),
+        "the time is the sum {ms}: {row}"
+    );
+    let tokens: u64 = calls
+        .iter()
+        .map(|c| {
+            c["usage"]["input_tokens"].as_u64().unwrap()
+                + c["usage"]["output_tokens"].as_u64().unwrap()
+        })
+        .sum();
+    assert_eq!(tokens, input + output);
+}

@@ -20,7 +20,7 @@ use crate::workbench::message::Cmd;
 use crate::workbench::overlays::diff_page::{diff_lines, wrap};
 use crate::workbench::overlays::{centred, fmt_score, moved, themed_box, Overlay};
 use crate::workbench::panes::list_window;
-use crate::workbench::run_diff::{agent_cost, cost_text, run_cost, ReadMetric, RunDiff, METRICS};
+use crate::workbench::run_diff::{agent_side, cost_text, run_cost, ReadMetric, RunDiff, METRICS};
 use crate::workbench::runs::{mean_score, sample_scores};
 use crate::workbench::session::{PlanSource, RunRecord, RunState};
 use crate::workbench::theme::Theme;
@@ -239,16 +239,23 @@ impl RunsOverlay {
             Line::from(vec![
                 Span::styled(format!("  {:<8}", a.role.label()), t.accent),
                 Span::styled(
-                    format!(
-                        "{}/{} · {} ms · {}+{} tok · {}{}",
-                        a.settings.provider,
-                        a.settings.model,
-                        a.elapsed_ms,
-                        a.usage.input_tokens,
-                        a.usage.output_tokens,
-                        cost_text(agent_cost(&self.prices, a)),
-                        if a.cached { " (cached)" } else { "" }
-                    ),
+                    match agent_side(&self.prices, current, a.role) {
+                        Some(side) => format!(
+                            "{}/{} · {} ms · {}+{} tok · {}{}{}",
+                            a.settings.provider,
+                            a.settings.model,
+                            side.elapsed_ms,
+                            side.usage.input_tokens,
+                            side.usage.output_tokens,
+                            cost_text(side.usd),
+                            if side.cached { " (cached)" } else { "" },
+                            match side.calls {
+                                1 => String::new(),
+                                n => format!(" · {n} calls"),
+                            }
+                        ),
+                        None => String::new(),
+                    },
                     t.base,
                 ),
             ])

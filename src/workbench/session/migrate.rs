@@ -61,6 +61,7 @@ fn v4_to_v5(value: &mut Value) {
         } else {
             ("finished", None)
         };
+        sample_calls(run);
         run.insert("state".into(), state.into());
         if let Some(error) = failure {
             run.insert("error".into(), error.into());
@@ -68,6 +69,76 @@ fn v4_to_v5(value: &mut Value) {
         if let Some(reason) = reason {
             run.insert("reason".into(), reason.into());
         }
+    }
+}
+
+/// Version 5 keeps each later sample's calls as agent records where
+/// version 4 kept their answers by agent: each answer becomes a record with
+/// the settings and prompt of the run's own record of that agent, no time
+/// and (but for a sample of one agent, which gets the sample's tokens) no
+/// tokens; the sample's token total is kept as it was.
+fn sample_calls(run: &mut Map<String, Value>) {
+    let records: Vec<Map<String, Value>> = agents(run).map(|a| a.clone()).collect();
+    let samples = run.get_mut("samples").and_then(Value::as_array_mut);
+    for sample in samples
+        .into_iter()
+        .flatten()
+        .filter_map(Value::as_object_mut)
+    {
+        let outputs = match sample.remove("outputs") {
+            Some(Value::Object(outputs)) => outputs,
+            _ => Map::new(),
+        };
+        let usage = sample.get("usage").cloned().unwrap_or(Value::Null);
+        let one = outputs.len() == 1;
+        let calls: Vec<Value> = outputs
+            .into_iter()
+            .map(|(role, output)| {
+                let mut call = records
+                    .iter()
+                    .find(|r| r.get("role").and_then(Value::as_str) == Some(role.as_str()))
+                    .or(records.first())
+                    .cloned()
+                    .unwrap_or_else(|| {
+                        let mut blank = Map::new();
+                        for (key, value) in [
+                            ("provider", Value::from(ProviderKind::Replay.name())),
+                            ("base_url", ProviderKind::Replay.default_base_url().into()),
+                            ("model", "".into()),
+                            ("temperature", 0.0.into()),
+                            (
+                                "max_tokens",
+                                crate::agents::config::DEFAULT_MAX_TOKENS.into(),
+                            ),
+                            ("stream", true.into()),
+                            ("json_output", true.into()),
+                            ("prompt", "".into()),
+                            ("prompt_hash", "".into()),
+                        ] {
+                            blank.insert(key.into(), value);
+                        }
+                        blank
+                    });
+                let tokens = if one {
+                    usage.clone()
+                } else {
+                    serde_json::json!({"input_tokens": 0, "output_tokens": 0})
+                };
+                for (key, value) in [
+                    ("role", Value::from(role)),
+                    ("output", output),
+                    ("error", Value::Null),
+                    ("usage", tokens),
+                    ("elapsed_ms", 0.into()),
+                    ("cached", false.into()),
+                    ("request_key", "".into()),
+                ] {
+                    call.insert(key.into(), value);
+                }
+                Value::Object(call)
+            })
+            .collect();
+        sample.insert("agents".into(), calls.into());
     }
 }
 
@@ -287,6 +358,17 @@ mod tests {
             [1, 0, 0, 2],
             "the failed and cancelled runs count for nothing, the partial one over its complete samples"
         );
+        let sampled = &s.runs[3];
+        assert_eq!(sampled.samples[0].agents.len(), 1);
+        let call = &sampled.samples[0].agents[0];
+        assert_eq!(call.output_text(), "1. Walk to the sink.");
+        assert_eq!(
+            call.settings.model, "gpt-4o",
+            "the run's settings of that agent"
+        );
+        assert_eq!(call.usage.input_tokens + call.usage.output_tokens, 109);
+        assert!(sampled.samples[1].agents.is_empty(), "it had no answer");
+        assert_eq!(sampled.total_tokens(), 120 + 109, "every sample's tokens");
         assert_eq!(s.samples, 3);
         assert_eq!(s.plan_source, super::super::PlanSource::Run { run: 4 });
     }
