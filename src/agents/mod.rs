@@ -310,6 +310,17 @@ pub struct Usage {
     pub output_tokens: u64,
 }
 
+/// The token counts of several answers added up: a plan's over its agents,
+/// a run's over every call.
+impl<'a> std::iter::Sum<&'a Usage> for Usage {
+    fn sum<I: Iterator<Item = &'a Usage>>(iter: I) -> Usage {
+        iter.fold(Usage::default(), |sum, u| Usage {
+            input_tokens: sum.input_tokens + u.input_tokens,
+            output_tokens: sum.output_tokens + u.output_tokens,
+        })
+    }
+}
+
 /// Everything that can end an agent's run.
 #[derive(Debug, thiserror::Error)]
 pub enum AgentError {

@@ -65,6 +65,10 @@ pub enum AgentEvent {
         role: AgentRole,
         /// What went wrong, in one line.
         error: String,
+        /// Milliseconds from its request to the failure (0 when no request
+        /// was sent), so a failed call counts its own time, never another's.
+        #[serde(default)]
+        elapsed_ms: u64,
     },
 }
 
@@ -236,6 +240,7 @@ pub struct Runner {
     recorder: Option<Arc<Mutex<Recording>>>,
     answers: Option<(Arc<Recording>, Pace)>,
     images: Arc<Mutex<HashMap<PathBuf, ImageInput>>>,
+    fresh: bool,
 }
 
 /// The encoded bytes of prepared images a runner keeps (see
@@ -261,6 +266,7 @@ impl Runner {
             recorder: None,
             answers: None,
             images: Arc::default(),
+            fresh: false,
         }
     }
 
@@ -275,6 +281,13 @@ impl Runner {
     /// recorded agents can run beside live ones.
     pub fn with_answers(mut self, recording: Arc<Recording>, pace: Pace) -> Self {
         self.answers = Some((recording, pace));
+        self
+    }
+
+    /// Asks every provider afresh: the response cache is not read, and the
+    /// new answers replace the cached ones (the workbench's `R`).
+    pub fn fresh(mut self) -> Self {
+        self.fresh = true;
         self
     }
 
@@ -412,10 +425,7 @@ impl Runner {
             }
         }
         record.agents.push(planner);
-        record.usage = record.agents.iter().fold(Usage::default(), |sum, a| Usage {
-            input_tokens: sum.input_tokens + a.usage.input_tokens,
-            output_tokens: sum.output_tokens + a.usage.output_tokens,
-        });
+        record.usage = record.agents.iter().map(|a| &a.usage).sum();
         record.elapsed_ms = elapsed_ms(start);
         Ok(record)
     }
@@ -512,6 +522,7 @@ impl Runner {
         let _ = events.send(AgentEvent::Failed {
             role,
             error: error.clone(),
+            elapsed_ms: 0,
         });
         Ok(AgentRecord {
             error: Some(error),
@@ -534,6 +545,7 @@ impl Runner {
                 let _ = events.send(AgentEvent::Failed {
                     role,
                     error: error.clone(),
+                    elapsed_ms: 0,
                 });
                 return AgentRecord {
                     error: Some(error),
@@ -607,6 +619,7 @@ impl Runner {
                 let _ = events.send(AgentEvent::Failed {
                     role,
                     error: error.clone(),
+                    elapsed_ms: record.elapsed_ms,
                 });
                 record.error = Some(error);
             }
@@ -614,11 +627,12 @@ impl Runner {
         record
     }
 
-    /// The cached answer to the request keyed `key` (live runs only).
+    /// The cached answer to the request keyed `key` (live runs only, and
+    /// none when asking afresh).
     fn cached(&self, key: &str) -> Option<CachedAnswer> {
         self.cache
             .as_ref()
-            .filter(|_| matches!(self.source, Source::Live))
+            .filter(|_| matches!(self.source, Source::Live) && !self.fresh)
             .and_then(|c| c.get(key))
     }
 

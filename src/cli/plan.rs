@@ -398,7 +398,7 @@ fn print_event(label: String, event: &AgentEvent) {
             usage.output_tokens,
             if *cached { " (cached)" } else { "" }
         ),
-        AgentEvent::Failed { role, error } => {
+        AgentEvent::Failed { role, error, .. } => {
             eprintln!("{role}{label}: failed: {}", sanitize::for_terminal(error))
         }
     }

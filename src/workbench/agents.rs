@@ -118,6 +118,9 @@ pub struct RunRequest {
     /// How many samples each agent is asked for: the first streams its
     /// events, each later one comes whole as an [`AgentEvent::Sampled`].
     pub samples: u32,
+    /// Whether every agent is asked afresh, the response cache not read
+    /// (its new answers replace the cached ones): `R`.
+    pub fresh: bool,
 }
 
 /// Runs agents in the background and reports [`AgentEvent`]s.
@@ -417,6 +420,7 @@ impl Pipeline for AgentsPipeline {
                     AgentEvent::Failed {
                         role: first,
                         error: error.to_string(),
+                        elapsed_ms: 0,
                     },
                 ));
             };
@@ -435,6 +439,9 @@ impl Pipeline for AgentsPipeline {
                 Runner::new(settings, prompts, Source::Live).with_answers(answers.0, answers.1);
             if let Some(cache) = cache {
                 runner = runner.with_cache(cache);
+            }
+            if request.fresh {
+                runner = runner.fresh();
             }
             let input = PlanInput {
                 task: request.task.clone(),
@@ -515,13 +522,14 @@ pub fn run_blocking(
 /// the demo's recording has no answer for the request.
 fn explain_replay_failure(event: AgentEvent, request: &RunRequest) -> AgentEvent {
     match event {
-        AgentEvent::Failed { role, .. } if AgentsPipeline::is_replay(request, role) => {
-            AgentEvent::Failed {
-                role,
-                error: provider_needed(role, "the demo's recording has no answer for this request")
-                    .to_string(),
-            }
-        }
+        AgentEvent::Failed {
+            role, elapsed_ms, ..
+        } if AgentsPipeline::is_replay(request, role) => AgentEvent::Failed {
+            role,
+            elapsed_ms,
+            error: provider_needed(role, "the demo's recording has no answer for this request")
+                .to_string(),
+        },
         other => other,
     }
 }

@@ -9,7 +9,7 @@ use crate::workbench::message::Cmd;
 use crate::workbench::panes::steps::StepList;
 use crate::workbench::panes::Pane;
 use crate::workbench::runs::AgentStatus;
-use crate::workbench::session::{Draft, Session, SESSION_VERSION};
+use crate::workbench::session::{Draft, RunState, Session, SESSION_VERSION};
 use crate::workbench::snapshot::{Snapshot, SnapshotPacer, SNAPSHOT_EVERY};
 
 /// The session copies of the loop: when the next one is due, and how many
@@ -117,7 +117,18 @@ impl App {
                 .collect(),
             theme: self.theme.name.clone(),
             image: self.scene.enabled,
-            runs: self.runs.history.clone(),
+            runs: self
+                .runs
+                .history
+                .iter()
+                .cloned()
+                .chain(
+                    self.runs
+                        .active
+                        .as_ref()
+                        .map(|active| self.run_record(active, RunState::Running)),
+                )
+                .collect(),
             samples: self.samples,
             draft,
         }
@@ -165,6 +176,25 @@ impl App {
         self.use_configured_providers();
         self.scene.enabled = s.image;
         self.runs.history = s.runs;
+        for run in &mut self.runs.history {
+            if run.state == RunState::Running {
+                run.state = RunState::Cancelled;
+                run.reason =
+                    Some("cancelled: the workbench stopped during the run, not scored".into());
+            }
+        }
+        for (agent, view) in self.runs.agents.iter_mut() {
+            let last = self.runs.history.iter().rev().find_map(|r| {
+                r.agents
+                    .iter()
+                    .find(|a| a.role == *agent && a.output.is_some() && a.error.is_none())
+            });
+            if let Some(record) = last.filter(|_| view.status == AgentStatus::Done) {
+                view.usage = record.usage;
+                view.duration_ms = record.elapsed_ms;
+                view.cached = record.cached;
+            }
+        }
         self.samples = s.samples;
         self.refresh_graph();
         if let Some(draft) = s.draft {

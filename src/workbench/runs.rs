@@ -15,17 +15,58 @@ use crate::workbench::message::Cmd;
 use crate::workbench::overlays::Overlay;
 use crate::workbench::panes::steps::StepList;
 use crate::workbench::scoring::{score_record, Pg2sOutcome, SampleScoring, ScoreOutcome};
-use crate::workbench::session::{PlanSource, RunRecord, SampleRecord, ScoreRecord, StepScore};
+use crate::workbench::session::{
+    PlanSource, RunRecord, RunState, SampleRecord, ScoreRecord, StepScore,
+};
 
 /// Every sample's scores of `run`, in sample order: the one place the run
 /// diff's verdicts and the Scores pane read a run's samples from. The run's
 /// own scores are sample 0; each later sample follows once scored (a
 /// sample not scored yet is left out).
+///
+/// Only complete samples of a run that counts as scored ([`RunState::is_scored`])
+/// are given: a failed or cancelled run has none, a partial run its
+/// complete samples only.
 pub fn sample_scores(run: &RunRecord) -> Vec<ScoreRecord> {
+    if !run.state.is_scored() {
+        return Vec::new();
+    }
     run.scores
         .into_iter()
-        .chain(run.samples.iter().filter_map(|s| s.scores))
+        .chain(
+            run.samples
+                .iter()
+                .filter(|s| s.error.is_none())
+                .filter_map(|s| s.scores),
+        )
         .collect()
+}
+
+/// The mean of one score over the complete samples of `run` (see
+/// [`sample_scores`]), the value the history, the Scores pane and the diff
+/// all show for it; `None` when no complete sample has it.
+pub fn mean_score(run: &RunRecord, of: impl Fn(&ScoreRecord) -> Option<f64>) -> Option<f64> {
+    crate::stats::summary::Spread::of(sample_scores(run).iter().filter_map(of)).map(|s| s.mean)
+}
+
+/// Marks `run` partial when one of its later samples failed, saying how
+/// many of its samples are complete; its scores are then over those only.
+fn settle_samples(run: &mut RunRecord) {
+    let failed: Vec<&SampleRecord> = run.samples.iter().filter(|s| s.error.is_some()).collect();
+    let Some(first) = failed.first() else {
+        return;
+    };
+    if !run.state.is_scored() {
+        return;
+    }
+    let total = run.samples.len() + 1;
+    run.state = RunState::Partial;
+    run.reason = Some(format!(
+        "{} of {total} samples complete, scored over those; sample {} failed: {}",
+        total - failed.len(),
+        first.sample + 1,
+        first.error.as_deref().unwrap_or_default()
+    ));
 }
 
 /// The numbers of samples the `S` key steps through.
@@ -35,11 +76,7 @@ pub const SAMPLE_STEPS: [u32; 4] = [1, 3, 5, 10];
 fn sample_record(record: &PlanRecord) -> SampleRecord {
     SampleRecord {
         sample: record.sample,
-        outputs: record
-            .agents
-            .iter()
-            .filter_map(|a| Some((a.role, a.output.clone()?)))
-            .collect(),
+        agents: record.agents.clone(),
         plan: record.steps.clone(),
         usage: record.usage,
         error: record
@@ -113,8 +150,25 @@ pub struct ActiveRun {
     pub started_unix: u64,
     /// The agents it runs.
     pub agents: Vec<AgentRole>,
+    /// Every agent that reported in it, those answered from the cache
+    /// included: the run's record keeps each.
+    pub reported: Vec<AgentRole>,
     /// Its later samples that came in before its first finished.
     pub samples: Vec<SampleRecord>,
+    /// The plan the Plan pane showed when it started, put back when the run
+    /// does not finish: the pane keeps the last good plan.
+    pub kept: KeptPlan,
+}
+
+/// A plan the Plan pane showed, with where it came from and the selected step.
+#[derive(Debug, Clone, PartialEq)]
+pub struct KeptPlan {
+    /// Its steps.
+    pub items: Vec<String>,
+    /// Where it came from.
+    pub source: PlanSource,
+    /// The selected step.
+    pub selected: usize,
 }
 
 /// The agents of the approach and every run.
@@ -144,6 +198,17 @@ impl Runs {
 impl Default for Runs {
     fn default() -> Self {
         Self::new()
+    }
+}
+
+impl AgentView {
+    /// Starts a new call: no output, tokens, time or cache use yet, so
+    /// nothing of the call before is counted for this one.
+    fn begin_call(&mut self) {
+        self.output.clear();
+        self.usage = Usage::default();
+        self.duration_ms = 0;
+        self.cached = false;
     }
 }
 
@@ -214,7 +279,14 @@ impl App {
         if matches!(self.editing, Editing::Prompt) {
             self.store_prompt_editor();
         }
-        let to_run = self.agents_to_run(all);
+        // More samples than the last run asked for: every agent runs, its
+        // earlier samples answered from the cache.
+        let more_samples = self
+            .runs
+            .history
+            .last()
+            .is_some_and(|r| r.samples.len() as u32 + 1 < self.samples);
+        let to_run = self.agents_to_run(all || more_samples);
         if to_run.is_empty() {
             self.set_status(
                 "nothing changed since the last run: R re-runs every agent",
@@ -241,18 +313,25 @@ impl App {
             image: self.task.image.clone(),
             table: self.task.table.clone(),
             samples: self.samples,
+            fresh: all,
         };
         for &agent in &to_run {
             if let Some(v) = self.runs.agents.get_mut(&agent) {
                 v.status = AgentStatus::Waiting;
-                v.output.clear();
+                v.begin_call();
             }
         }
         self.runs.active = Some(ActiveRun {
             id,
             started_unix: unix_now(),
             agents: to_run.clone(),
+            reported: Vec::new(),
             samples: Vec::new(),
+            kept: KeptPlan {
+                items: self.plan.items.clone(),
+                source: self.plan_source.clone(),
+                selected: self.plan.selected,
+            },
         });
         let names: Vec<&str> = to_run.iter().map(|a| a.label()).collect();
         let samples = match self.samples {
@@ -295,23 +374,36 @@ impl App {
         }
     }
 
-    pub(crate) fn finish_run(&mut self, cancelled: bool) -> Vec<Cmd> {
-        let Some(active) = self.runs.active.take() else {
-            return Vec::new();
-        };
+    /// The record of `active` as it stands, in `state`: each agent's
+    /// output, failure, tokens, time and cache use from this run alone (an
+    /// agent that never started has no output and counts nothing), and the
+    /// plan its planning agent wrote (possibly broken off).
+    pub(crate) fn run_record(&self, active: &ActiveRun, state: RunState) -> RunRecord {
         let mut prompts = BTreeMap::new();
         let mut agents = Vec::new();
-        for &a in &active.agents {
+        let mut error = None;
+        let roles = self
+            .approach
+            .roles()
+            .iter()
+            .filter(|a| active.agents.contains(a) || active.reported.contains(a));
+        for &a in roles {
             let Some(v) = self.runs.agents.get(&a) else {
                 continue;
             };
             let prompt = self.prompt_of(a);
+            let failure = match &v.status {
+                AgentStatus::Failed(e) => Some(e.clone()),
+                _ => None,
+            };
+            if let (None, Some(e)) = (&error, &failure) {
+                error = Some(format!("{}: {e}", a.label()));
+            }
+            let started = !matches!(v.status, AgentStatus::Waiting | AgentStatus::Idle);
             agents.push(AgentRecord {
-                output: Some(v.output.clone()),
-                error: match &v.status {
-                    AgentStatus::Failed(e) => Some(e.clone()),
-                    _ => None,
-                },
+                output: (started && (v.status == AgentStatus::Done || !v.output.is_empty()))
+                    .then(|| v.output.clone()),
+                error: failure,
                 usage: v.usage,
                 elapsed_ms: v.duration_ms,
                 cached: v.cached,
@@ -324,26 +416,102 @@ impl App {
             });
             prompts.insert(a, prompt);
         }
-        self.runs.history.push(RunRecord {
+        let planning = self.approach.planning_role();
+        let plan = match (state, self.runs.agents.get(&planning)) {
+            (RunState::Finished, _) | (_, None) => self.plan.items.clone(),
+            (_, Some(v)) if active.agents.contains(&planning) => bounded_steps(&v.output).0,
+            _ => Vec::new(),
+        };
+        let kept_plan = if plan.is_empty() {
+            "no plan"
+        } else {
+            "its partial plan is kept"
+        };
+        let reason = match state {
+            RunState::Finished | RunState::Partial => None,
+            RunState::Running => Some("running".to_string()),
+            RunState::Cancelled => Some(format!("cancelled: {kept_plan}, not scored")),
+            RunState::Failed => Some(format!("{kept_plan}, not scored")),
+        };
+        RunRecord {
             id: active.id,
             started_unix: active.started_unix,
             approach: self.approach,
             task: self.task.text.clone(),
             agents,
             prompts,
-            plan: self.plan.items.clone(),
+            plan,
             ground_truth: self.ground_truth.items.clone(),
             scores: None,
-            cancelled,
+            state,
+            error,
+            reason,
             corrupted: None,
             steps: Vec::new(),
-            samples: active.samples,
+            samples: active.samples.clone(),
+        }
+    }
+
+    /// Ends the run in flight and keeps its record: finished when every
+    /// agent answered (then scored), else cancelled (`cancelled`) or
+    /// failed, never scored, and the Plan pane gets back the plan it showed
+    /// before the run.
+    pub(crate) fn finish_run(&mut self, cancelled: bool) -> Vec<Cmd> {
+        let Some(active) = self.runs.active.take() else {
+            return Vec::new();
+        };
+        let failed = active.agents.iter().any(|a| {
+            self.runs
+                .agents
+                .get(a)
+                .is_some_and(|v| matches!(v.status, AgentStatus::Failed(_)))
         });
+        let state = match (cancelled, failed) {
+            (true, _) => RunState::Cancelled,
+            (false, true) => RunState::Failed,
+            (false, false) => RunState::Finished,
+        };
+        let mut record = self.run_record(&active, state);
+        settle_samples(&mut record);
+        let status = format!("run {} {}", record.id, record.state_text());
+        self.runs.history.push(record);
+        self.session_dirty = true;
+        let severity = match state {
+            RunState::Finished => Severity::Info,
+            RunState::Failed => Severity::Error,
+            _ => Severity::Warn,
+        };
+        if !state.is_scored() {
+            self.plan.items = active.kept.items;
+            self.plan_source = active.kept.source;
+            self.plan.selected = active.kept.selected;
+            let cmds = vec![self.rescore()];
+            self.refresh_runs();
+            self.set_status(status, severity);
+            return cmds;
+        }
         let mut cmds = vec![self.rescore()];
         self.runs.awaiting_scores = Some((self.runs.history.len() - 1, self.score_generation));
         cmds.extend(self.score_samples(active.id));
         self.refresh_runs();
+        self.set_status(status, severity);
         cmds
+    }
+
+    /// The run whose plan the Plan pane shows, when it shows a run's plan.
+    pub fn shown_run(&self) -> Option<&RunRecord> {
+        let PlanSource::Run { run } = self.plan_source else {
+            return None;
+        };
+        self.runs.history.iter().find(|r| r.id == run)
+    }
+
+    /// The latest run when it did not finish and the Plan pane shows
+    /// another plan (the last good one): the pane says it failed and why.
+    pub fn unfinished_latest(&self) -> Option<&RunRecord> {
+        let latest = self.runs.history.last()?;
+        (!latest.state.is_scored() && self.plan_source != PlanSource::Run { run: latest.id })
+            .then_some(latest)
     }
 
     /// Steps the number of samples `r` asks for through [`SAMPLE_STEPS`].
@@ -374,6 +542,7 @@ impl App {
         };
         kept.samples.push(sample);
         kept.samples.sort_by_key(|s| s.sample);
+        settle_samples(kept);
         self.session_dirty = true;
         self.refresh_runs();
         self.score_samples(run).into_iter().collect()
@@ -385,7 +554,7 @@ impl App {
         let plans: Vec<(u32, Vec<String>)> = kept
             .samples
             .iter()
-            .filter(|s| s.scores.is_none())
+            .filter(|s| s.scores.is_none() && s.error.is_none())
             .map(|s| (s.sample, s.plan.clone()))
             .collect();
         (!plans.is_empty()).then(|| {
@@ -420,9 +589,14 @@ impl App {
         }
         match event {
             AgentEvent::Started { role: agent } => {
+                if let Some(active) = self.runs.active.as_mut() {
+                    if !active.reported.contains(&agent) {
+                        active.reported.push(agent);
+                    }
+                }
                 if let Some(v) = self.runs.agents.get_mut(&agent) {
                     v.status = AgentStatus::Running;
-                    v.output.clear();
+                    v.begin_call();
                 }
                 if agent == self.approach.planning_role() {
                     if matches!(
@@ -489,22 +663,21 @@ impl App {
                     })
                 });
                 if all_done {
-                    let id = run;
                     cmds.extend(self.finish_run(false));
-                    self.set_status(format!("run {id} finished"), Severity::Info);
                 }
                 cmds
             }
             // Taken before the run's own events, above.
             AgentEvent::Sampled { .. } => Vec::new(),
-            AgentEvent::Failed { role: agent, error } => {
+            AgentEvent::Failed {
+                role: agent,
+                error,
+                elapsed_ms,
+            } => {
                 if let Some(v) = self.runs.agents.get_mut(&agent) {
-                    v.status = AgentStatus::Failed(error.clone());
+                    v.status = AgentStatus::Failed(error);
+                    v.duration_ms = elapsed_ms;
                 }
-                self.set_status(
-                    format!("{} failed: {error}", agent.label()),
-                    Severity::Error,
-                );
                 let mut cmds = vec![Cmd::CancelRun(run)];
                 cmds.extend(self.finish_run(false));
                 cmds
@@ -522,7 +695,6 @@ impl App {
                 v.status = AgentStatus::Cancelled;
             }
         }
-        self.set_status(format!("run {id} cancelled"), Severity::Warn);
         let mut cmds = vec![Cmd::CancelRun(id)];
         cmds.extend(self.finish_run(true));
         cmds

@@ -20,7 +20,7 @@ mod repair;
 pub use file::{decode, default_path, restore, save, DecodeError, Restored, SessionError};
 
 /// The format version written into every session file.
-pub const SESSION_VERSION: u32 = 4;
+pub const SESSION_VERSION: u32 = 5;
 
 /// Where the ground truth in use came from.
 #[derive(Debug, Clone, PartialEq, Eq, Serialize, Deserialize)]
@@ -100,8 +100,18 @@ pub struct RunRecord {
     pub ground_truth: Vec<String>,
     /// Its scores, once computed.
     pub scores: Option<ScoreRecord>,
-    /// Whether the user cancelled it.
-    pub cancelled: bool,
+    /// What became of it: only a finished run, and the complete samples of
+    /// a partial one, count as scored plans.
+    pub state: RunState,
+    /// The first failure of its agents as they reported it (`Planner: …`),
+    /// when one failed.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub error: Option<String>,
+    /// Why it is not simply finished, in words the history and the panes
+    /// show (cancelled, quit during the run, a partial plan kept, samples
+    /// that failed).
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub reason: Option<String>,
     /// Set when the run's plan was made by corrupting a plan (the Plan
     /// pane's `c`), not by agents: where that plan came from and the edits.
     #[serde(default, skip_serializing_if = "Option::is_none")]
@@ -118,6 +128,44 @@ pub struct RunRecord {
     pub samples: Vec<SampleRecord>,
 }
 
+/// What became of a run. A run that is not finished is never scored as a
+/// plan: it stays out of the sparkline, the means and the diff's verdict;
+/// a partial run counts over its complete samples only.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Serialize, Deserialize)]
+#[serde(rename_all = "snake_case")]
+pub enum RunState {
+    /// Its agents are still at work (a session saved during the run; it is
+    /// restored as cancelled).
+    Running,
+    /// Every agent of every sample answered.
+    Finished,
+    /// An agent of its first sample failed: it has no plan to score (a plan
+    /// broken off mid-stream is kept, marked, unscored).
+    Failed,
+    /// Cancelled by the user, or the workbench stopped during it.
+    Cancelled,
+    /// Some later samples failed: scored over its complete samples only.
+    Partial,
+}
+
+impl RunState {
+    /// The word the history, the panes and the diff show for it.
+    pub fn word(self) -> &'static str {
+        match self {
+            RunState::Running => "running",
+            RunState::Finished => "finished",
+            RunState::Failed => "failed",
+            RunState::Cancelled => "cancelled",
+            RunState::Partial => "partial",
+        }
+    }
+
+    /// Whether the run's (complete) samples count as scored plans.
+    pub fn is_scored(self) -> bool {
+        matches!(self, RunState::Finished | RunState::Partial)
+    }
+}
+
 /// A later sample of a run (see [`RunRecord::samples`]): the same agents,
 /// prompts and settings asked again, with what they answered and how the
 /// plan scored.
@@ -125,8 +173,10 @@ pub struct RunRecord {
 pub struct SampleRecord {
     /// Which sample (1 for the second; the run itself is sample 0).
     pub sample: u32,
-    /// Each agent's answer, by agent.
-    pub outputs: BTreeMap<AgentRole, String>,
+    /// Each agent's call of this sample, in the order they started: its
+    /// answer, failure, tokens, time and whether it came from the cache
+    /// (a sample saved before version 5 has its answers only).
+    pub agents: Vec<AgentRecord>,
     /// The plan it produced.
     pub plan: Vec<String>,
     /// Token use over its agents.
@@ -160,17 +210,40 @@ pub struct CorruptedFrom {
 }
 
 impl RunRecord {
-    /// The wall time of all its agents, in milliseconds.
-    pub fn total_ms(&self) -> u64 {
-        self.agents.iter().map(|a| a.elapsed_ms).sum()
+    /// What became of it in one line, as every view says it: `finished`, or
+    /// the state's word with the failure and the reason (`failed: Planner:
+    /// HTTP 500 … (no plan, not scored)`).
+    pub fn state_text(&self) -> String {
+        let word = self.state.word();
+        match (&self.error, &self.reason) {
+            (Some(error), Some(reason)) => format!("{word}: {error} ({reason})"),
+            (Some(error), None) => format!("{word}: {error}"),
+            (None, Some(reason)) if reason.starts_with(word) => reason.clone(),
+            (None, Some(reason)) => format!("{word}: {reason}"),
+            (None, None) => word.to_string(),
+        }
     }
 
-    /// The tokens all its agents sent and wrote.
-    pub fn total_tokens(&self) -> u64 {
+    /// Every agent call it made, sample by sample: its own agents (sample
+    /// 0), then each later sample's.
+    pub fn calls(&self) -> impl Iterator<Item = &AgentRecord> {
         self.agents
             .iter()
-            .map(|a| a.usage.input_tokens + a.usage.output_tokens)
-            .sum()
+            .chain(self.samples.iter().flat_map(|s| &s.agents))
+    }
+
+    /// The time of every call it made, summed, in milliseconds.
+    pub fn total_ms(&self) -> u64 {
+        self.calls().map(|a| a.elapsed_ms).sum()
+    }
+
+    /// The tokens every call it made sent and wrote, summed (a later
+    /// sample counts its own total, which sessions before version 5 kept
+    /// without the split by agent).
+    pub fn total_tokens(&self) -> u64 {
+        let tokens = |u: &Usage| u.input_tokens + u.output_tokens;
+        self.agents.iter().map(|a| tokens(&a.usage)).sum::<u64>()
+            + self.samples.iter().map(|s| tokens(&s.usage)).sum::<u64>()
     }
 }
 
@@ -319,7 +392,9 @@ mod tests {
             plan: vec!["Wash the mug.".into()],
             ground_truth: vec!["Wash the mug.".into()],
             scores: None,
-            cancelled: false,
+            state: RunState::Finished,
+            error: None,
+            reason: None,
             corrupted: None,
             steps: Vec::new(),
             samples: Vec::new(),
@@ -465,7 +540,13 @@ mod tests {
                                 kas,
                                 ..ScoreRecord::default()
                             }),
-                            cancelled: image,
+                            state: if image {
+                                RunState::Cancelled
+                            } else {
+                                RunState::Finished
+                            },
+                            error: None,
+                            reason: image.then(|| "cancelled".to_string()),
                             corrupted: None,
                             steps: Vec::new(),
                             samples: Vec::new(),

@@ -46,4 +46,5 @@ mod tui_agents;
 mod tui_corrupt;
 mod tui_e2e;
 mod tui_providers;
+mod tui_runs;
 mod wordvec;

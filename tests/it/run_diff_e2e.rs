@@ -79,7 +79,7 @@ fn a_prompt_edit_between_two_runs_shows_in_their_diff_with_the_score_change() {
             "Diff run #1 → #2",
             "── Planner ──",
             "Be brief.+}",
-            "did not run (the output of #1 was reused)",
+            "tok $0.0000 (cached)",
             "set samples to 5",
         ]
         .iter()
@@ -93,8 +93,8 @@ fn a_prompt_edit_between_two_runs_shows_in_their_diff_with_the_score_change() {
     );
     assert!(diff.contains("Be brief.+}"), "{diff}");
     assert!(
-        diff.contains("did not run (the output of #1 was reused)"),
-        "{diff}"
+        diff.contains("tok $0.0000 (cached)"),
+        "the miners answered run 2 from the cache, and it says so: {diff}"
     );
     let kas = verdict(&diff, "KAS").unwrap_or_else(|| panic!("no KAS verdict: {diff}"));
     let (before, after) = (

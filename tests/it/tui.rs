@@ -744,7 +744,11 @@ fn run_history_shows_each_agent_and_run_cost_from_the_price_table() {
     assert!(history.contains(&total), "{history}");
     assert!(history.contains("no price"), "{history}");
     // The selected run's agents, each with its own cost.
-    assert!(history.contains("run #2 per agent:"), "{history}");
+    assert!(history.contains("run #2 finished"), "{history}");
+    assert!(
+        history.contains("over 1 of 1 samples); per agent:"),
+        "{history}"
+    );
     assert!(
         history.contains("openai/gpt-4.1 · 100 ms · 1000+200 tok · no price"),
         "{history}"
@@ -823,6 +827,13 @@ fn the_run_diff_shows_the_prompt_change_and_each_steps_score_change() {
     assert!(h.app.overlay.is_none());
 }
 
+/// The screen with the Scores pane zoomed.
+fn zoomed_scores(h: &mut Harness) -> String {
+    h.app.focus = Pane::Scores;
+    h.key(KeyCode::Char('z'));
+    h.screen()
+}
+
 /// A run of three samples: the Scores pane shows each score's mean ±sd
 /// right after its name, then its min–max; the history's sparkline shows
 /// the run's min, mean and max.
@@ -845,7 +856,7 @@ fn scores_of_a_sampled_run_show_their_spread() {
         .into_iter()
         .map(|(sample, pg2s, kas)| SampleRecord {
             sample,
-            outputs: Default::default(),
+            agents: Vec::new(),
             plan: first.plan.clone(),
             usage: Default::default(),
             error: None,
@@ -859,9 +870,7 @@ fn scores_of_a_sampled_run_show_their_spread() {
         .collect();
     h.app.runs.history = vec![one, sampled];
     h.app.plan_source = mapvlm::workbench::session::PlanSource::Run { run: first.id + 1 };
-    h.app.focus = Pane::Scores;
-    h.key(KeyCode::Char('z'));
-    let screen = h.screen();
+    let screen = zoomed_scores(&mut h);
     // PG2S of the samples 0.41, 0.455, 0.434: mean 0.433, sd 0.0225.
     assert!(
         screen.contains("PG2S 0.433 ±0.023  0.410–0.455"),
@@ -922,4 +931,213 @@ fn readme_capture_is_the_demo_as_drawn() {
         block,
         "the README's capture is not the demo as drawn: rerun with MAPVLM_UPDATE_README=1"
     );
+}
+
+/// Starts a run of every agent with `R` without carrying it out, and hands
+/// the app the pipeline's `events` for it instead (what a provider that
+/// fails would make the pipeline send); returns the run's id.
+fn run_with_events(h: &mut Harness, events: Vec<AgentEvent>) -> u64 {
+    let started = h.app.update(Msg::Key(KeyEvent::new(
+        KeyCode::Char('R'),
+        KeyModifiers::NONE,
+    )));
+    let Some(Cmd::StartRun(request)) = started.into_iter().next() else {
+        panic!("R started no run");
+    };
+    for event in events {
+        let cmds = h.app.update(Msg::Agent(request.run, event));
+        h.run(cmds);
+    }
+    request.run
+}
+
+/// The Planner starting and writing `text`, as the pipeline reports it.
+fn planner_writes(text: &str) -> Vec<AgentEvent> {
+    vec![
+        AgentEvent::Started {
+            role: AgentRole::Planner,
+        },
+        AgentEvent::Token {
+            role: AgentRole::Planner,
+            text: text.into(),
+        },
+    ]
+}
+
+/// A Planner whose answer breaks off after two steps: the run is kept as
+/// failed with the partial plan marked and unscored, the Plan pane keeps
+/// the last good plan and says why the new run failed, and the history,
+/// the Scores pane and the diff say so in words.
+#[test]
+fn a_failed_run_is_kept_failed_unscored_and_the_last_good_plan_stays() {
+    use mapvlm::workbench::session::{PlanSource, RunState};
+
+    let mut h = Harness::new((200, 60), None, false, bag_of_words());
+    let good = h.app.runs.history[0].clone();
+    assert_eq!(good.state, RunState::Finished);
+    let before = h.app.runs.agents[&AgentRole::Planner].clone();
+    assert!(before.usage.output_tokens > 0);
+    let mut events = planner_writes("1. Walk to the sink.\n2. Pick up");
+    events.push(AgentEvent::Failed {
+        role: AgentRole::Planner,
+        error: "the stream ended before the answer did".into(),
+        elapsed_ms: 250,
+    });
+    let run = run_with_events(&mut h, events);
+    assert_eq!(h.app.runs.active, None);
+    let failed = h.app.runs.history.last().unwrap().clone();
+    assert_eq!(failed.id, run);
+    assert_eq!(failed.state, RunState::Failed);
+    assert_eq!(
+        failed.error.as_deref(),
+        Some("Planner: the stream ended before the answer did")
+    );
+    assert_eq!(
+        failed.plan,
+        ["Walk to the sink.", "Pick up"],
+        "the partial plan is kept"
+    );
+    assert_eq!(failed.scores, None, "never scored");
+    assert!(mapvlm::workbench::runs::sample_scores(&failed).is_empty());
+    let planner = failed
+        .agents
+        .iter()
+        .find(|a| a.role == AgentRole::Planner)
+        .unwrap();
+    assert_eq!(
+        planner.elapsed_ms, 250,
+        "its own time, not the run before's"
+    );
+    assert_eq!(
+        planner.usage,
+        Default::default(),
+        "nothing reported, nothing counted"
+    );
+    assert!(!planner.cached);
+    let miners: Vec<_> = failed
+        .agents
+        .iter()
+        .filter(|a| a.role != AgentRole::Planner)
+        .collect();
+    assert!(miners
+        .iter()
+        .all(|a| a.output.is_none() && a.elapsed_ms == 0 && a.usage == Default::default()));
+    // The last good plan is back, with its source.
+    assert_eq!(h.app.plan.items, good.plan);
+    assert_eq!(h.app.plan_source, PlanSource::Run { run: good.id });
+    assert_eq!(h.app.runs.awaiting_scores, None);
+    let screen = h.screen();
+    assert!(
+        screen.contains(&format!("run {run} failed: Planner: the stream ended")),
+        "{screen}"
+    );
+    assert!(screen.contains(&good.plan[0]), "{screen}");
+    assert!(
+        screen.contains(&format!("#{run:<3} PG2S   –   KAS   –  ")),
+        "{screen}"
+    );
+
+    h.key(KeyCode::Char('H'));
+    let history = h.screen();
+    assert!(history.contains("1/1 finished"), "{history}");
+    assert!(history.contains("0/1 failed"), "{history}");
+    assert!(
+        history.contains(&format!(
+            "run #{run} failed: Planner: the stream ended before the answer did (its partial plan"
+        )),
+        "{history}"
+    );
+    h.key(KeyCode::Char('d'));
+    let diff = h.screen();
+    assert!(diff.contains(&format!("run #{run} failed:")), "{diff}");
+    assert!(diff.contains("not in the verdict"), "{diff}");
+    assert!(diff.contains("not scored in both runs"), "{diff}");
+    h.key(KeyCode::Esc);
+    // Loading the failed run's plan shows it marked, and still unscored.
+    h.key(KeyCode::Enter);
+    assert_eq!(h.app.plan.items, failed.plan);
+    let screen = h.screen();
+    assert!(
+        screen.contains(&format!("run {run} · failed, partial plan, not scored")),
+        "{screen}"
+    );
+    assert_eq!(h.app.runs.history.last().unwrap().scores, None);
+}
+
+/// A cancelled run: kept as cancelled, unscored, the last good plan back;
+/// a session saved during a run restores it as cancelled.
+#[test]
+fn a_cancelled_run_and_a_run_in_flight_at_quit_are_kept_as_cancelled() {
+    use mapvlm::workbench::session::RunState;
+
+    let mut h = Harness::new((200, 60), None, false, bag_of_words());
+    let good = h.app.runs.history[0].clone();
+    let run = run_with_events(&mut h, planner_writes("1. Walk"));
+    let saved = h.app.to_session();
+    let in_flight = saved.runs.last().unwrap();
+    assert_eq!((in_flight.id, in_flight.state), (run, RunState::Running));
+    let (restored, _) = App::new(AppInit {
+        session: Some(saved.clone()),
+        ..AppInit::demo((200, 60), "no models in this test")
+    });
+    let back = restored.runs.history.iter().find(|r| r.id == run).unwrap();
+    assert_eq!(back.state, RunState::Cancelled);
+    assert!(back
+        .state_text()
+        .contains("the workbench stopped during the run"));
+
+    h.key(KeyCode::Char('x'));
+    let cancelled = h.app.runs.history.last().unwrap().clone();
+    assert_eq!((cancelled.id, cancelled.state), (run, RunState::Cancelled));
+    assert_eq!(cancelled.scores, None);
+    assert_eq!(h.app.plan.items, good.plan);
+    let screen = h.screen();
+    assert!(screen.contains(&format!("run {run} cancelled")), "{screen}");
+}
+
+/// A run of three samples whose third failed: partial, scored over its two
+/// complete samples only, and it says so.
+#[test]
+fn a_partial_sampled_run_is_scored_over_its_complete_samples() {
+    use mapvlm::workbench::session::{RunState, SampleRecord, ScoreRecord};
+
+    let mut h = Harness::new((120, 40), None, false, bag_of_words());
+    let mut run = h.app.runs.history[0].clone();
+    let score = |pg2s| ScoreRecord {
+        kas: Some(0.5),
+        s_plan: Some(0.6),
+        s_goal: Some(0.7),
+        pg2s: Some(pg2s),
+    };
+    run.scores = Some(score(0.4));
+    run.samples = vec![
+        SampleRecord {
+            sample: 1,
+            agents: Vec::new(),
+            plan: run.plan.clone(),
+            usage: Default::default(),
+            error: None,
+            scores: Some(score(0.5)),
+        },
+        SampleRecord {
+            sample: 2,
+            agents: Vec::new(),
+            plan: Vec::new(),
+            usage: Default::default(),
+            error: Some("Planner: HTTP 500".into()),
+            scores: Some(score(0.0)),
+        },
+    ];
+    run.state = RunState::Partial;
+    h.app.runs.history = vec![run.clone()];
+    assert_eq!(
+        mapvlm::workbench::runs::sample_scores(&run),
+        vec![score(0.4), score(0.5)]
+    );
+    let screen = zoomed_scores(&mut h);
+    assert!(
+        screen.contains("run #1 partial: 2 of 3 samples scored"),
+        "{screen}"
+    );
+    assert!(screen.contains("PG2S 0.450 ±0.071"), "{screen}");
 }

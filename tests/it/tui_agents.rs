@@ -434,9 +434,17 @@ fn samples_ask_each_agent_n_times_keep_every_sample_and_reuse_them() {
     let mut skms = vec![first_skm];
     for sample in &run.samples {
         assert!(sample.error.is_none(), "{:?}", sample.error);
-        skms.push(sample.outputs[&AgentRole::Skm].clone());
-        let gkm = &sample.outputs[&AgentRole::Gkm];
-        let skm_mark = sample.outputs[&AgentRole::Skm]
+        let output = |role| {
+            sample
+                .agents
+                .iter()
+                .find(|a| a.role == role)
+                .map(|a| a.output_text().to_string())
+                .unwrap_or_default()
+        };
+        skms.push(output(AgentRole::Skm));
+        let gkm = &output(AgentRole::Gkm);
+        let skm_mark = output(AgentRole::Skm)
             .rsplit("skm-answer-")
             .next()
             .unwrap()
@@ -455,24 +463,34 @@ fn samples_ask_each_agent_n_times_keep_every_sample_and_reuse_them() {
     skms.dedup();
     assert_eq!(skms.len(), 3, "each sample its own answer");
 
-    let cmds = key(&mut app, KeyCode::Char('R'));
-    run_cmds(&mut app, &pipeline, cmds);
-    assert_eq!(requests().len(), 9, "every sample from the cache");
-    let again = app.runs.history.last().unwrap();
-    assert_eq!(again.samples.len(), 2);
-    for (old, new) in run.samples.iter().zip(&again.samples) {
-        assert_eq!(old.plan, new.plan, "sample k reused as sample k");
-    }
-
-    key(&mut app, KeyCode::Char('S'));
-    assert_eq!(app.samples, 5);
+    let cmds = key(&mut app, KeyCode::Char('r'));
+    assert!(cmds.is_empty(), "nothing changed: r asks for nothing");
     let cmds = key(&mut app, KeyCode::Char('R'));
     run_cmds(&mut app, &pipeline, cmds);
     assert_eq!(
         requests().len(),
-        15,
-        "only the two new samples are asked for"
+        18,
+        "R asks every agent of every sample afresh, past the cache"
     );
+    let fresh = app.runs.history.last().unwrap().clone();
+    assert_eq!(fresh.samples.len(), 2);
+
+    key(&mut app, KeyCode::Char('S'));
+    assert_eq!(app.samples, 5);
+    let cmds = key(&mut app, KeyCode::Char('r'));
+    run_cmds(&mut app, &pipeline, cmds);
+    assert_eq!(
+        requests().len(),
+        24,
+        "r asks only for the two new samples, the others from the cache"
+    );
+    let more = app.runs.history.last().unwrap();
+    for (old, new) in fresh.samples.iter().zip(&more.samples) {
+        assert_eq!(
+            old.plan, new.plan,
+            "sample k reused as sample k, R's answers cached"
+        );
+    }
     assert_eq!(app.runs.history.last().unwrap().samples.len(), 4);
     let saved = serde_json::to_value(app.to_session()).unwrap();
     assert_eq!(saved["samples"], 5);

@@ -15,11 +15,6 @@ use mapvlm::agents::AgentRole;
 /// requests less than this apart were both waiting at once.
 const HOLD: Duration = Duration::from_millis(1500);
 
-/// alfred30, beside the repository.
-fn alfred30() -> String {
-    common::shared().join("data/alfred30").display().to_string()
-}
-
 #[test]
 fn plan_runs_on_the_config_files_provider_with_the_miners_at_once() {
     let server = LocalServer::start();
@@ -70,12 +65,7 @@ fn the_first_key_r_on_a_dataset_task_runs_every_agent_on_the_configured_server()
     server.delay_answers(HOLD);
     let home = UserHome::new();
     home.point_at(&server);
-    let dataset = alfred30();
-    let workbench = Workbench::start("first-r", &home, (200, 60), &["--dataset", &dataset]);
-    let configured = format!("SKM·GKM·Planner openai/{LOCAL_MODEL}");
-    workbench.wait_for("the dataset task on the configured provider", |s| {
-        s.contains("Place a wet sponge inside the bathtub") && s.contains(&configured)
-    });
+    let workbench = Workbench::start_on_alfred30("first-r", &home);
     workbench.keys(&["r"]);
     let requests = server.wait_for_requests(2);
     assert_eq!(

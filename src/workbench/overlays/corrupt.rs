@@ -15,7 +15,7 @@ use crate::workbench::corrupting::{CorruptError, CorruptRequest, Corrupted};
 use crate::workbench::keymap::{Action, Context};
 use crate::workbench::message::Cmd;
 use crate::workbench::overlays::{centred, moved, themed_box, Overlay, Picked};
-use crate::workbench::session::{CorruptedFrom, PlanSource, RunRecord};
+use crate::workbench::session::{CorruptedFrom, PlanSource, RunRecord, RunState};
 use crate::workbench::theme::Theme;
 
 /// What each kind does, as the picker says it.
@@ -111,7 +111,9 @@ impl App {
             plan: corrupted.plan.clone(),
             ground_truth: self.ground_truth.items.clone(),
             scores: None,
-            cancelled: false,
+            state: RunState::Finished,
+            error: None,
+            reason: None,
             corrupted: Some(CorruptedFrom {
                 source: self.plan_source.clone(),
                 corruption: corrupted.corruption,

@@ -129,6 +129,14 @@ pub(super) fn diff_lines(diff: &RunDiff, t: &Theme) -> Vec<Line<'static>> {
     let [a, b] = diff.ids;
     let heading = |text: String| Line::from(Span::styled(text, t.title));
     let mut lines = vec![heading("Verdict per metric (mean of the samples):".into())];
+    for (id, state) in diff.ids.iter().zip(&diff.unfinished) {
+        if let Some(state) = state {
+            lines.push(Line::from(Span::styled(
+                format!("  run #{id} {state}"),
+                t.bad,
+            )));
+        }
+    }
     lines.extend(diff.verdicts.iter().map(|v| verdict_line(v, t)));
     if diff
         .verdicts

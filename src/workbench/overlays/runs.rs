@@ -12,6 +12,7 @@ use ratatui::widgets::{Clear, Paragraph, Sparkline};
 use ratatui::Frame;
 
 use crate::agents::cost::PriceTable;
+use crate::stats::summary::Spread;
 use crate::workbench::app::{App, Severity};
 use crate::workbench::component::Component;
 use crate::workbench::keymap::{Action, Context};
@@ -19,8 +20,9 @@ use crate::workbench::message::Cmd;
 use crate::workbench::overlays::diff_page::{diff_lines, wrap};
 use crate::workbench::overlays::{centred, fmt_score, moved, themed_box, Overlay};
 use crate::workbench::panes::list_window;
-use crate::workbench::run_diff::{agent_cost, cost_text, run_cost, RunDiff};
-use crate::workbench::session::{PlanSource, RunRecord};
+use crate::workbench::run_diff::{agent_side, cost_text, run_cost, ReadMetric, RunDiff, METRICS};
+use crate::workbench::runs::{mean_score, sample_scores};
+use crate::workbench::session::{PlanSource, RunRecord, RunState};
 use crate::workbench::theme::Theme;
 
 /// The run history, and the diff of two of its runs when one is open.
@@ -137,7 +139,7 @@ impl RunsOverlay {
             frame.render_widget(Paragraph::new(Span::styled("No runs yet.", t.muted)), inner);
             return;
         };
-        let detail = current.agents.len() as u16 + 1;
+        let detail = current.agents.len() as u16 + 2;
         let [spark, table, agents] = Layout::vertical([
             Constraint::Length(3),
             Constraint::Min(2),
@@ -147,18 +149,29 @@ impl RunsOverlay {
         let data: Vec<u64> = self
             .runs
             .iter()
-            .map(|r| {
-                r.scores
-                    .and_then(|s| s.pg2s.or(s.kas))
-                    .map_or(0, |v| (v * 100.0).round() as u64)
-            })
+            .filter(|r| r.state.is_scored())
+            .map(|r| mean_score(r, |s| s.pg2s.or(s.kas)).map_or(0, |v| (v * 100.0).round() as u64))
             .collect();
         frame.render_widget(
             Sparkline::default().data(&data).max(100).style(t.accent),
             spark,
         );
         let mut lines = vec![Line::from(Span::styled(
-            "   run  approach       PG2S   S_plan S_goal KAS     ms      tokens  steps       cost",
+            format!(
+                "   {:<4} {:<12} {:<6} {:<6} {:<6} {:<6} {:>6} {:>7} {:>5} {:>9} {:>7} {}",
+                "run",
+                "approach",
+                "PG2S",
+                "S_plan",
+                "S_goal",
+                "KAS",
+                "ms",
+                "tokens",
+                "steps",
+                "cost",
+                "samples",
+                "state"
+            ),
             t.muted,
         ))];
         let (first, count) = list_window(
@@ -168,7 +181,7 @@ impl RunsOverlay {
             usize::from(table.height.saturating_sub(1)),
         );
         for (i, r) in self.runs.iter().enumerate().skip(first).take(count) {
-            let s = r.scores.unwrap_or_default();
+            let mean = |of: ReadMetric| mean_score(r, of);
             let mark = if self.marked == Some(i) { "●" } else { " " };
             let style = if i == self.selected {
                 t.selection
@@ -177,41 +190,72 @@ impl RunsOverlay {
             };
             lines.push(Line::from(Span::styled(
                 format!(
-                    "{mark}  #{:<3} {:<14} {:<6} {:<6} {:<6} {:<6} {:>6} {:>8} {:>6} {:>10}{}",
+                    "{mark}  #{:<3} {:<12} {:<6} {:<6} {:<6} {:<6} {:>6} {:>7} {:>5} {:>9} {:>7} {}",
                     r.id,
                     r.approach.name(),
-                    fmt_score(s.pg2s),
-                    fmt_score(s.s_plan),
-                    fmt_score(s.s_goal),
-                    fmt_score(s.kas),
+                    fmt_score(mean(|s| s.pg2s)),
+                    fmt_score(mean(|s| s.s_plan)),
+                    fmt_score(mean(|s| s.s_goal)),
+                    fmt_score(mean(|s| s.kas)),
                     r.total_ms(),
                     r.total_tokens(),
                     r.plan.len(),
                     cost_text(run_cost(&self.prices, r)),
-                    if r.cancelled { " cancelled" } else { "" }
+                    format!("{}/{}", sample_scores(r).len(), r.samples.len() + 1),
+                    r.state.word()
                 ),
                 style,
             )));
         }
         frame.render_widget(Paragraph::new(lines), table);
         let mut per_agent = vec![Line::from(Span::styled(
-            format!("run #{} per agent:", current.id),
-            t.muted,
+            format!("run #{} {}", current.id, current.state_text()),
+            if current.state == RunState::Finished {
+                t.muted
+            } else {
+                t.bad
+            },
         ))];
+        let scores = sample_scores(current);
+        let spreads: Vec<String> = METRICS
+            .iter()
+            .filter_map(|(name, of)| {
+                let spread = Spread::of(scores.iter().filter_map(of))?;
+                Some(format!("{name} {}", spread.plus_minus(3)))
+            })
+            .collect();
+        per_agent.push(Line::from(Span::styled(
+            match scores.len() {
+                0 => "not scored".to_string(),
+                n => format!(
+                    "{} (mean ±sd over {n} of {} samples); per agent:",
+                    spreads.join(" · "),
+                    current.samples.len() + 1
+                ),
+            },
+            t.muted,
+        )));
         per_agent.extend(current.agents.iter().map(|a| {
             Line::from(vec![
                 Span::styled(format!("  {:<8}", a.role.label()), t.accent),
                 Span::styled(
-                    format!(
-                        "{}/{} · {} ms · {}+{} tok · {}{}",
-                        a.settings.provider,
-                        a.settings.model,
-                        a.elapsed_ms,
-                        a.usage.input_tokens,
-                        a.usage.output_tokens,
-                        cost_text(agent_cost(&self.prices, a)),
-                        if a.cached { " (cached)" } else { "" }
-                    ),
+                    match agent_side(&self.prices, current, a.role) {
+                        Some(side) => format!(
+                            "{}/{} · {} ms · {}+{} tok · {}{}{}",
+                            a.settings.provider,
+                            a.settings.model,
+                            side.elapsed_ms,
+                            side.usage.input_tokens,
+                            side.usage.output_tokens,
+                            cost_text(side.usd),
+                            if side.cached { " (cached)" } else { "" },
+                            match side.calls {
+                                1 => String::new(),
+                                n => format!(" · {n} calls"),
+                            }
+                        ),
+                        None => String::new(),
+                    },
                     t.base,
                 ),
             ])

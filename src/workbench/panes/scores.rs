@@ -11,7 +11,7 @@ use crate::workbench::app::App;
 use crate::workbench::panes::{pane_block, Pane};
 use crate::workbench::runs::sample_scores;
 use crate::workbench::scoring::Pg2sOutcome;
-use crate::workbench::session::{PlanSource, RunRecord, ScoreRecord};
+use crate::workbench::session::{PlanSource, RunRecord, RunState, ScoreRecord};
 use crate::workbench::theme::Theme;
 
 /// One score of a [`ScoreRecord`].
@@ -46,8 +46,12 @@ fn sampled_run(app: &App) -> Option<(&RunRecord, Vec<ScoreRecord>)> {
 fn spread_lines(theme: &Theme, run: &RunRecord, scores: &[ScoreRecord]) -> Vec<Line<'static>> {
     let mut lines = vec![Line::from(Span::styled(
         format!(
-            "run #{}: {} of {} samples scored (mean ±sd, min–max)",
+            "run #{}{}: {} of {} samples scored (mean ±sd, min–max)",
             run.id,
+            match run.state {
+                RunState::Partial => " partial",
+                _ => "",
+            },
             scores.len(),
             run.samples.len() + 1
         ),
@@ -80,7 +84,7 @@ fn history_bars(theme: &Theme, history: &[RunRecord]) -> Vec<SparklineBar> {
     for run in history {
         let scores = sample_scores(run);
         let Some(spread) = spread_of(&scores, |s| s.pg2s.or(s.kas)) else {
-            if run.scores.is_some() {
+            if run.state.is_scored() && run.scores.is_some() {
                 bars.push(SparklineBar::from(0));
             }
             continue;
@@ -130,6 +134,16 @@ pub(crate) fn draw(frame: &mut Frame, app: &App, area: Rect) {
     let inner = block.inner(area);
     frame.render_widget(block, area);
     let mut lines = Vec::new();
+    if let Some(run) = app.unfinished_latest() {
+        lines.push(Line::from(Span::styled(
+            format!(
+                "run #{} {} — the scores below are the plan shown",
+                run.id,
+                run.state_text()
+            ),
+            t.bad,
+        )));
+    }
     if let Some((run, scores)) = sampled_run(app) {
         lines.extend(spread_lines(t, run, &scores));
     }
@@ -225,7 +239,10 @@ pub(crate) fn draw(frame: &mut Frame, app: &App, area: Rect) {
                     f(|s| s.kas),
                     ms,
                     tokens,
-                    if r.cancelled { " cancelled" } else { "" }
+                    match r.state {
+                        RunState::Finished => String::new(),
+                        state => format!(" {}", state.word()),
+                    }
                 ),
                 t.base,
             ))

@@ -347,21 +347,39 @@ pub(crate) fn draw(frame: &mut Frame, app: &App, list: StepList, area: Rect) {
         StepList::GroundTruth => (Pane::GroundTruth, app.ground_truth.selected),
     };
     let extra = match list {
-        StepList::Plan => match &app.plan_source {
-            PlanSource::None => None,
-            PlanSource::Run { run } => {
-                Some(match app.runs.agents.get(&app.approach.planning_role()) {
-                    Some(v) if v.status == AgentStatus::Running => {
-                        Span::styled(format!("run {run} · streaming…"), t.warn)
-                    }
-                    _ => Span::styled(format!("run {run}"), t.muted),
-                })
+        StepList::Plan => {
+            let shown = match &app.plan_source {
+                PlanSource::None => None,
+                PlanSource::Run { run } => {
+                    Some(match app.runs.agents.get(&app.approach.planning_role()) {
+                        Some(v) if v.status == AgentStatus::Running => {
+                            Span::styled(format!("run {run} · streaming…"), t.warn)
+                        }
+                        _ => match app.shown_run() {
+                            Some(r) if !r.state.is_scored() => Span::styled(
+                                format!("run {run} · {}, partial plan, not scored", r.state.word()),
+                                t.bad,
+                            ),
+                            _ => Span::styled(format!("run {run}"), t.muted),
+                        },
+                    })
+                }
+                PlanSource::Published { approach, .. } => Some(Span::styled(
+                    format!("published {}", approach.name()),
+                    t.muted,
+                )),
+            };
+            match app.unfinished_latest() {
+                Some(r) => {
+                    let before = shown.map_or(String::new(), |s| format!("{} · ", s.content));
+                    Some(Span::styled(
+                        format!("{before}run {} {}", r.id, r.state_text()),
+                        t.bad,
+                    ))
+                }
+                None => shown,
             }
-            PlanSource::Published { approach, .. } => Some(Span::styled(
-                format!("published {}", approach.name()),
-                t.muted,
-            )),
-        },
+        }
         StepList::GroundTruth => Some(Span::styled(
             match &app.ground_truth_source {
                 crate::workbench::session::GroundTruthSource::Demo { index } => {

@@ -21,7 +21,7 @@ use crate::agents::cost::{dollars, Billing, PriceTable};
 use crate::agents::pipeline::AgentRecord;
 use crate::agents::{AgentRole, Usage};
 use crate::workbench::runs::sample_scores;
-use crate::workbench::session::{RunRecord, StepScore};
+use crate::workbench::session::{RunRecord, RunState, StepScore};
 
 /// A setting whose value differs between the runs.
 #[derive(Debug, Clone, PartialEq, Eq)]
@@ -62,15 +62,34 @@ fn setting_changes(a: &AgentSettings, b: &AgentSettings) -> Vec<SettingChange> {
         .collect()
 }
 
-/// What one agent used in one run.
+/// What one agent used in one run, over every sample.
 #[derive(Debug, Clone, Copy, PartialEq)]
 pub struct AgentSide {
-    /// Tokens sent and written.
+    /// Tokens sent and written, summed over its calls.
     pub usage: Usage,
-    /// What it cost, `None` without a price for its model.
+    /// What its calls cost, `None` when one has no price for its model.
     pub usd: Option<f64>,
-    /// Whether its answer came from the cache or the recording.
+    /// Whether every answer came from the cache or the recording.
     pub cached: bool,
+    /// How many calls it made (one a sample).
+    pub calls: usize,
+    /// The time of its calls, summed, in milliseconds.
+    pub elapsed_ms: u64,
+}
+
+/// What `role` used in `run` over every sample's call of it (see
+/// [`RunRecord::calls`]), costed at `prices`; `None` when it made no call
+/// in the run (its earlier output was reused). The history and the diff
+/// both show this.
+pub fn agent_side(prices: &PriceTable, run: &RunRecord, role: AgentRole) -> Option<AgentSide> {
+    let calls: Vec<&AgentRecord> = run.calls().filter(|a| a.role == role).collect();
+    (!calls.is_empty()).then(|| AgentSide {
+        usage: calls.iter().map(|a| &a.usage).sum(),
+        usd: calls.iter().map(|a| agent_cost(prices, a)).sum(),
+        cached: calls.iter().all(|a| a.cached),
+        calls: calls.len(),
+        elapsed_ms: calls.iter().map(|a| a.elapsed_ms).sum(),
+    })
 }
 
 /// One agent across the two runs.
@@ -106,10 +125,10 @@ pub fn agent_cost(prices: &PriceTable, agent: &AgentRecord) -> Option<f64> {
     )
 }
 
-/// What a whole run cost: the sum over its agents, `None` when any of them
+/// What a whole run cost: the sum over every call of every sample, `None` when any of them
 /// has no price (a partial sum would read as the whole).
 pub fn run_cost(prices: &PriceTable, run: &RunRecord) -> Option<f64> {
-    run.agents.iter().map(|a| agent_cost(prices, a)).sum()
+    run.calls().map(|a| agent_cost(prices, a)).sum()
 }
 
 /// A cost as the run history and the diff show it: `$0.0123`, or `no price`.
@@ -128,13 +147,7 @@ fn changed_text(old: &str, new: &str) -> Option<Vec<Piece>> {
 fn agent_diff(agent: AgentRole, runs: [&RunRecord; 2], prices: &PriceTable) -> AgentDiff {
     let records = runs.map(|r| r.agents.iter().find(|a| a.role == agent));
     let prompts = runs.map(|r| r.prompts.get(&agent).map_or("", String::as_str));
-    let sides = records.map(|r| {
-        r.map(|a| AgentSide {
-            usage: a.usage,
-            usd: agent_cost(prices, a),
-            cached: a.cached,
-        })
-    });
+    let sides = runs.map(|r| agent_side(prices, r, agent));
     let (settings, prompt, output) = match records {
         [Some(a), Some(b)] => (
             setting_changes(&a.settings, &b.settings),
@@ -247,6 +260,10 @@ pub struct RunDiff {
     pub costs: [Option<f64>; 2],
     /// The plans step by step.
     pub steps: Vec<StepRow>,
+    /// What became of each run ([`RunRecord::state_text`]) when it did not
+    /// finish, and what of it the verdicts count (nothing, or its complete
+    /// samples).
+    pub unfinished: [Option<String>; 2],
 }
 
 impl RunDiff {
@@ -299,6 +316,14 @@ impl RunDiff {
             agents,
             costs: runs.map(|r| run_cost(prices, r)),
             steps: step_rows(before, after),
+            unfinished: runs.map(|r| {
+                let counted = match r.state {
+                    RunState::Finished => return None,
+                    RunState::Partial => "only its complete samples are in the verdict",
+                    _ => "not in the verdict",
+                };
+                Some(format!("{} — {counted}", r.state_text()))
+            }),
         }
     }
 }
@@ -340,7 +365,9 @@ mod tests {
                 kas: Some(kas),
                 ..ScoreRecord::default()
             }),
-            cancelled: false,
+            state: RunState::Finished,
+            error: None,
+            reason: None,
             corrupted: None,
             steps: plan
                 .iter()

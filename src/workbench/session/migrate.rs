@@ -23,12 +23,123 @@ pub(super) fn migrate(mut value: Value) -> Result<Value, DecodeError> {
             1 => v1_to_v2(&mut value),
             2 => v2_to_v3(&mut value),
             3 => v3_to_v4(&mut value),
+            4 => v4_to_v5(&mut value),
             _ => return Err(DecodeError::TooOld(version)),
         }
         version += 1;
         value["version"] = version.into();
     }
     Ok(value)
+}
+
+/// Version 5 says what became of each run: `cancelled` becomes the state
+/// `cancelled`; a run one of whose agents failed becomes `failed`, with
+/// that failure as its error (its scores are kept in the file but no
+/// longer count as a plan's); a run with a failed later sample becomes
+/// `partial`; every other run is `finished`.
+fn v4_to_v5(value: &mut Value) {
+    for run in runs(value) {
+        let cancelled = run.remove("cancelled").and_then(|c| c.as_bool()) == Some(true);
+        let failure = agents(run).find_map(|agent| {
+            let error = agent.get("error").and_then(Value::as_str)?.to_string();
+            let role = agent.get("role").and_then(Value::as_str).unwrap_or("agent");
+            Some(format!("{role}: {error}"))
+        });
+        let failed_samples = run
+            .get("samples")
+            .and_then(Value::as_array)
+            .map_or(0, |s| s.iter().filter(|s| !s["error"].is_null()).count());
+        let (state, reason) = if cancelled {
+            ("cancelled", Some("cancelled".to_string()))
+        } else if failure.is_some() {
+            ("failed", Some("not scored".to_string()))
+        } else if failed_samples > 0 {
+            (
+                "partial",
+                Some(format!("{failed_samples} later samples failed")),
+            )
+        } else {
+            ("finished", None)
+        };
+        sample_calls(run);
+        run.insert("state".into(), state.into());
+        if let Some(error) = failure {
+            run.insert("error".into(), error.into());
+        }
+        if let Some(reason) = reason {
+            run.insert("reason".into(), reason.into());
+        }
+    }
+}
+
+/// Version 5 keeps each later sample's calls as agent records where
+/// version 4 kept their answers by agent: each answer becomes a record with
+/// the settings and prompt of the run's own record of that agent, no time
+/// and (but for a sample of one agent, which gets the sample's tokens) no
+/// tokens; the sample's token total is kept as it was.
+fn sample_calls(run: &mut Map<String, Value>) {
+    let records: Vec<Map<String, Value>> = agents(run).map(|a| a.clone()).collect();
+    let samples = run.get_mut("samples").and_then(Value::as_array_mut);
+    for sample in samples
+        .into_iter()
+        .flatten()
+        .filter_map(Value::as_object_mut)
+    {
+        let outputs = match sample.remove("outputs") {
+            Some(Value::Object(outputs)) => outputs,
+            _ => Map::new(),
+        };
+        let usage = sample.get("usage").cloned().unwrap_or(Value::Null);
+        let one = outputs.len() == 1;
+        let calls: Vec<Value> = outputs
+            .into_iter()
+            .map(|(role, output)| {
+                let mut call = records
+                    .iter()
+                    .find(|r| r.get("role").and_then(Value::as_str) == Some(role.as_str()))
+                    .or(records.first())
+                    .cloned()
+                    .unwrap_or_else(|| {
+                        let mut blank = Map::new();
+                        for (key, value) in [
+                            ("provider", Value::from(ProviderKind::Replay.name())),
+                            ("base_url", ProviderKind::Replay.default_base_url().into()),
+                            ("model", "".into()),
+                            ("temperature", 0.0.into()),
+                            (
+                                "max_tokens",
+                                crate::agents::config::DEFAULT_MAX_TOKENS.into(),
+                            ),
+                            ("stream", true.into()),
+                            ("json_output", true.into()),
+                            ("prompt", "".into()),
+                            ("prompt_hash", "".into()),
+                        ] {
+                            blank.insert(key.into(), value);
+                        }
+                        blank
+                    });
+                let tokens = if one {
+                    usage.clone()
+                } else {
+                    serde_json::json!({"input_tokens": 0, "output_tokens": 0})
+                };
+                for (key, value) in [
+                    ("role", Value::from(role)),
+                    ("output", output),
+                    ("error", Value::Null),
+                    ("usage", tokens),
+                    ("elapsed_ms", 0.into()),
+                    ("cached", false.into()),
+                    ("request_key", "".into()),
+                ] {
+                    call.insert(key.into(), value);
+                }
+                Value::Object(call)
+            })
+            .collect();
+        sample.insert("agents".into(), calls.into());
+    }
 }
 
 /// Version 4 keeps every sample of a run: each run gains its later samples
@@ -161,7 +272,7 @@ fn upgrade_settings(settings: &mut Value) {
 mod tests {
     use std::path::Path;
 
-    use super::super::{restore, Restored, Session};
+    use super::super::{restore, Restored, RunState, Session};
     use super::*;
 
     /// The fixture `name` restored from a copy, with its JSON as saved.
@@ -181,19 +292,91 @@ mod tests {
         assert_eq!(session.version, SESSION_VERSION);
         assert_eq!(session.runs.len(), old["runs"].as_array().unwrap().len());
         assert!(session.runs.len() >= 2);
+        (*session, old)
+    }
+
+    /// Runs saved before version 4 are one finished sample each.
+    fn assert_one_finished_sample(session: &Session) {
         for run in &session.runs {
             assert!(run.samples.is_empty(), "an older run is one sample");
+            assert_eq!(run.state, RunState::Finished);
             let scores = crate::workbench::runs::sample_scores(run);
             assert_eq!(scores.len(), 1, "its one sample's scores");
             assert_eq!(Some(scores[0]), run.scores);
         }
         assert_eq!(session.samples, 1, "older runs were made with one sample");
-        (*session, old)
+    }
+
+    #[test]
+    fn a_session_saved_by_version_4_keeps_everything_and_says_what_became_of_each_run() {
+        let (s, old) = restored("session-v4.json");
+        assert_eq!(old["version"], 4);
+        let old_runs = old["runs"].as_array().unwrap();
+        for (run, old_run) in s.runs.iter().zip(old_runs) {
+            assert_eq!(run.id, old_run["id"]);
+            assert_eq!(
+                run.plan,
+                serde_json::from_value::<Vec<String>>(old_run["plan"].clone()).unwrap()
+            );
+            assert_eq!(
+                run.agents.len(),
+                old_run["agents"].as_array().unwrap().len()
+            );
+            assert_eq!(
+                run.samples.len(),
+                old_run["samples"].as_array().unwrap().len()
+            );
+            assert_eq!(
+                run.scores,
+                serde_json::from_value(old_run["scores"].clone()).unwrap(),
+                "the scores stay in the file"
+            );
+            assert_eq!(run.total_ms(), old_run["agents"][0]["elapsed_ms"]);
+        }
+        let states: Vec<RunState> = s.runs.iter().map(|r| r.state).collect();
+        assert_eq!(
+            states,
+            [
+                RunState::Finished,
+                RunState::Cancelled,
+                RunState::Failed,
+                RunState::Partial
+            ]
+        );
+        assert_eq!(
+            s.runs[2].error.as_deref(),
+            Some("single: HTTP 500 Internal Server Error")
+        );
+        assert_eq!(s.runs[2].plan, ["Walk"], "the broken-off plan is kept");
+        let scored: Vec<usize> = s
+            .runs
+            .iter()
+            .map(|r| crate::workbench::runs::sample_scores(r).len())
+            .collect();
+        assert_eq!(
+            scored,
+            [1, 0, 0, 2],
+            "the failed and cancelled runs count for nothing, the partial one over its complete samples"
+        );
+        let sampled = &s.runs[3];
+        assert_eq!(sampled.samples[0].agents.len(), 1);
+        let call = &sampled.samples[0].agents[0];
+        assert_eq!(call.output_text(), "1. Walk to the sink.");
+        assert_eq!(
+            call.settings.model, "gpt-4o",
+            "the run's settings of that agent"
+        );
+        assert_eq!(call.usage.input_tokens + call.usage.output_tokens, 109);
+        assert!(sampled.samples[1].agents.is_empty(), "it had no answer");
+        assert_eq!(sampled.total_tokens(), 120 + 109, "every sample's tokens");
+        assert_eq!(s.samples, 3);
+        assert_eq!(s.plan_source, super::super::PlanSource::Run { run: 4 });
     }
 
     #[test]
     fn a_session_saved_by_version_1_loads_with_its_run_history() {
         let (s, old) = restored("session-v1.json");
+        assert_one_finished_sample(&s);
         assert_eq!(old["version"], 1);
         for (run, old_run) in s.runs.iter().zip(old["runs"].as_array().unwrap()) {
             assert_eq!(run.plan.len(), old_run["plan"].as_array().unwrap().len());
@@ -207,6 +390,7 @@ mod tests {
     #[test]
     fn a_session_saved_by_version_2_loads_with_its_runs_prompts_and_settings() {
         let (s, old) = restored("session-v2.json");
+        assert_one_finished_sample(&s);
         assert_eq!(old["version"], 2);
         for (run, old_run) in s.runs.iter().zip(old["runs"].as_array().unwrap()) {
             assert_eq!(

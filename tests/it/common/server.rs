@@ -52,6 +52,17 @@ impl Received {
 struct Answers {
     delay: Duration,
     plans: Vec<(String, String)>,
+    planner_fails: Option<Failure>,
+}
+
+/// How the server fails the planner's requests, when told to.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub enum Failure {
+    /// An HTTP error with this status and a JSON error body.
+    Status(u16),
+    /// A streamed answer that stops after this many pieces, with no end
+    /// of answer and no `[DONE]`: a connection dropped mid-stream.
+    DropAfter(usize),
 }
 
 /// The server's state, shared with its responder.
@@ -87,7 +98,24 @@ impl Respond for Responder {
         };
         let stream = body["stream"].as_bool().unwrap_or(false);
         self.0.log.lock().unwrap().push(Received { role, body, at });
-        openai_answer(&answer, stream).set_delay(answers.delay)
+        let failure = answers.planner_fails.filter(|_| role == AgentRole::Planner);
+        match failure {
+            Some(Failure::Status(status)) => ResponseTemplate::new(status).set_body_json(
+                json!({"error": {"message": "the server was told to fail", "type": "server_error"}}),
+            ),
+            Some(Failure::DropAfter(pieces)) => {
+                let mut events = String::new();
+                for piece in answer.split_inclusive(' ').take(pieces) {
+                    let delta = json!({"choices": [{"index": 0, "delta": {"content": piece}, "finish_reason": null}]});
+                    events.push_str(&format!("data: {delta}\n\n"));
+                }
+                ResponseTemplate::new(200)
+                    .insert_header("content-type", "text/event-stream")
+                    .set_body_string(events)
+            }
+            None => openai_answer(&answer, stream),
+        }
+        .set_delay(answers.delay)
     }
 }
 
@@ -138,6 +166,7 @@ impl LocalServer {
             answers: Mutex::new(Answers {
                 delay: Duration::ZERO,
                 plans: Vec::new(),
+                planner_fails: None,
             }),
             log: Mutex::new(Vec::new()),
         });
@@ -172,6 +201,13 @@ impl LocalServer {
             .unwrap()
             .plans
             .push((needle.to_string(), plan.to_string()));
+        self
+    }
+
+    /// From now on, fails every planner request as `failure` says (`None`:
+    /// answers again).
+    pub fn fail_planner(&self, failure: Option<Failure>) -> &Self {
+        self.shared.answers.lock().unwrap().planner_fails = failure;
         self
     }
 

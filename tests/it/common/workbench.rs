@@ -147,6 +147,19 @@ impl Workbench {
         }
     }
 
+    /// Starts the workbench on alfred30 at 200×60 in `home` and waits
+    /// until its first task shows with every agent on the configured local
+    /// provider ([`LOCAL_MODEL`]).
+    pub fn start_on_alfred30(label: &str, home: &UserHome) -> Workbench {
+        let dataset = super::shared().join("data/alfred30").display().to_string();
+        let workbench = Workbench::start(label, home, (200, 60), &["--dataset", &dataset]);
+        let configured = format!("SKM·GKM·Planner openai/{LOCAL_MODEL}");
+        workbench.wait_for("the dataset task on the configured provider", |s| {
+            s.contains("Place a wet sponge inside the bathtub") && s.contains(&configured)
+        });
+        workbench
+    }
+
     /// The text on the screen.
     pub fn screen(&self) -> String {
         self.tmux.screen(SESSION)
