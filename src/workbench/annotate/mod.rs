@@ -213,7 +213,11 @@ async fn run_async(options: Options) -> Result<Outcome, TuiError> {
     // Held to the end: dropping it puts tmux's option back.
     let _passthrough = probe.passthrough;
     if let Some(notice) = probe.notice {
-        screen.status = Some((notice, state::Severity::Warn));
+        // After what the screen already says (the start-up notices).
+        screen.status = Some(match screen.status.take() {
+            Some((first, severity)) => (format!("{first} · {notice}"), severity),
+            None => (notice, state::Severity::Warn),
+        });
     }
     let graphics = probe.graphics;
     spawn_input(msg_tx.clone(), size_tx.clone(), probe.late);
