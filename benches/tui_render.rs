@@ -8,20 +8,20 @@ use crossterm::event::{KeyCode, KeyEvent, KeyModifiers};
 use mapvlm::agents::replay::Pace;
 use mapvlm::workbench::agents::AgentsPipeline;
 use mapvlm::workbench::app::{App, AppInit};
+use mapvlm::workbench::graphics::Graphics;
 use mapvlm::workbench::headless::Headless;
 use mapvlm::workbench::message::Msg;
 use mapvlm::workbench::scoring::ModelSlot;
 use mapvlm::workbench::{prepare_image, render};
 use ratatui::backend::TestBackend;
 use ratatui::Terminal;
-use ratatui_image::picker::Picker;
 
 fn demo_app() -> App {
     let (mut app, cmds) = App::new(AppInit::demo((200, 60), "bench"));
     let models = ModelSlot::Unavailable("bench".into());
     let pipeline = AgentsPipeline::offline(Pace::Instant).unwrap_or_else(|e| panic!("{e}"));
     Headless::new(&pipeline, models).run(&mut app, cmds, &mut |_| {});
-    prepare_image(&mut app, &Picker::halfblocks());
+    prepare_image(&mut app, &Graphics::halfblocks());
     app
 }
 

@@ -144,6 +144,9 @@ pub struct ConfigFile {
     pub prices: BTreeMap<String, BTreeMap<String, Price>>,
     /// Seconds between two polls of a provider batch (`eval --batch`).
     pub batch_poll_secs: Option<f64>,
+    /// How the workbench draws the scene image (`--graphics`'s values:
+    /// auto, sixel, kitty, iterm2, halfblocks, none).
+    pub graphics: Option<String>,
 }
 
 impl ConfigFile {

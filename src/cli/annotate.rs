@@ -50,9 +50,9 @@ pub struct AnnotateArgs {
     /// The theme: dark, light, high-contrast or one of yours.
     #[arg(long)]
     pub theme: Option<String>,
-    /// Draw the scene image with half-blocks instead of asking the terminal.
-    #[arg(long)]
-    pub halfblocks: bool,
+    /// How the scene image is drawn.
+    #[command(flatten)]
+    pub graphics: super::graphics::GraphicsArgs,
 }
 
 fn warn(line: impl std::fmt::Display) {
@@ -149,9 +149,8 @@ pub fn run(args: AnnotateArgs) -> anyhow::Result<ExitCode> {
         writer,
         skips,
         theme,
-        picker: args
-            .halfblocks
-            .then(ratatui_image::picker::Picker::halfblocks),
+        graphics: args.graphics.request(None)?,
+        query_timeout: args.graphics.timeout(),
     })?;
     for failure in &outcome.failures {
         warn(format!("not saved: {failure}"));

@@ -9,6 +9,7 @@ mod corrupt;
 mod embed;
 mod eval;
 mod eval_batch;
+mod graphics;
 mod logging;
 mod merge;
 mod models;

@@ -32,10 +32,9 @@ pub struct TuiArgs {
     /// The theme to start with: dark, light, high-contrast or one of yours.
     #[arg(long)]
     pub theme: Option<String>,
-    /// Draw the scene image with half-blocks instead of asking the terminal
-    /// (for slow links and terminals that answer queries badly).
-    #[arg(long)]
-    pub halfblocks: bool,
+    /// How the scene image is drawn.
+    #[command(flatten)]
+    pub graphics: super::graphics::GraphicsArgs,
     /// Milliseconds between two words of a replayed recording (at most 10000).
     #[arg(long, allow_negative_numbers = true, default_value_t = 12, value_name = "MS", value_parser = clap::value_parser!(u64).range(0..=10_000))]
     pub replay_delay: u64,
@@ -69,6 +68,7 @@ pub fn run(args: TuiArgs) -> anyhow::Result<ExitCode> {
             None => (ConfigFile::default(), None),
         },
     };
+    let graphics = args.graphics.request(file.graphics.as_deref())?;
     let prompt_dir = args.prompts.clone().or_else(PromptSet::default_dir);
     let prompts = PromptSet::load(prompt_dir.as_deref())?;
     let pace = match args.replay_delay {
@@ -121,9 +121,8 @@ pub fn run(args: TuiArgs) -> anyhow::Result<ExitCode> {
         }),
         pipeline: Arc::new(pipeline),
         prompts: prompt_texts(&prompts),
-        picker: args
-            .halfblocks
-            .then(ratatui_image::picker::Picker::halfblocks),
+        graphics,
+        query_timeout: args.graphics.timeout(),
         prices,
         configured,
         prompt_sets: crate::agents::prompt_sets::default_root(),

@@ -7,11 +7,10 @@
 
 use std::path::Path;
 
-use ratatui_image::picker::Picker;
-
 use super::agents::{run_blocking, Pipeline};
 use super::app::App;
 use super::corrupting::{corrupt_plan, CorruptError, CorruptionModels};
+use super::graphics::Graphics;
 use super::message::{Cmd, Msg, ReadError};
 use super::scene_image;
 use super::scoring::{score_now, score_samples, ModelSlot};
@@ -28,9 +27,9 @@ pub fn read_step_file(path: &Path) -> Result<String, ReadError> {
 
 /// Encodes the scene image for the area the app wants it in, if any, here
 /// and now (the loop hands this to a task).
-pub fn prepare_image(app: &mut App, picker: &Picker) {
+pub fn prepare_image(app: &mut App, graphics: &Graphics) {
     if let Some((area, image)) = app.request_image() {
-        let encoded = scene_image::encode(picker, &image, area).map(|(_, protocol)| protocol);
+        let encoded = scene_image::encode(graphics, &image, area).map(|(_, protocol)| protocol);
         app.update(Msg::ImageReady(area, encoded));
     }
 }

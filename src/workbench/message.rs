@@ -7,7 +7,6 @@ use std::sync::Arc;
 use crossterm::event::{KeyEvent, MouseEvent};
 use image::DynamicImage;
 use ratatui::layout::Rect;
-use ratatui_image::protocol::Protocol;
 
 use crate::agents::pipeline::AgentEvent;
 use crate::agents::prompt_sets::PromptSetError;
@@ -15,6 +14,7 @@ use crate::agents::prompts::PromptSet;
 use crate::dataset::DatasetError;
 use crate::workbench::agents::RunRequest;
 use crate::workbench::corrupting::{CorruptError, CorruptRequest, Corrupted};
+use crate::workbench::graphics::Drawing;
 use crate::workbench::scene_image::SceneImageError;
 use crate::workbench::scoring::{ModelSlot, SampleScoring, ScoreOutcome, ScoreRequest};
 use crate::workbench::session::ScoreRecord;
@@ -57,7 +57,7 @@ pub enum Msg {
     /// The scene image was read.
     SceneImage(Result<Arc<DynamicImage>, SceneImageError>),
     /// The scene image was encoded for this area of the terminal.
-    ImageReady(Rect, Result<Box<Protocol>, SceneImageError>),
+    ImageReady(Rect, Result<Box<Drawing>, SceneImageError>),
     /// The session was saved, or why not.
     Saved(Result<(), SessionError>),
     /// The plan was corrupted, or why not.

@@ -17,6 +17,7 @@ pub mod corrupting;
 pub mod editing;
 pub mod graph_layout;
 pub mod graph_view;
+pub mod graphics;
 pub mod headless;
 pub mod keymap;
 pub mod layout;
@@ -42,8 +43,6 @@ use std::collections::BTreeMap;
 use std::path::PathBuf;
 use std::sync::Arc;
 use std::time::Duration;
-
-use ratatui_image::picker::Picker;
 
 use crate::agents::config::{AgentSettings, ConfigError};
 use crate::agents::cost::PriceTable;
@@ -73,9 +72,10 @@ pub struct Options {
     pub pipeline: Arc<dyn Pipeline>,
     /// The prompt templates' texts by name ([`agents::prompt_texts`]).
     pub prompts: BTreeMap<String, String>,
-    /// How the scene image is drawn: `None` asks the terminal; `Some` forces
-    /// a picker (e.g. half-blocks over slow links).
-    pub picker: Option<Picker>,
+    /// How the scene image is drawn (`--graphics`): `auto` asks the terminal.
+    pub graphics: graphics::Request,
+    /// How long the terminal has to answer the start-up query.
+    pub query_timeout: Duration,
     /// The config file's price table for the run history's costs, or why
     /// its `[prices]` section cannot be used (shown once at the start).
     pub prices: Result<PriceTable, ConfigError>,

@@ -60,11 +60,17 @@ fn render_header(frame: &mut Frame, app: &App, area: Rect) {
         ModelSlot::Loading(p) => Span::styled(format!("models loading: {p}"), t.warn),
         ModelSlot::Unavailable(_) => Span::styled("PG2S models missing", t.warn),
     };
-    let line = Line::from(vec![
+    let mut spans = vec![
         Span::styled(" mapvlm ", t.title),
         Span::styled("│ ", t.border),
         Span::styled(source, t.accent),
         Span::styled(" │ ", t.border),
+    ];
+    if !app.scene.graphics.is_empty() {
+        spans.push(Span::styled(app.scene.graphics.clone(), t.muted));
+        spans.push(Span::styled(" │ ", t.border));
+    }
+    spans.extend([
         Span::styled(app.task.text.clone(), t.base),
         Span::styled(" │ ", t.border),
         Span::styled(app.approach.name(), t.accent),
@@ -73,7 +79,7 @@ fn render_header(frame: &mut Frame, app: &App, area: Rect) {
         Span::styled(" │ ", t.border),
         models,
     ]);
-    frame.render_widget(Paragraph::new(line).style(t.base), area);
+    frame.render_widget(Paragraph::new(Line::from(spans)).style(t.base), area);
 }
 
 /// Which provider each agent of the approach runs on, short: agents in a

@@ -18,7 +18,6 @@ use crossterm::terminal::{
 use ratatui::backend::CrosstermBackend;
 use ratatui::layout::Rect;
 use ratatui::Terminal;
-use ratatui_image::picker::Picker;
 use tokio::sync::{mpsc, watch};
 use tokio::task::JoinHandle;
 
@@ -31,6 +30,7 @@ use crate::agents::prompt_sets;
 use crate::dataset::Dataset;
 
 use super::corrupting::{self, CorruptError, SharedCorruptionModels};
+use super::graphics::{self, Graphics, Kind, Request};
 use super::message::{Cmd, Msg, ReadError};
 use super::saver::{self, NumberedCopy, SessionFile};
 use super::scene_image;
@@ -80,17 +80,44 @@ pub(crate) fn setup_terminal(
 /// Hands the encoding of the scene image to a blocking task when the app
 /// wants it in an area it is not encoded for; the task answers with
 /// [`Msg::ImageReady`], so the loop never resizes or encodes an image.
-fn request_image(app: &mut App, picker: &Picker, msgs: &mpsc::UnboundedSender<Msg>) {
+fn request_image(app: &mut App, graphics: &Graphics, msgs: &mpsc::UnboundedSender<Msg>) {
     let Some((area, image)) = app.request_image() else {
         return;
     };
-    let (picker, msgs) = (picker.clone(), msgs.clone());
+    let (graphics, msgs) = (graphics.clone(), msgs.clone());
     tokio::task::spawn_blocking(move || {
         let _ = msgs.send(Msg::ImageReady(
             area,
-            scene_image::encode(&picker, &image, area).map(|(_, protocol)| protocol),
+            scene_image::encode(&graphics, &image, area).map(|(_, drawing)| drawing),
         ));
     });
+}
+
+/// Takes kitty's directly placed picture off the screen when what is shown
+/// changes (`now` differs from `shown`): unlike a sixel it is not text the
+/// next frame overwrites, and it would stay over an overlay or a new layout.
+/// A frame with the picture held back comes between, so the next frame
+/// places it again.
+fn take_off_placed_picture(
+    terminal: &mut Terminal<CrosstermBackend<Stdout>>,
+    app: &mut App,
+    graphics: &Graphics,
+    shown: &mut Option<(Rect, bool)>,
+) -> std::io::Result<()> {
+    let now = app.picture_shown();
+    if graphics.kind != Kind::KittyDirect || *shown == now {
+        *shown = now;
+        return Ok(());
+    }
+    *shown = now;
+    use std::io::Write;
+    let backend = terminal.backend_mut();
+    backend.write_all(graphics::kitty_direct_clear(graphics.tmux).as_bytes())?;
+    backend.flush()?;
+    app.scene.hold = true;
+    let held = terminal.draw(|f| render::render(f, app)).map(|_| ());
+    app.scene.hold = false;
+    held
 }
 
 /// Everything the loop hands work to.
@@ -185,8 +212,25 @@ impl Runtime {
     }
 }
 
-fn spawn_input_thread(msgs: mpsc::UnboundedSender<Msg>) {
-    std::thread::spawn(move || loop {
+/// Reads the user's input on a thread of its own: first the rest of a late
+/// answer to the start-up query (its keys kept, its replies dropped), then
+/// crossterm's events.
+fn spawn_input_thread(msgs: mpsc::UnboundedSender<Msg>, late: Option<terminal_query::Late>) {
+    std::thread::spawn(move || {
+        if let Some(late) = late {
+            late.drain(|key| {
+                let _ = msgs.send(Msg::Key(key));
+            });
+            if let Ok((w, h)) = crossterm::terminal::size() {
+                let _ = msgs.send(Msg::Resize(w, h));
+            }
+        }
+        read_events(&msgs);
+    });
+}
+
+fn read_events(msgs: &mpsc::UnboundedSender<Msg>) {
+    loop {
         let msg = match crossterm::event::read() {
             Ok(Event::Key(key)) => Msg::Key(key),
             Ok(Event::Mouse(mouse)) => Msg::Mouse(mouse),
@@ -198,7 +242,7 @@ fn spawn_input_thread(msgs: mpsc::UnboundedSender<Msg>) {
         if msgs.send(msg).is_err() {
             return;
         }
-    });
+    }
 }
 
 fn spawn_signal_watch(msgs: mpsc::UnboundedSender<Msg>) {
@@ -342,25 +386,29 @@ async fn run_async(options: Options) -> Result<(), TuiError> {
     // The query reads stdin itself, so it runs before the input thread
     // exists; what was typed meanwhile and the size the window has now
     // (a resize during the query has no reader yet) go first in the queue.
-    let picker = match options.picker {
-        Some(p) => p,
-        None => {
-            let probe = terminal_query::query_picker(terminal_query::QUERY_TIMEOUT);
-            for key in probe.typed {
-                let _ = msg_tx.send(Msg::Key(key));
-            }
-            let size = terminal.size()?;
-            let _ = msg_tx.send(Msg::Resize(size.width, size.height));
-            probe.picker
-        }
-    };
+    let probe = terminal_query::probe(options.graphics, options.query_timeout, app.no_color);
+    for key in probe.typed {
+        let _ = msg_tx.send(Msg::Key(key));
+    }
+    let size = terminal.size()?;
+    let _ = msg_tx.send(Msg::Resize(size.width, size.height));
+    // Held to the end: dropping it puts tmux's option back.
+    let _passthrough = probe.passthrough;
+    if let Some(notice) = probe.notice {
+        app.set_status(notice, Severity::Warn);
+    }
+    if options.graphics == Request::None {
+        app.scene.enabled = false;
+    }
+    let graphics = probe.graphics;
+    app.scene.graphics = graphics.summary();
     let (agent_tx, mut agent_rx) = mpsc::unbounded_channel();
     let (score_tx, score_rx) = watch::channel(None);
     let (save_tx, save_rx) = watch::channel::<Option<NumberedCopy>>(None);
     let models: SharedModels = Arc::new(RwLock::new(ModelSlot::Loading("starting".into())));
     let corruption: SharedCorruptionModels = Arc::new(RwLock::new(Err(CorruptError::StillLoading)));
 
-    spawn_input_thread(msg_tx.clone());
+    spawn_input_thread(msg_tx.clone(), probe.late);
     spawn_signal_watch(msg_tx.clone());
     {
         let msgs = msg_tx.clone();
@@ -418,7 +466,8 @@ async fn run_async(options: Options) -> Result<(), TuiError> {
     for cmd in first_cmds {
         runtime.execute(&mut app, cmd);
     }
-    request_image(&mut app, &picker, &runtime.msgs);
+    request_image(&mut app, &graphics, &runtime.msgs);
+    let mut shown = app.picture_shown();
     terminal.draw(|f| render::render(f, &app))?;
 
     let mut wake: Option<Instant> = None;
@@ -451,7 +500,8 @@ async fn run_async(options: Options) -> Result<(), TuiError> {
         if app.quit {
             break;
         }
-        request_image(&mut app, &picker, &runtime.msgs);
+        request_image(&mut app, &graphics, &runtime.msgs);
+        take_off_placed_picture(&mut terminal, &mut app, &graphics, &mut shown)?;
         terminal.draw(|f| render::render(f, &app))?;
     }
     for (_, handle) in runtime.runs.drain() {

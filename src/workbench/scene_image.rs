@@ -11,12 +11,11 @@ use ratatui::style::Style;
 use ratatui::text::Span;
 use ratatui::widgets::{Paragraph, Wrap};
 use ratatui::Frame;
-use ratatui_image::picker::Picker;
-use ratatui_image::protocol::Protocol;
-use ratatui_image::{Image, Resize};
+
+use super::graphics::{Drawing, Graphics};
 
 /// An image encoded for the terminal, with the area it was encoded for.
-pub type Encoded = (Rect, Box<Protocol>);
+pub type Encoded = (Rect, Box<Drawing>);
 
 /// Why the scene image cannot be shown, in one line.
 #[derive(Debug, thiserror::Error)]
@@ -47,20 +46,29 @@ pub fn read(path: &Path) -> Result<Arc<DynamicImage>, SceneImageError> {
 /// Resizes and encodes `image` to fill `area` with the terminal's graphics
 /// protocol: the slow part of showing it, done on a blocking task.
 pub fn encode(
-    picker: &Picker,
+    graphics: &Graphics,
     image: &DynamicImage,
     area: Rect,
 ) -> Result<Encoded, SceneImageError> {
-    let protocol = picker.new_protocol(image.clone(), area.as_size(), Resize::Scale(None))?;
-    Ok((area, Box::new(protocol)))
+    let drawing = graphics.encode(image, area)?;
+    Ok((area, Box::new(drawing)))
 }
 
 /// Draws the image in `area` when it is encoded for exactly that area, and
-/// `note` (wrapped, in `style`) otherwise.
-pub fn draw(frame: &mut Frame, area: Rect, encoded: Option<&Encoded>, note: &str, style: Style) {
+/// `note` (wrapped, in `style`) otherwise. With `held` (an overlay is open
+/// over the screen), a picture the terminal paints is not sent until the
+/// overlay has gone, so it never covers the overlay and is sent once after.
+pub fn draw(
+    frame: &mut Frame,
+    area: Rect,
+    encoded: Option<&Encoded>,
+    note: &str,
+    style: Style,
+    held: bool,
+) {
     match encoded {
-        Some((at, protocol)) if *at == area => {
-            frame.render_widget(Image::new(protocol.as_ref()), area);
+        Some((at, drawing)) if *at == area => {
+            drawing.render(area, frame.buffer_mut(), held);
         }
         _ => frame.render_widget(
             Paragraph::new(Span::styled(note, style)).wrap(Wrap { trim: true }),

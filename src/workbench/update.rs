@@ -72,7 +72,7 @@ impl App {
             Msg::SceneImage(result) => {
                 match result {
                     Ok(img) => self.scene.image = Some(img),
-                    Err(e) => self.set_status(e.to_string(), Severity::Warn),
+                    Err(e) => self.image_status(e.to_string()),
                 }
                 self.scene.protocol = None;
                 self.scene.requested = None;
@@ -101,10 +101,9 @@ impl App {
                     Ok(protocol) => self.scene.protocol = Some((rect, protocol)),
                     Err(e) => {
                         self.scene.enabled = false;
-                        self.set_status(
-                            format!("the scene image cannot be drawn here ({e}); i tries again"),
-                            Severity::Warn,
-                        );
+                        self.image_status(format!(
+                            "the scene image cannot be drawn here ({e}); i tries again"
+                        ));
                     }
                 }
                 Vec::new()

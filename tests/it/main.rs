@@ -45,6 +45,7 @@ mod tui;
 mod tui_agents;
 mod tui_corrupt;
 mod tui_e2e;
+mod tui_graphics;
 mod tui_providers;
 mod tui_runs;
 mod wordvec;

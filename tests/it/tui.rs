@@ -14,6 +14,7 @@ use mapvlm::metrics::pg2s::{Pg2sScorer, Pg2sSettings};
 use mapvlm::metrics::{ModelError, SentenceEncoder};
 use mapvlm::workbench::agents::AgentsPipeline;
 use mapvlm::workbench::app::{App, AppInit};
+use mapvlm::workbench::graphics::Graphics;
 use mapvlm::workbench::headless::Headless;
 use mapvlm::workbench::keymap::{self, Action, Binding, Context, BINDINGS};
 use mapvlm::workbench::message::{Cmd, Msg};
@@ -24,7 +25,6 @@ use mapvlm::workbench::theme::{load_themes, Theme};
 use mapvlm::workbench::{prepare_image, render};
 use ratatui::backend::TestBackend;
 use ratatui::Terminal;
-use ratatui_image::picker::Picker;
 
 /// A stand-in sentence encoder for tests: hashed bags of lowercase words,
 /// L2-normalised, so that sentences sharing words have a high cosine.
@@ -100,7 +100,7 @@ impl Harness {
 
     fn terminal(&mut self) -> Terminal<TestBackend> {
         let (w, h) = self.app.size;
-        prepare_image(&mut self.app, &Picker::halfblocks());
+        prepare_image(&mut self.app, &Graphics::halfblocks());
         let mut terminal = Terminal::new(TestBackend::new(w, h)).unwrap();
         terminal.draw(|f| render::render(f, &self.app)).unwrap();
         terminal

@@ -7,6 +7,7 @@ use std::path::Path;
 use std::process::Command;
 use std::time::{Duration, Instant};
 
+use common::pty::Pty;
 use common::tmux::Tmux;
 
 /// The tmux session each test runs mapvlm in.
@@ -214,101 +215,6 @@ fn a_kill_while_typing_loses_at_most_the_last_second() {
     assert!(status.success());
     let after = draft_of(&session);
     assert!(typed(&after), "the file after the kill: {after:?}");
-}
-
-/// mapvlm on a pseudo-terminal of `script`'s, whose other side this test
-/// plays: it reads what mapvlm writes and types, or answers, as a terminal.
-struct Pty {
-    child: std::process::Child,
-    stdin: std::process::ChildStdin,
-    output: std::sync::Arc<std::sync::Mutex<Vec<u8>>>,
-}
-
-impl Pty {
-    fn start(dir: &Path) -> Pty {
-        use std::io::Read;
-        use std::process::Stdio;
-        let found = Command::new("script").arg("--version").output();
-        assert!(
-            found.is_ok_and(|o| o.status.success()),
-            "script (util-linux) is not installed: install it to run this test"
-        );
-        let command = format!(
-            "stty rows 40 cols 120; exec {} --replay-delay 1 --session {}",
-            env!("CARGO_BIN_EXE_mapvlm"),
-            dir.join("session.json").display()
-        );
-        let mut child = Command::new("script")
-            .args(["-q", "-e", "-c", &command, "/dev/null"])
-            .env_remove("TMUX")
-            .env_remove("TERM_PROGRAM")
-            .env_remove("NO_COLOR")
-            .env("TERM", "xterm-256color")
-            .env("HOME", dir)
-            .env("XDG_CACHE_HOME", dir.join(".cache"))
-            .env("MAPVLM_MODELS", common::pack_dir())
-            .stdin(Stdio::piped())
-            .stdout(Stdio::piped())
-            .stderr(Stdio::null())
-            .spawn()
-            .expect("script starts");
-        let stdin = child.stdin.take().unwrap();
-        let mut stdout = child.stdout.take().unwrap();
-        let output = std::sync::Arc::new(std::sync::Mutex::new(Vec::new()));
-        let sink = output.clone();
-        std::thread::spawn(move || {
-            let mut buf = [0u8; 4096];
-            while let Ok(n) = stdout.read(&mut buf) {
-                if n == 0 {
-                    return;
-                }
-                sink.lock().unwrap().extend_from_slice(&buf[..n]);
-            }
-        });
-        Pty {
-            child,
-            stdin,
-            output,
-        }
-    }
-
-    fn send(&mut self, bytes: &[u8]) {
-        use std::io::Write;
-        self.stdin.write_all(bytes).unwrap();
-        self.stdin.flush().unwrap();
-    }
-
-    fn wait_for(&self, what: &str, text: &str) {
-        let start = Instant::now();
-        loop {
-            let found = {
-                let out = self.output.lock().unwrap();
-                out.windows(text.len()).any(|w| w == text.as_bytes())
-            };
-            if found {
-                return;
-            }
-            assert!(
-                start.elapsed() < Duration::from_secs(30),
-                "timed out waiting for {what}"
-            );
-            std::thread::sleep(Duration::from_millis(20));
-        }
-    }
-
-    fn exit_code(mut self) -> Option<i32> {
-        let start = Instant::now();
-        loop {
-            if let Some(status) = self.child.try_wait().unwrap() {
-                return status.code();
-            }
-            if start.elapsed() > Duration::from_secs(10) {
-                let _ = self.child.kill();
-                panic!("mapvlm did not quit");
-            }
-            std::thread::sleep(Duration::from_millis(20));
-        }
-    }
 }
 
 /// A kitty-like answer to ratatui-image's query: graphics, sixels, a cell

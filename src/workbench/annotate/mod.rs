@@ -20,15 +20,15 @@ use std::time::{Duration, Instant};
 
 use crossterm::event::{Event, MouseEventKind};
 use ratatui::layout::Rect;
-use ratatui_image::picker::Picker;
 use tokio::sync::mpsc;
 
 use crate::annotate::skips::skip_line;
 use crate::annotate::{AnnotationWriter, Judgement, Verdict};
 use crate::workbench::component::Component;
+use crate::workbench::graphics::{Graphics, Request};
 use crate::workbench::scene_image;
 use crate::workbench::scroll::WHEEL_LINES;
-use crate::workbench::terminal_query::{query_picker, QUERY_TIMEOUT};
+use crate::workbench::terminal_query;
 use crate::workbench::theme::Theme;
 use crate::workbench::TuiError;
 use state::{Clock, Cmd, Judging, Msg, Scene, Setup};
@@ -43,8 +43,10 @@ pub struct Options {
     pub skips: AnnotationWriter,
     /// The theme.
     pub theme: Theme,
-    /// How images are drawn: `None` asks the terminal.
-    pub picker: Option<Picker>,
+    /// How images are drawn (`--graphics`): `auto` asks the terminal.
+    pub graphics: Request,
+    /// How long the terminal has to answer the start-up query.
+    pub query_timeout: Duration,
 }
 
 /// How the sitting ended.
@@ -105,8 +107,29 @@ fn spawn_writer(
     (tx, handle)
 }
 
-fn spawn_input(msgs: mpsc::UnboundedSender<Msg>, resized: mpsc::UnboundedSender<(u16, u16)>) {
-    std::thread::spawn(move || loop {
+/// Reads the user's input on a thread of its own: first the rest of a late
+/// answer to the start-up query (its keys kept, its replies dropped), then
+/// crossterm's events.
+fn spawn_input(
+    msgs: mpsc::UnboundedSender<Msg>,
+    resized: mpsc::UnboundedSender<(u16, u16)>,
+    late: Option<terminal_query::Late>,
+) {
+    std::thread::spawn(move || {
+        if let Some(late) = late {
+            late.drain(|key| {
+                let _ = msgs.send(Msg::Key(key));
+            });
+            if let Ok(size) = crossterm::terminal::size() {
+                let _ = resized.send(size);
+            }
+        }
+        read_events(&msgs, &resized);
+    });
+}
+
+fn read_events(msgs: &mpsc::UnboundedSender<Msg>, resized: &mpsc::UnboundedSender<(u16, u16)>) {
+    loop {
         let msg = match crossterm::event::read() {
             Ok(Event::Key(key)) => Msg::Key(key),
             Ok(Event::Mouse(mouse)) => match mouse.kind {
@@ -130,7 +153,7 @@ fn spawn_input(msgs: mpsc::UnboundedSender<Msg>, resized: mpsc::UnboundedSender<
         if msgs.send(msg).is_err() {
             return;
         }
-    });
+    }
 }
 
 fn spawn_signal_watch(quit: mpsc::UnboundedSender<(u16, u16)>) {
@@ -154,7 +177,7 @@ fn spawn_signal_watch(quit: mpsc::UnboundedSender<(u16, u16)>) {
 /// message naming the image file.
 fn request_image(
     screen: &mut Judging,
-    picker: &Picker,
+    graphics: &Graphics,
     area: Rect,
     msgs: &mpsc::UnboundedSender<Msg>,
 ) {
@@ -172,9 +195,10 @@ fn request_image(
         return;
     }
     screen.requested = Some(request);
-    let (picker, image, path, msgs) = (picker.clone(), image.clone(), path.clone(), msgs.clone());
+    let (graphics, image, path, msgs) =
+        (graphics.clone(), image.clone(), path.clone(), msgs.clone());
     tokio::task::spawn_blocking(move || {
-        let msg = match scene_image::encode(&picker, &image, wanted) {
+        let msg = match scene_image::encode(&graphics, &image, wanted) {
             Ok(encoded) => Msg::ImageReady(path, encoded),
             Err(e) => Msg::ImageUndrawable(path, e.to_string()),
         };
@@ -203,21 +227,26 @@ async fn run_async(options: Options) -> Result<Outcome, TuiError> {
     let (guard, mut terminal) = crate::workbench::runtime::setup_terminal()?;
     let (msg_tx, mut msg_rx) = mpsc::unbounded_channel::<Msg>();
     let (size_tx, mut size_rx) = mpsc::unbounded_channel::<(u16, u16)>();
-    let picker = match options.picker {
-        Some(p) => p,
-        None => {
-            // Asked before the input thread exists, so no key is lost;
-            // keys typed meanwhile go first.
-            let probe = query_picker(QUERY_TIMEOUT);
-            for key in probe.typed {
-                let _ = msg_tx.send(Msg::Key(key));
-            }
-            let size = terminal.size()?;
-            let _ = size_tx.send((size.width, size.height));
-            probe.picker
-        }
-    };
-    spawn_input(msg_tx.clone(), size_tx.clone());
+    // Asked before the input thread exists, so no key is lost; keys typed
+    // meanwhile go first.
+    let no_color = crate::workbench::theme::no_color_requested();
+    let probe = terminal_query::probe(options.graphics, options.query_timeout, no_color);
+    for key in probe.typed {
+        let _ = msg_tx.send(Msg::Key(key));
+    }
+    let size = terminal.size()?;
+    let _ = size_tx.send((size.width, size.height));
+    // Held to the end: dropping it puts tmux's option back.
+    let _passthrough = probe.passthrough;
+    if let Some(notice) = probe.notice {
+        // After what the screen already says (the start-up notices).
+        screen.status = Some(match screen.status.take() {
+            Some((first, severity)) => (format!("{first} · {notice}"), severity),
+            None => (notice, state::Severity::Warn),
+        });
+    }
+    let graphics = probe.graphics;
+    spawn_input(msg_tx.clone(), size_tx.clone(), probe.late);
     spawn_signal_watch(size_tx);
     let size = terminal.size()?;
     screen.update(Msg::Resize(size.width, size.height));
@@ -253,7 +282,7 @@ async fn run_async(options: Options) -> Result<Outcome, TuiError> {
     let mut tick = tokio::time::interval(Duration::from_secs(1));
     loop {
         let area = terminal.get_frame().area();
-        request_image(&mut screen, &picker, area, &msg_tx);
+        request_image(&mut screen, &graphics, area, &msg_tx);
         terminal.draw(|f| {
             let area = f.area();
             screen.draw(f, area, &theme);

@@ -530,7 +530,6 @@ mod tests {
 
         use image::DynamicImage;
         use ratatui::layout::Rect;
-        use ratatui_image::picker::Picker;
 
         use super::super::state::Scene;
         use crate::workbench::scene_image;
@@ -543,7 +542,14 @@ mod tests {
         let image = Arc::new(DynamicImage::new_rgb8(4, 4));
         s.scene = Scene::Loaded(here.clone(), image.clone());
         let area = Rect::new(0, 0, 4, 2);
-        let encoded = || scene_image::encode(&Picker::halfblocks(), &image, area).unwrap();
+        let encoded = || {
+            scene_image::encode(
+                &crate::workbench::graphics::Graphics::halfblocks(),
+                &image,
+                area,
+            )
+            .unwrap()
+        };
         s.update(Msg::ImageReady(gone.clone(), encoded()));
         assert!(s.image.is_none(), "the image of an item left behind");
         s.update(Msg::ImageUndrawable(gone, "no protocol".into()));

@@ -384,7 +384,8 @@ fn draw_image(frame: &mut Frame, screen: &Judging, theme: &Theme, rect: Rect) {
         Scene::Failed(why) => (None, why.as_str()),
         Scene::None | Scene::Loading(_) => (None, "drawing the image…"),
     };
-    scene_image::draw(frame, inner, encoded, note, theme.warn);
+    let held = matches!(screen.mode, Mode::Help);
+    scene_image::draw(frame, inner, encoded, note, theme.warn, held);
 }
 
 /// The short name of a rating: its wording up to the first `:` (or its

@@ -9,7 +9,7 @@ use ratatui::widgets::{Block, Paragraph};
 use ratatui::Frame;
 
 use crate::demo;
-use crate::workbench::app::App;
+use crate::workbench::app::{App, Severity};
 use crate::workbench::layout::{pane_rects, Screen};
 use crate::workbench::message::Cmd;
 use crate::workbench::panes::{highlighted, pane_block, Pane};
@@ -25,6 +25,16 @@ pub struct ScenePane {
     pub protocol: Option<Encoded>,
     /// The area an encoding is under way for, off the loop.
     pub requested: Option<Rect>,
+    /// How the image is drawn on this terminal and why, as the header says
+    /// it ([`crate::workbench::graphics::Graphics::summary`]); empty (and
+    /// not shown) until the terminal has been asked.
+    pub graphics: String,
+    /// The status line's message about this image, if it still shows one:
+    /// it goes when the image does.
+    pub message: Option<String>,
+    /// Holds a picture the terminal paints back for a frame, as an overlay
+    /// does: the next frame without it sends the picture again.
+    pub hold: bool,
 }
 
 impl ScenePane {
@@ -35,6 +45,9 @@ impl ScenePane {
             image: Some(Arc::new(DynamicImage::ImageRgb8(demo::scene_image()))),
             protocol: None,
             requested: None,
+            graphics: String::new(),
+            message: None,
+            hold: false,
         }
     }
 }
@@ -43,6 +56,15 @@ impl App {
     pub(crate) fn load_scene(&mut self) -> Vec<Cmd> {
         self.scene.protocol = None;
         self.scene.requested = None;
+        if let Some(message) = self.scene.message.take() {
+            if self
+                .status
+                .as_ref()
+                .is_some_and(|(text, _)| *text == message)
+            {
+                self.status = None;
+            }
+        }
         match &self.task.image {
             Some(path) => {
                 self.scene.image = None;
@@ -59,9 +81,8 @@ impl App {
         }
     }
 
-    /// The terminal area the scene image should be encoded for, when it is
-    /// shown and not yet encoded for that area.
-    pub fn image_area_wanted(&self) -> Option<Rect> {
+    /// The terminal area the scene image is shown in now, when it is.
+    pub fn image_area(&self) -> Option<Rect> {
         if !self.scene.enabled || self.scene.image.is_none() {
             return None;
         }
@@ -71,11 +92,31 @@ impl App {
         };
         let (_, rect) = panes.into_iter().find(|(p, _)| *p == Pane::Scene)?;
         let inner = scene_image_area(rect);
-        if inner.width == 0 || inner.height == 0 {
-            return None;
-        }
+        (inner.width > 0 && inner.height > 0).then_some(inner)
+    }
+
+    /// Where a picture is on the screen and whether it is held back (an
+    /// overlay is open), when one is drawn: a picture kitty placed directly
+    /// must be taken off whenever this changes.
+    pub fn picture_shown(&self) -> Option<(Rect, bool)> {
+        let area = self.image_area()?;
+        let drawn = matches!(&self.scene.protocol, Some((r, _)) if *r == area);
+        drawn.then_some((area, self.overlay.is_some()))
+    }
+
+    /// The terminal area the scene image should be encoded for, when it is
+    /// shown and not yet encoded for that area.
+    pub fn image_area_wanted(&self) -> Option<Rect> {
+        let inner = self.image_area()?;
         let encoded = matches!(&self.scene.protocol, Some((r, _)) if *r == inner);
         (!encoded && self.scene.requested != Some(inner)).then_some(inner)
+    }
+
+    /// Shows `text` on the status line as a message about the scene image:
+    /// it goes away with the image.
+    pub(crate) fn image_status(&mut self, text: String) {
+        self.set_status(text.clone(), Severity::Warn);
+        self.scene.message = Some(text);
     }
 
     /// Notes that the scene is being encoded for `area` and returns what the
@@ -109,7 +150,14 @@ pub(crate) fn draw(frame: &mut Frame, app: &App, area: Rect) {
     } else {
         (app.scene.protocol.as_ref(), "drawing the image…")
     };
-    scene_image::draw(frame, image_area, encoded, note, t.muted);
+    scene_image::draw(
+        frame,
+        image_area,
+        encoded,
+        note,
+        t.muted,
+        app.overlay.is_some() || app.scene.hold,
+    );
 }
 
 /// The part of the Scene pane the image is drawn in: inside the border,

@@ -3,6 +3,7 @@
 //! local OpenAI-compatible server and a user's home with a config file.
 #![allow(dead_code)]
 
+pub mod pty;
 pub mod server;
 pub mod tmux;
 pub mod workbench;
