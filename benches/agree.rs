@@ -32,6 +32,9 @@ fn data() -> (Vec<Pair>, HashMap<String, MetricValues>, Judged) {
                 edits: Vec::new(),
                 similarity: None,
                 words: None,
+                touches_task: None,
+                adjacent: None,
+                version: None,
             });
         }
         let pg2s = uniform(1_000_000);

@@ -11,12 +11,73 @@ PYTHON_WITH_SCIPY is an interpreter with numpy, scipy and krippendorff
 install scipy krippendorff numpy`). MAPVLM defaults to target/release/mapvlm.
 The reference is read from ../shared/reference/agree_ref.py beside the
 repository. Point estimates must agree to 1e-9 and counts exactly; the
-bootstrap intervals and the p-value are not in the reference.
+p-values of tau-b, rho and r (`metrics.M.p_values`) must equal scipy's to
+1e-9 relative, with scipy pinned below; the bootstrap intervals and the
+permutation p-value are not in the reference.
+
+usage: scripts/agree_cases.py PYTHON_WITH_SCIPY --golden-fixture OUT.json
+writes the p-values of the golden set (../shared/golden/agree.dev.*) as
+scipy gives them, the fixture tests/fixtures/agree.golden.p_values.json.
 """
 import json, os, random, subprocess, sys, tempfile
 
 ROOT = os.path.dirname(os.path.dirname(os.path.abspath(__file__)))
 REFERENCE = os.path.join(ROOT, "..", "shared", "reference", "agree_ref.py")
+GOLDEN = os.path.join(ROOT, "..", "shared", "golden", "agree.dev.")
+# The scipy whose p-values are the reference.
+SCIPY = "1.17.1"
+
+# Run by PYTHON_WITH_SCIPY itself: the p-values of every metric's column.
+P_VALUES = r"""
+import json, math, sys, warnings
+import numpy as np
+from scipy import stats
+sys.path.insert(0, sys.argv[1])
+import agree_ref as ref
+if __import__("scipy").__version__ != sys.argv[2]:
+    sys.exit(f"scipy {__import__('scipy').__version__}, not the pinned {sys.argv[2]}")
+items = {i["id"]: i for i in ref.jsonl(sys.argv[3])}
+scores = {s["id"]: s for s in ref.jsonl(sys.argv[4])}
+cur = ref.current_ratings([l for f in sys.argv[5:] for l in ref.jsonl(f)], items)
+rated = sorted({i for i, _ in cur})
+human = {i: float(np.mean([r for (j, _), r in cur.items() if j == i])) for i in rated}
+out = {}
+warnings.simplefilter("ignore")
+def p(f, x, h):
+    if len(x) < 2 or np.ptp(x) == 0 or np.ptp(h) == 0:
+        return None
+    with np.errstate(all="ignore"):
+        v = float(f(x, h).pvalue)
+    return None if math.isnan(v) else v
+for m in ref.METRICS:
+    ids = [i for i in rated if i in scores and scores[i].get(m) is not None]
+    x = np.asarray([scores[i][m] for i in ids], float)
+    h = np.asarray([human[i] for i in ids], float)
+    out[m] = {"kendall_tau_b": p(stats.kendalltau, x, h), "spearman": p(stats.spearmanr, x, h),
+              "pearson": p(stats.pearsonr, x, h)}
+print(json.dumps(out, indent=1, sort_keys=True))
+"""
+
+
+def reference_p_values(python, paths):
+    """scipy's p-values of each metric's column, as `agree` forms them."""
+    run = subprocess.run([python, "-c", P_VALUES, os.path.dirname(REFERENCE), SCIPY, *paths],
+                         capture_output=True, text=True)
+    if run.returncode != 0:
+        sys.exit(f"the p-value reference failed: {run.stderr.strip()}")
+    return json.loads(run.stdout)
+
+
+def close_relative(ref, ours, path, problems):
+    """p-values: null where scipy has none, else within 1e-9 relative."""
+    for m, row in ref.items():
+        for k, v in row.items():
+            got = ours.get(m, {}).get("p_values", {}).get(k, "<missing>")
+            if v is None:
+                if got is not None:
+                    problems.append(f"{path}.{m}.p_values.{k}: {got!r}, scipy has none")
+            elif not isinstance(got, (int, float)) or abs(got - v) > 1e-9 * abs(v):
+                problems.append(f"{path}.{m}.p_values.{k}: {got!r} != {v!r}")
 METRICS = ["pg2s", "s_plan", "s_goal", "kas"]
 KINDS = ["drop", "reorder", "object-swap"]
 
@@ -87,9 +148,16 @@ def close(ref, ours, path, problems):
 
 def main():
     python = sys.argv[1]
+    if len(sys.argv) > 3 and sys.argv[2] == "--golden-fixture":
+        parts = [GOLDEN + p for p in ("items.jsonl", "scores.jsonl", "annotations.jsonl")]
+        with open(sys.argv[3], "w") as f:
+            f.write(json.dumps({"scipy": SCIPY, "metrics": reference_p_values(python, parts)},
+                               indent=1, sort_keys=True) + "\n")
+        return
     mapvlm = sys.argv[2] if len(sys.argv) > 2 and not sys.argv[2].startswith("--") else os.path.join(ROOT, "target", "release", "mapvlm")
     rng = random.Random(20261201)
     three = ["ana", "bo", "chen"]
+    five = three + ["dee", "eli"]
     cases = {
         "ties": dict(n=40, annotators=three, grid=4),
         "fine": dict(n=120, annotators=three, grid=1000, share=0.5),
@@ -100,6 +168,11 @@ def main():
         "one_annotator": dict(n=30, annotators=["ana"]),
         "unscored": dict(n=30, annotators=three, unscored=0.3, kas_missing=0.6),
         "large": dict(n=600, annotators=three, grid=20, share=0.6),
+        # Metric values without ties; few items can also have human means
+        # without ties (tau-b's exact p-value), more cannot (asymptotic).
+        "distinct_small": dict(n=4, annotators=five, grid=10**9, share=1.0),
+        "distinct_large": dict(n=60, annotators=five, grid=10**9, share=0.8),
+        "three_items": dict(n=3, annotators=three, share=1.0),
     }
     failed = 0
     with tempfile.TemporaryDirectory() as tmp:
@@ -120,7 +193,10 @@ def main():
                                    "--permutations", "200"], capture_output=True, text=True)
             problems = []
             try:
-                close(json.loads(ref.stdout), json.loads(ours.stdout), name, problems)
+                doc = json.loads(ours.stdout)
+                close(json.loads(ref.stdout), doc, name, problems)
+                p_ref = reference_p_values(python, [paths["items"], paths["scores"], paths["annotations"]])
+                close_relative(p_ref, doc.get("metrics", {}), name, problems)
             except json.JSONDecodeError:
                 problems.append(f"{name}: not JSON: {ours.stderr.strip()}")
             failed += bool(problems)

@@ -394,6 +394,11 @@ pub struct Pair {
     /// What was changed, for an item made by `mapvlm corrupt`.
     #[serde(default, skip_serializing_if = "Option::is_none")]
     pub corruption: Option<Corruption>,
+    /// An opaque name shared by a plan and every plan derived from it, in a
+    /// blind copy (`corrupt --blind`) that has no `source`: `annotate` keeps
+    /// the members of a group apart without learning which is the original.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub group: Option<String>,
 }
 
 impl Pair {
@@ -407,7 +412,18 @@ impl Pair {
             image: None,
             source: None,
             corruption: None,
+            group: None,
         }
+    }
+
+    /// The family of the item: its `group` (a blind copy), else its
+    /// `source`, else its own id. Items of one family are one plan and its
+    /// corruptions.
+    pub fn family(&self) -> &str {
+        self.group
+            .as_deref()
+            .or(self.source.as_deref())
+            .unwrap_or(&self.id)
     }
 }
 
@@ -427,6 +443,18 @@ pub struct Corruption {
     /// For swaps, the word replaced and its replacement.
     #[serde(default, skip_serializing_if = "Option::is_none")]
     pub words: Option<SwappedWords>,
+    /// For object and place swaps, whether the word replaced names a thing
+    /// the task names (the swap then changes what the task is about).
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub touches_task: Option<bool>,
+    /// For `reorder`, whether the two steps were neighbours.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub adjacent: Option<bool>,
+    /// The version of the algorithm that made it (`corrupt::ALGORITHM`): the
+    /// same seed gives the same corruption only under the same version.
+    /// Absent in files written before versions were recorded.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub version: Option<u32>,
 }
 
 /// One changed step of a corruption.

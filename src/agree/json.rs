@@ -53,6 +53,11 @@ fn human_json(h: &HumanAgreement, doc: &mut Map<String, Value>) {
             ci.interval("pearson", m.ci95.pearson);
             ci.interval("pairwise_accuracy", m.ci95.pairwise_accuracy);
             obj.map.insert("ci95".into(), ci.done());
+            let mut p = Fields::default();
+            p.estimate("kendall_tau_b", m.p_values.kendall_tau_b);
+            p.estimate("spearman", m.p_values.spearman);
+            p.estimate("pearson", m.p_values.pearson);
+            obj.map.insert("p_values".into(), p.done());
             (m.metric.to_string(), obj.done())
         })
         .collect();

@@ -19,6 +19,7 @@ use crate::stats::bootstrap::{percentile_interval, Bootstrap};
 use crate::stats::correlation::{Correlations, Paired};
 use crate::stats::krippendorff::{alpha, Level};
 use crate::stats::permutation::{tau_b_difference, PermutationTest};
+use crate::stats::pvalue::PValues;
 use crate::stats::{Estimate, Undefined};
 
 /// The metrics compared with people, in the order of every table.
@@ -83,6 +84,8 @@ pub struct MetricAgreement {
     pub correlations: Correlations,
     /// Their 95% percentile-bootstrap intervals.
     pub ci95: Intervals,
+    /// The two-sided p-values of tau-b, rho and r (as scipy's).
+    pub p_values: PValues,
     /// (human score, metric value) of every item compared, for plots.
     pub points: Vec<(f64, f64)>,
 }
@@ -227,6 +230,7 @@ fn human_agreement(
             MetricAgreement {
                 metric: METRICS[m],
                 correlations: paired[m].correlations(),
+                p_values: paired[m].p_values(),
                 ci95: Intervals {
                     kendall_tau_b: interval(|c| c.kendall_tau_b),
                     spearman: interval(|c| c.spearman),

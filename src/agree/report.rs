@@ -75,6 +75,21 @@ fn human_section(h: &HumanAgreement, agreement: &Agreement, out: &mut String) {
     for note in &notes {
         let _ = writeln!(out, "  – {note}");
     }
+    let _ = writeln!(out, "\nTwo-sided p-values (as scipy.stats):");
+    for m in &h.metrics {
+        let p = |e: Estimate| match e {
+            Ok(v) => format!("{v:.3e}"),
+            Err(_) => "—".to_string(),
+        };
+        let _ = writeln!(
+            out,
+            "  {:<8} tau-b {:<10} rho {:<10} r {}",
+            m.metric,
+            p(m.p_values.kendall_tau_b),
+            p(m.p_values.spearman),
+            p(m.p_values.pearson)
+        );
+    }
     match &h.pg2s_vs_kas {
         Ok(t) => {
             let _ = writeln!(

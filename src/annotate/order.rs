@@ -48,9 +48,9 @@ fn shuffle<T>(rng: &mut ChaCha8Rng, items: &mut [T]) {
     }
 }
 
-/// The family of an item: its `source`, or itself.
+/// The family of an item: its `group` (a blind copy), its `source`, or itself.
 fn family(item: &Pair) -> &str {
-    item.source.as_deref().unwrap_or(&item.id)
+    item.family()
 }
 
 /// Moves items so that no two neighbours share a family, where a place for

@@ -33,6 +33,11 @@ pub struct AgreeArgs {
     /// corruption table is reported.
     #[arg(long, value_name = "FILE", num_args = 1..)]
     pub annotations: Vec<PathBuf>,
+    /// The key of a blind copy (`corrupt --blind`): the annotations name the
+    /// blind ids, which this file maps back to the ids of --items (the full
+    /// items file, not the blind copy).
+    #[arg(long, value_name = "FILE")]
+    pub key: Option<PathBuf>,
     /// Print one JSON document instead of the report.
     #[arg(long)]
     pub json: bool,
@@ -178,6 +183,17 @@ fn read_judgements(
     items: &[Pair],
     bad_lines: &mut usize,
 ) -> anyhow::Result<Judged> {
+    let key = match &args.key {
+        Some(path) => Some(crate::corrupt::blind::read_key(path)?),
+        None => None,
+    };
+    // A blind id maps to its original id; an id the key lacks stays as it
+    // is (and is reported below when --items lacks it too).
+    let unblind = |id: &mut String| {
+        if let Some(original) = key.as_ref().and_then(|k| k.get(id.as_str())) {
+            id.clone_from(original);
+        }
+    };
     let mut lines = Vec::new();
     for path in &args.annotations {
         let file = Annotations::load(path)?;
@@ -188,7 +204,16 @@ fn read_judgements(
             );
         }
         *bad_lines += file.errors.len();
-        lines.extend(file.lines.into_iter().map(|(_, j)| j));
+        lines.extend(file.lines.into_iter().map(|(_, mut j)| {
+            match &mut j.subject {
+                crate::annotate::Subject::Item(id) => unblind(id),
+                crate::annotate::Subject::Pair(l, r) => {
+                    unblind(l);
+                    unblind(r);
+                }
+            }
+            j
+        }));
     }
     let known: HashMap<&str, ()> = items.iter().map(|i| (i.id.as_str(), ())).collect();
     let mut unknown: BTreeMap<String, usize> = BTreeMap::new();

@@ -38,8 +38,18 @@ pub struct CorruptArgs {
     )]
     pub seed: u64,
     /// The items file to write (every original item, then its corruptions).
-    #[arg(long, value_name = "FILE")]
-    pub out: PathBuf,
+    /// Without it, --blind makes a blind copy of --items as it is.
+    #[arg(long, value_name = "FILE", required_unless_present = "blind")]
+    pub out: Option<PathBuf>,
+    /// Also write a blind copy for annotators into this folder
+    /// (DIR/items.jsonl: opaque ids and groups, no source or corruption,
+    /// image paths relative to DIR), and its key (see --key).
+    #[arg(long, value_name = "DIR")]
+    pub blind: Option<PathBuf>,
+    /// Where the key of the blind copy goes, which maps its ids back and is
+    /// not for annotators [default: beside the full items, ITEMS.key.jsonl].
+    #[arg(long, value_name = "FILE", requires = "blind")]
+    pub key: Option<PathBuf>,
     /// A folder of vocabulary files adding to the built-in ones [default: the user folder below].
     #[arg(long, value_name = "DIR")]
     pub vocabulary: Option<PathBuf>,
@@ -50,18 +60,33 @@ pub struct CorruptArgs {
 
 /// Where the vocabularies are, for `--help`.
 const VOCABULARY_HELP: &str = "\
-Vocabularies: the swaps draw from three lists built into mapvlm (in the
-repository: src/corrupt/vocab/objects.txt, places.txt and verbs.txt). Add
-words with files of the same names in $XDG_CONFIG_HOME/mapvlm/corrupt/
-(else ~/.config/mapvlm/corrupt/), or in the folder of --vocabulary:
-objects.txt and places.txt hold one word a line, verbs.txt one pair of
-actions a line (`pick up, put down`); `#` starts a comment.";
+Vocabularies: the swaps draw from four lists built into mapvlm (in the
+repository: src/corrupt/vocab/objects.txt, places.txt, verbs.txt and
+same.txt). Add words with files of the same names in
+$XDG_CONFIG_HOME/mapvlm/corrupt/ (else ~/.config/mapvlm/corrupt/), or in the
+folder of --vocabulary: objects.txt and places.txt hold one word a line,
+verbs.txt one pair of actions a line (`pick up, put down`), same.txt one
+group of words that name the same thing a line (`fridge, refrigerator`:
+never swapped for each other); `#` starts a comment.
+
+Steps that only move the agent (every verb one of walk, go, turn, move,
+head, navigate, proceed, approach, return, step, face, come, rotate, travel,
+continue, enter, back) are never repeated by duplicate nor swapped with each
+other by reorder.
+
+Blind copy: --blind DIR writes DIR/items.jsonl for annotators (opaque ids,
+an opaque group per plan and its corruptions, no source or corruption) and a
+key (--key, default ITEMS.key.jsonl beside the full items) that only the
+researcher keeps; `mapvlm agree --key` maps judgements back.";
 
 /// Runs `mapvlm corrupt`.
 pub fn run(args: &CorruptArgs) -> anyhow::Result<ExitCode> {
+    let Some(out) = &args.out else {
+        return blind_only(args);
+    };
     let kinds = requested_kinds(&args.kinds);
-    let out_dir = output_dir(&args.out)?;
-    let (items, problems) = read_items(args, &out_dir)?;
+    let out_dir = output_dir(out)?;
+    let (items, trials, problems) = read_items(args, &out_dir)?;
     for line in &problems {
         eprintln!(
             "mapvlm: {}",
@@ -105,32 +130,149 @@ pub fn run(args: &CorruptArgs) -> anyhow::Result<ExitCode> {
         vocabulary: &vocabulary,
         seed: args.seed,
     };
-    let (written, skipped) = corrupter.corrupt_items(&items, &kinds);
+    let (written, skipped) = corrupter.corrupt_items(&items, &trials, &kinds);
     for s in &skipped {
         eprintln!(
             "mapvlm: {}; skipped",
             crate::sanitize::for_terminal(&s.to_string())
         );
     }
-    let mut text = String::new();
-    for item in &written {
-        text.push_str(&serde_json::to_string(item)?);
-        text.push('\n');
-    }
-    crate::fsutil::write_atomic(&args.out, text.as_bytes())?;
+    write_items(out, &written)?;
     eprintln!(
         "mapvlm: wrote {} items to {}: {} originals, {} corruptions, {} skipped",
         written.len(),
-        args.out.display(),
+        out.display(),
         items.len(),
         written.len() - items.len(),
         skipped.len()
     );
+    let mut blind_problems = Vec::new();
+    if let Some(dir) = &args.blind {
+        write_blind(
+            &written,
+            &out_dir,
+            out,
+            dir,
+            args.key.as_deref(),
+            &mut blind_problems,
+        )?;
+    }
+    for line in &blind_problems {
+        eprintln!("mapvlm: {}", crate::sanitize::for_terminal(line));
+    }
+    Ok(if problems.is_empty() && blind_problems.is_empty() {
+        ExitCode::SUCCESS
+    } else {
+        ExitCode::FAILURE
+    })
+}
+
+/// Writes items as JSON Lines, atomically.
+fn write_items(path: &Path, items: &[Pair]) -> anyhow::Result<()> {
+    let mut text = String::new();
+    for item in items {
+        text.push_str(&serde_json::to_string(item)?);
+        text.push('\n');
+    }
+    crate::fsutil::write_atomic(path, text.as_bytes())?;
+    Ok(())
+}
+
+/// `corrupt --items FILE --blind DIR` without `--out`: the blind copy of an
+/// existing items file, nothing corrupted.
+fn blind_only(args: &CorruptArgs) -> anyhow::Result<ExitCode> {
+    let Some(path) = &args.items else {
+        bail!("--blind without --out blinds an existing items file: give --items FILE (or --out FILE to corrupt first)");
+    };
+    let Some(dir) = &args.blind else {
+        bail!("give --out FILE");
+    };
+    let base = std::path::absolute(path.parent().unwrap_or(Path::new("")))
+        .with_context(|| format!("cannot resolve the folder of {}", path.display()))?;
+    let mut problems = Vec::new();
+    let mut items = Vec::new();
+    for line in open_pairs(path)? {
+        match line {
+            Ok(item) => items.push(item),
+            Err(e) => problems.push(format!("{e}; that line was skipped")),
+        }
+    }
+    if items.is_empty() {
+        bail!("{}: no item to blind", path.display());
+    }
+    write_blind(&items, &base, path, dir, args.key.as_deref(), &mut problems)?;
+    for line in &problems {
+        eprintln!("mapvlm: {line}");
+    }
     Ok(if problems.is_empty() {
         ExitCode::SUCCESS
     } else {
         ExitCode::FAILURE
     })
+}
+
+/// Writes the blind copy of `items` (whose image paths are relative to
+/// `items_dir`) as `DIR/items.jsonl`, image paths relative to DIR, and its
+/// key to `key` (default: beside `items_file`, `NAME.key.jsonl`).
+fn write_blind(
+    items: &[Pair],
+    items_dir: &Path,
+    items_file: &Path,
+    dir: &Path,
+    key: Option<&Path>,
+    problems: &mut Vec<String>,
+) -> anyhow::Result<()> {
+    let key_file = match key {
+        Some(k) => k.to_path_buf(),
+        None => {
+            let stem = items_file
+                .file_stem()
+                .map(|s| s.to_string_lossy().into_owned())
+                .unwrap_or_else(|| "items".into());
+            items_file.with_file_name(format!("{stem}.key.jsonl"))
+        }
+    };
+    std::fs::create_dir_all(dir).with_context(|| format!("cannot create {}", dir.display()))?;
+    let dir_abs = dir
+        .canonicalize()
+        .with_context(|| format!("cannot resolve {}", dir.display()))?;
+    let key_folder = key_file
+        .parent()
+        .filter(|p| !p.as_os_str().is_empty())
+        .unwrap_or(Path::new("."));
+    if key_folder
+        .canonicalize()
+        .is_ok_and(|folder| folder.starts_with(&dir_abs))
+    {
+        bail!(
+            "{}: the key would be inside the blind folder {}, which annotators get; write it elsewhere with --key FILE",
+            key_file.display(),
+            dir.display()
+        );
+    }
+    let blinded = crate::corrupt::blind::blind(items, &crate::corrupt::blind::fresh_secret())?;
+    let mut copies = blinded.items;
+    for copy in &mut copies {
+        copy.image = copy
+            .image
+            .take()
+            .map(|image| image_for(&items_dir.join(image), &dir_abs, problems));
+    }
+    let blind_file = dir.join("items.jsonl");
+    write_items(&blind_file, &copies)?;
+    let mut text = String::new();
+    for entry in &blinded.key {
+        text.push_str(&serde_json::to_string(entry)?);
+        text.push('\n');
+    }
+    crate::fsutil::write_atomic(&key_file, text.as_bytes())?;
+    eprintln!(
+        "mapvlm: wrote the blind copy {} ({} items, for annotators) and its key {} (not for annotators)",
+        blind_file.display(),
+        copies.len(),
+        key_file.display()
+    );
+    Ok(())
 }
 
 /// The kinds asked for, each once, in the order given; all eight by default.
@@ -160,11 +302,15 @@ fn output_dir(out: &Path) -> anyhow::Result<PathBuf> {
         .with_context(|| format!("cannot resolve the folder of {}", out.display()))
 }
 
+/// The items and their trials (`None` for an items file, which has none).
+type ItemsRead = (Vec<Pair>, Vec<Option<String>>, Vec<String>);
+
 /// The items to corrupt, with their image paths rewritten relative to
-/// `out_dir`, and the lines and tasks that could not be used.
-fn read_items(args: &CorruptArgs, out_dir: &Path) -> anyhow::Result<(Vec<Pair>, Vec<String>)> {
+/// `out_dir`, their trials, and the lines and tasks that could not be used.
+fn read_items(args: &CorruptArgs, out_dir: &Path) -> anyhow::Result<ItemsRead> {
     let mut problems = Vec::new();
     let mut items = Vec::new();
+    let mut trials = Vec::new();
     if let Some(path) = &args.items {
         let base = path.parent().unwrap_or(Path::new(""));
         for line in open_pairs(path)? {
@@ -174,6 +320,7 @@ fn read_items(args: &CorruptArgs, out_dir: &Path) -> anyhow::Result<(Vec<Pair>, 
                         .image
                         .map(|image| image_for(&base.join(image), out_dir, &mut problems));
                     items.push(item);
+                    trials.push(None);
                 }
                 Err(e) => problems.push(format!("{e}; that line was skipped")),
             }
@@ -199,9 +346,10 @@ fn read_items(args: &CorruptArgs, out_dir: &Path) -> anyhow::Result<(Vec<Pair>, 
                 .as_deref()
                 .map(|image| image_for(image, out_dir, &mut problems));
             items.push(item);
+            trials.push(task.trial.clone());
         }
     }
-    Ok((items, problems))
+    Ok((items, trials, problems))
 }
 
 /// How the output file refers to `image`: relative to the output's folder

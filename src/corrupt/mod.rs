@@ -3,18 +3,46 @@
 //! task or cut off, each recorded with its edits so that a metric's reaction
 //! can be measured against a known damage.
 
+pub mod blind;
 mod draw;
 mod structure;
 mod swap;
 mod vocab;
 
+use std::collections::HashSet;
 use std::fmt;
 use std::str::FromStr;
 
 use crate::dataset::{Corruption, Edit, Pair, SwappedWords};
 
 pub use swap::{Language, NounClass};
+
+/// The version of the corruption algorithm, recorded in every corruption:
+/// the same seed gives the same file only under the same version. 2: no
+/// swap between words that name the same thing, the task's object swapped
+/// when the plan names it, `insert` from another trial and goal in the
+/// plan's style, `duplicate` and `reorder` of more than navigation,
+/// verb-swap similarity over the phrases.
+pub const ALGORITHM: u32 = 2;
+
+/// The root verbs of a step that only moves the agent (when every verb of
+/// the step is one of them): `duplicate` never repeats such a step and
+/// `reorder` never swaps two of them, since people take either for no
+/// change.
+pub const NAVIGATION_VERBS: [&str; 17] = [
+    "walk", "go", "turn", "move", "head", "navigate", "proceed", "approach", "return", "step",
+    "face", "come", "rotate", "travel", "continue", "enter", "back",
+];
 pub use vocab::{user_vocabulary_dir, Action, Vocabulary, VocabularyError, VOCABULARY_FILES};
+
+/// Whether `step` only moves the agent (every verb one of
+/// [`NAVIGATION_VERBS`], the root among them), as `duplicate` and `reorder`
+/// decide it.
+pub fn is_navigation_only(parser: &crate::nlp::en::EnPipeline, step: &str) -> bool {
+    swap::parse_plan(parser, &[step.to_string()])
+        .first()
+        .is_some_and(swap::navigation_only)
+}
 
 /// A kind of corruption, named as on the command line.
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Hash, PartialOrd, Ord)]
@@ -96,6 +124,10 @@ pub struct Changed {
     pub similarity: Option<f64>,
     /// For swaps, the two words.
     pub words: Option<SwappedWords>,
+    /// For object and place swaps, whether the word names a thing of the task.
+    pub touches_task: Option<bool>,
+    /// For `reorder`, whether the two steps were neighbours.
+    pub adjacent: Option<bool>,
 }
 
 impl Changed {
@@ -105,6 +137,8 @@ impl Changed {
             edits,
             similarity: None,
             words: None,
+            touches_task: None,
+            adjacent: None,
         }
     }
 }
@@ -133,8 +167,11 @@ pub enum Unchanged {
         needed: usize,
     },
     /// No other task's plan has a step this plan lacks.
-    #[error("no other task's plan has a step this plan lacks")]
+    #[error("no plan of another trial and goal has a step this plan lacks")]
     NoOtherStep,
+    /// Every step only moves the agent (or no place for a copy is apart).
+    #[error("no step does more than walk or turn, or none can be repeated apart from itself")]
+    NoActionStep,
 }
 
 /// An item a kind could not corrupt.
@@ -209,6 +246,10 @@ pub fn apply_edits(source: &[String], edits: &[Edit]) -> Result<Vec<String>, Edi
 struct Inputs<'a> {
     /// The plan's parse, when a swap needs one.
     parsed: &'a [swap::ParsedStep],
+    /// The words of the item's task, lowercase.
+    task: &'a HashSet<String>,
+    /// Whether each step only moves the agent (empty without a parse).
+    navigation: &'a [bool],
     /// Every step of every item, with the index of its item.
     pool: &'a [(usize, &'a str)],
     /// Whether the item of that index is of another task.
@@ -229,14 +270,28 @@ pub struct Corrupter<'a> {
 impl Corrupter<'_> {
     /// Every item followed by one corrupted item per requested kind that
     /// applies to it (id `SOURCE~KIND`, with the source's ground truth, task
-    /// and image), and the (item, kind) pairs that did not apply. Steps for
-    /// `insert` come from the other items of other tasks.
-    pub fn corrupt_items(&self, items: &[Pair], kinds: &[Kind]) -> (Vec<Pair>, Vec<Skipped>) {
+    /// and image), and the (item, kind) pairs that did not apply. `trials`
+    /// names the trial (scene) of each item, when known (empty: none known).
+    /// Steps for `insert` come from the items of another trial and another
+    /// `task` text (without a task text: another family).
+    pub fn corrupt_items(
+        &self,
+        items: &[Pair],
+        trials: &[Option<String>],
+        kinds: &[Kind],
+    ) -> (Vec<Pair>, Vec<Skipped>) {
         let mut out = Vec::with_capacity(items.len() * (kinds.len() + 1));
         let mut skipped = Vec::new();
-        let needs_parse = kinds
-            .iter()
-            .any(|k| matches!(k, Kind::ObjectSwap | Kind::PlaceSwap | Kind::VerbSwap));
+        let needs_parse = kinds.iter().any(|k| {
+            matches!(
+                k,
+                Kind::ObjectSwap
+                    | Kind::PlaceSwap
+                    | Kind::VerbSwap
+                    | Kind::Reorder
+                    | Kind::Duplicate
+            )
+        });
         let pool: Vec<(usize, &str)> = items
             .iter()
             .enumerate()
@@ -249,10 +304,27 @@ impl Corrupter<'_> {
             } else {
                 Vec::new()
             };
-            let other =
-                |j: usize| j != index && (items[j].task.is_none() || items[j].task != item.task);
+            let navigation: Vec<bool> = parsed.iter().map(swap::navigation_only).collect();
+            let task = match (&item.task, needs_parse) {
+                (Some(text), true) => swap::words_of(self.language.parser, text),
+                _ => HashSet::new(),
+            };
+            let trial = |j: usize| trials.get(j).and_then(Option::as_deref);
+            let other = |j: usize| {
+                let apart = match (&items[j].task, &item.task) {
+                    (Some(a), Some(b)) => a.trim() != b.trim(),
+                    _ => items[j].family() != item.family(),
+                };
+                let elsewhere = match (trial(j), trial(index)) {
+                    (Some(a), Some(b)) => a != b,
+                    _ => true,
+                };
+                j != index && apart && elsewhere
+            };
             let inputs = Inputs {
                 parsed: &parsed,
+                task: &task,
+                navigation: &navigation,
                 pool: &pool,
                 other: &other,
             };
@@ -279,22 +351,26 @@ impl Corrupter<'_> {
         let changed = match kind {
             Kind::ObjectSwap => swap::noun_swap(
                 parsed,
+                inputs.task,
                 NounClass::Object,
                 &vocabulary.objects,
+                vocabulary,
                 language,
                 draws,
             ),
             Kind::PlaceSwap => swap::noun_swap(
                 parsed,
+                inputs.task,
                 NounClass::Place,
                 &vocabulary.places,
+                vocabulary,
                 language,
                 draws,
             ),
             Kind::VerbSwap => swap::verb_swap(parsed, &vocabulary.verbs, language, draws),
-            Kind::Reorder => structure::reorder(plan, draws),
+            Kind::Reorder => structure::reorder(plan, inputs.navigation, draws),
             Kind::Drop => structure::drop(plan, draws),
-            Kind::Duplicate => structure::duplicate(plan, draws),
+            Kind::Duplicate => structure::duplicate(plan, inputs.navigation, draws),
             Kind::Insert => structure::insert(plan, inputs.pool, inputs.other, draws),
             Kind::Truncate => structure::truncate(plan),
         }?;
@@ -313,12 +389,16 @@ impl Corrupter<'_> {
             task: source.task.clone(),
             image: source.image.clone(),
             source: Some(source.id.clone()),
+            group: None,
             corruption: Some(Corruption {
                 kind: kind.name().to_string(),
                 seed: self.seed,
                 edits: changed.edits,
                 similarity: changed.similarity,
                 words: changed.words,
+                touches_task: changed.touches_task,
+                adjacent: changed.adjacent,
+                version: Some(ALGORITHM),
             }),
         }
     }

@@ -1,21 +1,33 @@
 //! The corruptions of a plan's structure, which need no language model:
 //! reorder, drop, duplicate, insert and truncate.
 
+use std::collections::HashSet;
+
 use super::draw::Draws;
 use super::{Changed, Unchanged};
 use crate::dataset::Edit;
 
-/// Two steps whose texts differ trade places.
-pub fn reorder(plan: &[String], draws: &mut Draws) -> Result<Changed, Unchanged> {
+/// Two steps whose texts differ, not both navigation-only (`navigation[k]`:
+/// step `k` only moves the agent), trade places; the record says whether
+/// they were neighbours.
+pub fn reorder(
+    plan: &[String],
+    navigation: &[bool],
+    draws: &mut Draws,
+) -> Result<Changed, Unchanged> {
+    let moving = |k: usize| navigation.get(k).copied().unwrap_or(false);
     let pairs: Vec<(usize, usize)> = (0..plan.len())
         .flat_map(|i| (i + 1..plan.len()).map(move |j| (i, j)))
-        .filter(|&(i, j)| plan[i] != plan[j])
+        .filter(|&(i, j)| plan[i] != plan[j] && !(moving(i) && moving(j)))
         .collect();
     let &(i, j) = draws.pick(&pairs).ok_or(Unchanged::NoDistinctSteps)?;
     let mut steps = plan.to_vec();
     steps.swap(i, j);
     let edits = vec![replace(i, plan, &plan[j]), replace(j, plan, &plan[i])];
-    Ok(Changed::new(steps, edits))
+    Ok(Changed {
+        adjacent: Some(j == i + 1),
+        ..Changed::new(steps, edits)
+    })
 }
 
 /// One step is removed.
@@ -29,21 +41,36 @@ pub fn drop(plan: &[String], draws: &mut Draws) -> Result<Changed, Unchanged> {
     Ok(Changed::new(steps, vec![remove(k, plan)]))
 }
 
-/// One step is repeated right after itself.
-pub fn duplicate(plan: &[String], draws: &mut Draws) -> Result<Changed, Unchanged> {
-    if plan.is_empty() {
-        return Err(Unchanged::TooShort { needed: 1 });
+/// A step that does more than move the agent (`navigation[k]` false) is
+/// repeated elsewhere in the plan: never right before or after itself nor
+/// beside another copy of its text, where a reader would take it for a typo.
+pub fn duplicate(
+    plan: &[String],
+    navigation: &[bool],
+    draws: &mut Draws,
+) -> Result<Changed, Unchanged> {
+    if plan.len() < 2 {
+        return Err(Unchanged::TooShort { needed: 2 });
     }
-    let k = draws.below(plan.len());
+    let places: Vec<(usize, usize)> = (0..plan.len())
+        .filter(|&k| !navigation.get(k).copied().unwrap_or(false))
+        .flat_map(|k| (0..=plan.len()).map(move |at| (k, at)))
+        .filter(|&(k, at)| {
+            let beside = |j: Option<usize>| j.and_then(|j| plan.get(j)) == Some(&plan[k]);
+            !beside(at.checked_sub(1)) && !beside(Some(at))
+        })
+        .collect();
+    let &(k, at) = draws.pick(&places).ok_or(Unchanged::NoActionStep)?;
     let mut steps = plan.to_vec();
-    steps.insert(k + 1, plan[k].clone());
-    Ok(Changed::new(steps, vec![add(k + 1, &plan[k])]))
+    steps.insert(at, plan[k].clone());
+    Ok(Changed::new(steps, vec![add(at, &plan[k])]))
 }
 
-/// A step of another task's plan is put at a random place. The step is
-/// drawn from `pool`, every step of every plan with the index of its owner,
-/// again (a bounded number of times) while it belongs to an owner that
-/// `other` refuses or to this plan.
+/// A step of another task's plan, written in this plan's style, is put at a
+/// random place. The step is drawn from `pool`, every step of every plan
+/// with the index of its owner, again (a bounded number of times) while its
+/// owner is one that `other` refuses, or it reads as a step of such an
+/// owner or of this plan.
 pub fn insert(
     plan: &[String],
     pool: &[(usize, &str)],
@@ -51,15 +78,95 @@ pub fn insert(
     draws: &mut Draws,
 ) -> Result<Changed, Unchanged> {
     const TRIES: usize = 64;
+    let style = Style::of(plan);
+    // The steps of this plan's own trial or goal, as this plan would write
+    // them: a step of another plan that reads the same is no foreign step.
+    let near: HashSet<String> = pool
+        .iter()
+        .filter(|(owner, _)| !other(*owner))
+        .map(|(_, s)| style.apply(s))
+        .chain(plan.iter().map(|s| style.apply(s)))
+        .collect();
     let step = (0..TRIES)
         .filter_map(|_| draws.pick(pool))
-        .find(|(owner, s)| other(*owner) && !plan.iter().any(|p| p == s))
-        .map(|(_, s)| *s)
+        .filter(|(owner, _)| other(*owner))
+        .map(|(_, s)| style.apply(s))
+        .find(|s| !s.is_empty() && !near.contains(s) && !plan.iter().any(|p| p == s))
         .ok_or(Unchanged::NoOtherStep)?;
     let at = draws.below(plan.len() + 1);
     let mut steps = plan.to_vec();
-    steps.insert(at, step.to_string());
-    Ok(Changed::new(steps, vec![add(at, step)]))
+    steps.insert(at, step.clone());
+    Ok(Changed::new(steps, vec![add(at, &step)]))
+}
+
+/// How a plan writes its steps, so that a step taken from another plan
+/// can be written the same way: bold headings (`**Pick up the mug**: …`),
+/// and a full stop at the end. Each holds when most steps have it.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+struct Style {
+    headings: bool,
+    full_stop: bool,
+}
+
+impl Style {
+    fn of(plan: &[String]) -> Style {
+        let most = |f: &dyn Fn(&str) -> bool| 2 * plan.iter().filter(|s| f(s)).count() > plan.len();
+        Style {
+            headings: most(&|s| heading(s).is_some()),
+            full_stop: most(&|s| s.trim_end().ends_with('.')),
+        }
+    }
+
+    /// `step` written in this style: its list marker or number removed, its
+    /// bold heading kept alone (a plain plan) or made (a plan of headings),
+    /// the full stop added or removed.
+    fn apply(self, step: &str) -> String {
+        let bare = unlisted(step.trim());
+        let sentence = match heading(bare) {
+            Some(h) => h.to_string(),
+            None => bare.replace("**", "").replace("__", ""),
+        };
+        let sentence = sentence.trim().trim_end_matches(['.', ':']).trim_end();
+        if sentence.is_empty() {
+            return String::new();
+        }
+        match (self.headings, self.full_stop) {
+            (true, _) => format!("**{sentence}**"),
+            (false, true) => format!("{sentence}."),
+            (false, false) => sentence.to_string(),
+        }
+    }
+}
+
+/// The bold heading a step opens with (`**Pick up the mug**: …` →
+/// `Pick up the mug`).
+fn heading(step: &str) -> Option<&str> {
+    let rest = unlisted(step.trim()).strip_prefix("**")?;
+    let (inside, _) = rest.split_once("**")?;
+    (!inside.trim().is_empty()).then_some(inside.trim())
+}
+
+/// `step` without a leading list marker or number (`- `, `* `, `3. `,
+/// `3) `, `Step 3: `).
+fn unlisted(step: &str) -> &str {
+    let s = step.trim_start();
+    if let Some(rest) = s.strip_prefix("- ").or_else(|| s.strip_prefix("* ")) {
+        return rest.trim_start();
+    }
+    let worded = s
+        .get(..5)
+        .filter(|w| w.eq_ignore_ascii_case("step "))
+        .map(|_| &s[5..]);
+    let body = worded.unwrap_or(s);
+    let digits = body.len() - body.trim_start_matches(|c: char| c.is_ascii_digit()).len();
+    if digits == 0 {
+        return s;
+    }
+    let after = &body[digits..];
+    match after.chars().next() {
+        Some('.' | ')' | ':') => after[1..].trim_start(),
+        _ => s,
+    }
 }
 
 /// The plan stops after half its steps (rounded down): the rest are removed.
@@ -118,7 +225,7 @@ mod tests {
     fn reorder_swaps_two_different_steps_only() {
         let p = plan(&["A.", "A.", "B."]);
         for seed in 0..20 {
-            let c = reorder(&p, &mut Draws::new(seed, "i", "reorder"))
+            let c = reorder(&p, &[], &mut Draws::new(seed, "i", "reorder"))
                 .unwrap_or_else(|e| panic!("{e}"));
             assert_ne!(c.steps, p);
             consistent(&p, &c);
@@ -126,7 +233,7 @@ mod tests {
         }
         let same = plan(&["A.", "A."]);
         assert_eq!(
-            reorder(&same, &mut Draws::new(0, "i", "reorder")).map(|_| ()),
+            reorder(&same, &[], &mut Draws::new(0, "i", "reorder")).map(|_| ()),
             Err(Unchanged::NoDistinctSteps)
         );
     }
@@ -138,10 +245,8 @@ mod tests {
         let dropped = drop(&p, &mut d).unwrap_or_else(|e| panic!("{e}"));
         assert_eq!(dropped.steps.len(), 4);
         consistent(&p, &dropped);
-        let doubled = duplicate(&p, &mut d).unwrap_or_else(|e| panic!("{e}"));
+        let doubled = duplicate(&p, &[], &mut d).unwrap_or_else(|e| panic!("{e}"));
         assert_eq!(doubled.steps.len(), 6);
-        let k = doubled.edits[0].step;
-        assert_eq!(doubled.steps[k], doubled.steps[k - 1]);
         consistent(&p, &doubled);
         let pool = [(1, "A."), (1, "Z."), (0, "Y.")];
         let inserted =
@@ -158,6 +263,75 @@ mod tests {
     }
 
     #[test]
+    fn duplicate_repeats_an_action_step_away_from_itself() {
+        let p = plan(&[
+            "Walk to the sink.",
+            "Pick up the mug.",
+            "Turn left.",
+            "Wash the mug.",
+        ]);
+        let navigation = [true, false, true, false];
+        for seed in 0..40 {
+            let c = duplicate(&p, &navigation, &mut Draws::new(seed, "i", "duplicate"))
+                .unwrap_or_else(|e| panic!("{e}"));
+            consistent(&p, &c);
+            let e = &c.edits[0];
+            let copy = e.to.as_deref().unwrap_or_default();
+            let k = p.iter().position(|s| s == copy).unwrap_or(usize::MAX);
+            assert!(!navigation[k], "seed {seed}: {copy}");
+            assert!(e.step != k && e.step != k + 1, "seed {seed}: {e:?}");
+        }
+        assert_eq!(
+            duplicate(&p[..1], &[true], &mut Draws::new(0, "i", "d")).map(|_| ()),
+            Err(Unchanged::TooShort { needed: 2 })
+        );
+        let walking = plan(&["Walk to the sink.", "Turn left."]);
+        assert_eq!(
+            duplicate(&walking, &[true, true], &mut Draws::new(0, "i", "d")).map(|_| ()),
+            Err(Unchanged::NoActionStep)
+        );
+    }
+
+    #[test]
+    fn reorder_never_swaps_two_navigation_steps_and_says_if_they_were_neighbours() {
+        let p = plan(&[
+            "Walk to the sink.",
+            "Turn left.",
+            "Pick up the mug.",
+            "Go to the bed.",
+        ]);
+        let navigation = [true, true, false, true];
+        let mut adjacent = [0, 0];
+        for seed in 0..60 {
+            let c = reorder(&p, &navigation, &mut Draws::new(seed, "i", "reorder"))
+                .unwrap_or_else(|e| panic!("{e}"));
+            let (i, j) = (c.edits[0].step, c.edits[1].step);
+            assert!(i == 2 || j == 2, "seed {seed}: {i} {j}");
+            assert_eq!(c.adjacent, Some(j == i + 1));
+            adjacent[usize::from(j == i + 1)] += 1;
+        }
+        assert!(adjacent[0] > 0 && adjacent[1] > 0, "{adjacent:?}");
+    }
+
+    #[test]
+    fn an_inserted_step_is_written_in_the_plan_style() {
+        let plain = Style::of(&plan(&["Walk to the sink.", "Wash the mug."]));
+        let headed = Style::of(&plan(&[
+            "**Walk to the sink**: go there.",
+            "**Wash it**: well.",
+        ]));
+        let bare = Style::of(&plan(&["walk to the sink", "wash the mug"]));
+        let md = "**Identify the wine bottle's position**: The wine bottle is on the counter.";
+        assert_eq!(plain.apply(md), "Identify the wine bottle's position.");
+        assert_eq!(plain.apply("3. Open the fridge"), "Open the fridge.");
+        assert_eq!(plain.apply("- Open the fridge."), "Open the fridge.");
+        assert_eq!(plain.apply("Step 2: Open the fridge."), "Open the fridge.");
+        assert_eq!(headed.apply("Open the fridge."), "**Open the fridge**");
+        assert_eq!(bare.apply("Open the fridge."), "Open the fridge");
+        assert_eq!(plain.apply("**  **"), "");
+    }
+
+    #[test]
     fn plans_too_short_or_without_another_step_are_not_changed() {
         let one = plan(&["A."]);
         let mut d = Draws::new(0, "i", "k");
@@ -170,8 +344,8 @@ mod tests {
             Err(Unchanged::TooShort { needed: 2 })
         );
         assert_eq!(
-            duplicate(&[], &mut d).map(|_| ()),
-            Err(Unchanged::TooShort { needed: 1 })
+            duplicate(&one, &[], &mut d).map(|_| ()),
+            Err(Unchanged::TooShort { needed: 2 })
         );
         let pool = [(1, "A."), (0, "B.")];
         let from_1 = |owner| owner == 1;

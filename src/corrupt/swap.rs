@@ -8,7 +8,7 @@ use std::collections::HashSet;
 use std::ops::Range;
 
 use super::draw::Draws;
-use super::vocab::Action;
+use super::vocab::{Action, Vocabulary};
 use super::{Changed, Unchanged};
 use crate::dataset::{Edit, SwappedWords};
 use crate::nlp::en::EnPipeline;
@@ -84,8 +84,23 @@ pub fn parse_plan(parser: &EnPipeline, plan: &[String]) -> Vec<ParsedStep> {
         .collect()
 }
 
-/// `word` written with the case of `like` (capitalised or not).
+/// `word` written with the case of `like`, the word it replaces: a word of
+/// one or two letters is an initialism (`cd` → `CD`); all capitals when
+/// `like` is a capitalised word of four or more letters (`SINK`), as given
+/// when `like` is a short initialism (`CD` → `book`), capitalised when
+/// `like` is (`Sink`, `CounterTop` → `Sink`), else as given.
 fn cased(word: &str, like: &str) -> String {
+    if word.chars().count() <= 2 {
+        return word.to_uppercase();
+    }
+    let letters: Vec<char> = like.chars().filter(|c| c.is_alphabetic()).collect();
+    if letters.len() >= 2 && letters.iter().all(|c| c.is_uppercase()) {
+        return if letters.len() >= 4 {
+            word.to_uppercase()
+        } else {
+            word.to_string()
+        };
+    }
     let mut chars = word.chars();
     match (like.chars().next(), chars.next()) {
         (Some(l), Some(first)) if l.is_uppercase() => first.to_uppercase().chain(chars).collect(),
@@ -101,25 +116,97 @@ fn similarity(vectors: &WordVectorTable, a: &str, b: &str) -> Option<f64> {
     )))
 }
 
+/// The mean of the vectors of a phrase's words (as spaCy's `Doc.vector`),
+/// when every word has one.
+fn phrase_vector(vectors: &WordVectorTable, words: &[&str]) -> Option<Vec<f32>> {
+    let mut sum = vec![0f32; vectors.dim()];
+    for w in words {
+        for (s, x) in sum.iter_mut().zip(vectors.vector(w)?) {
+            *s += x;
+        }
+    }
+    let n = words.len().max(1) as f32;
+    Some(sum.into_iter().map(|s| s / n).collect())
+}
+
+/// The cosine of two actions' phrase vectors (`turn off` against `turn on`),
+/// when every word of both has a vector.
+fn phrase_similarity(vectors: &WordVectorTable, a: &Action, b: &Action) -> Option<f64> {
+    let words = |x: &Action| -> Vec<String> { x.phrase().split(' ').map(String::from).collect() };
+    let (wa, wb) = (words(a), words(b));
+    let va = phrase_vector(vectors, &wa.iter().map(String::as_str).collect::<Vec<_>>())?;
+    let vb = phrase_vector(vectors, &wb.iter().map(String::as_str).collect::<Vec<_>>())?;
+    Some(f64::from(numpy_cosine(&va, &vb)))
+}
+
 fn is_noun(token: &Token) -> bool {
     token.pos == "NOUN" || token.pos == "PROPN"
 }
 
+/// The lowercase words of a text (the task), as the plan's parser splits them.
+pub fn words_of(parser: &EnPipeline, text: &str) -> HashSet<String> {
+    parser
+        .analyse(text)
+        .iter()
+        .map(|t| t.text.to_lowercase())
+        .collect()
+}
+
+/// Whether token `i` of `step` is the head of a partitive phrase (`the loaf
+/// of bread`, `a bottle of wine`), where swapping the head gives nonsense
+/// (`the newspaper of bread`).
+fn is_partitive(step: &ParsedStep, i: usize) -> bool {
+    step.tokens
+        .iter()
+        .enumerate()
+        .any(|(j, t)| j != i && t.head == i && t.dep == "prep" && t.text.eq_ignore_ascii_case("of"))
+}
+
+/// The byte range that a swap of noun `i` replaces: the noun with the
+/// compound nouns right before it that modify it (`wine bottle`, `credit
+/// card`), so the replacement does not keep a modifier of the old thing
+/// (`wine disc`).
+fn noun_span(step: &ParsedStep, i: usize) -> Option<Range<usize>> {
+    let end = step.spans[i].clone()?;
+    let mut first = i;
+    while first > 0 {
+        let t = &step.tokens[first - 1];
+        if t.dep == "compound" && t.head == i && is_noun(t) {
+            first -= 1;
+        } else {
+            break;
+        }
+    }
+    let start = step.spans[first].clone()?;
+    Some(start.start..end.end)
+}
+
 /// One object (or place) noun of the plan, a singular direct object or
-/// object of a preposition listed in `vocabulary`, is replaced in every step by a word
-/// of `vocabulary` that the plan does not mention.
+/// object of a preposition listed in `words`, is replaced in every step by a
+/// word of `words` that the plan does not mention and that names another
+/// thing than it (and than every noun of the plan). When the plan mentions a
+/// listed thing the task names (`task`: the task's words; a word of the
+/// same thing counts), that thing is the one replaced, wherever it stands
+/// (`touches_task`); other nouns are only replaced where they head no
+/// partitive phrase (`loaf of bread`).
 pub fn noun_swap(
     plan: &[ParsedStep],
+    task: &HashSet<String>,
     class: NounClass,
-    vocabulary: &[String],
+    words: &[String],
+    vocabulary: &Vocabulary,
     language: Language,
     draws: &mut Draws,
 ) -> Result<Changed, Unchanged> {
-    let listed: HashSet<&str> = vocabulary.iter().map(String::as_str).collect();
+    let listed: HashSet<&str> = words.iter().map(String::as_str).collect();
     let mut candidates: Vec<String> = Vec::new();
+    let mut partitive: HashSet<String> = HashSet::new();
     for step in plan {
         for (i, t) in step.tokens.iter().enumerate() {
             let word = step.word(i);
+            if is_noun(t) && is_partitive(step, i) {
+                partitive.insert(word.clone());
+            }
             if (t.dep == "dobj" || t.dep == "pobj")
                 && (t.tag == "NN" || t.tag == "NNP")
                 && listed.contains(word.as_str())
@@ -130,17 +217,54 @@ pub fn noun_swap(
             }
         }
     }
-    let from = draws
-        .pick(&candidates)
-        .cloned()
-        .ok_or(Unchanged::NoNoun(class))?;
+    let named = |w: &str| task.iter().any(|t| vocabulary.same_thing(w, t));
+    let mut of_task: Vec<String> = candidates.iter().filter(|w| named(w)).cloned().collect();
+    if of_task.is_empty() {
+        // The task's thing in another role (a subject, a compound, a plural
+        // the tagger misread): still the one to swap.
+        for step in plan {
+            for i in 0..step.tokens.len() {
+                let word = step.word(i);
+                if listed.contains(word.as_str())
+                    && named(&word)
+                    && !of_task.contains(&word)
+                    && language.vectors.vector(&word).is_some()
+                {
+                    of_task.push(word);
+                }
+            }
+        }
+    }
+    let touches_task = !of_task.is_empty();
+    let pool: Vec<String> = if touches_task {
+        of_task
+    } else {
+        candidates
+            .into_iter()
+            .filter(|w| !partitive.contains(w))
+            .collect()
+    };
+    let from = draws.pick(&pool).cloned().ok_or(Unchanged::NoNoun(class))?;
     let mentioned: HashSet<String> = plan
         .iter()
         .flat_map(|s| (0..s.tokens.len()).map(|i| s.word(i)))
         .collect();
-    let replacements: Vec<&String> = vocabulary
+    let nouns: HashSet<String> = plan
         .iter()
-        .filter(|w| !mentioned.contains(*w) && language.vectors.vector(w).is_some())
+        .flat_map(|s| {
+            (0..s.tokens.len())
+                .filter(|&i| is_noun(&s.tokens[i]))
+                .map(|i| s.word(i))
+        })
+        .collect();
+    let replacements: Vec<&String> = words
+        .iter()
+        .filter(|w| {
+            !mentioned.contains(*w)
+                && !vocabulary.same_thing(w, &from)
+                && !nouns.iter().any(|n| vocabulary.same_thing(w, n))
+                && language.vectors.vector(w).is_some()
+        })
         .collect();
     let to = (*draws
         .pick(&replacements)
@@ -150,12 +274,18 @@ pub fn noun_swap(
     let mut steps = Vec::new();
     for (k, step) in plan.iter().enumerate() {
         let changes: Vec<(Range<usize>, String)> = (0..step.tokens.len())
-            .filter(|&i| is_noun(&step.tokens[i]) && step.word(i) == from)
+            .filter(|&i| (touches_task || is_noun(&step.tokens[i])) && step.word(i) == from)
             .filter_map(|i| {
-                let span = step.spans[i].clone()?;
-                Some((span, cased(&to, &step.tokens[i].text)))
+                let span = if step.tokens[i].dep == "compound" {
+                    step.spans[i].clone()?
+                } else {
+                    noun_span(step, i)?
+                };
+                let like = &step.text[span.clone()];
+                Some((span.clone(), cased(&to, like)))
             })
             .collect();
+        let changes = without_overlaps(changes);
         if changes.is_empty() {
             steps.push(step.text.clone());
             continue;
@@ -172,8 +302,23 @@ pub fn noun_swap(
     Ok(Changed {
         similarity,
         words: Some(SwappedWords { from, to }),
+        touches_task: Some(touches_task),
         ..Changed::new(steps, edits)
     })
+}
+
+/// The changes sorted by start, each one that overlaps an earlier one left
+/// out (a compound of the swapped word inside another's span).
+fn without_overlaps(mut changes: Vec<(Range<usize>, String)>) -> Vec<(Range<usize>, String)> {
+    changes.sort_by_key(|(r, _)| (r.start, std::cmp::Reverse(r.end)));
+    let mut out: Vec<(Range<usize>, String)> = Vec::new();
+    for (range, text) in changes {
+        if out.last().is_some_and(|(last, _)| range.start < last.end) {
+            continue;
+        }
+        out.push((range, text));
+    }
+    out
 }
 
 /// The root verb of a step with its particle (token indices).
@@ -195,6 +340,25 @@ fn root_action(step: &ParsedStep) -> Option<RootAction> {
         .enumerate()
         .position(|(i, t)| i != verb && t.head == verb && t.dep == "prt");
     Some(RootAction { verb, particle })
+}
+
+/// Whether a step only moves the agent: its root verb is one of
+/// [`super::NAVIGATION_VERBS`] and every other verb of the step is too
+/// (`Turn around and walk to the sink.`), but those that describe a thing
+/// (`the desk located by the bed`), so repeating or reordering it changes
+/// no action.
+pub fn navigation_only(step: &ParsedStep) -> bool {
+    let navigating = |i: usize| super::NAVIGATION_VERBS.contains(&step.word(i).as_str());
+    let Some(root) = step.tokens.iter().position(|t| t.dep == "ROOT") else {
+        return false;
+    };
+    // A verb that only describes a thing (`the desk located next to the
+    // bed`, `where the mug is placed`) is no action of the step.
+    let describes = |i: usize| matches!(step.tokens[i].dep.as_str(), "acl" | "relcl" | "amod");
+    navigating(root)
+        && (0..step.tokens.len())
+            .filter(|&i| i != root && step.tokens[i].pos == "VERB" && !describes(i))
+            .all(navigating)
 }
 
 /// One step's root action that matches a side of a pair of `verbs` becomes
@@ -258,7 +422,7 @@ pub fn verb_swap(
         to: Some(text),
     }];
     Ok(Changed {
-        similarity: similarity(language.vectors, &from.verb, &to.verb),
+        similarity: phrase_similarity(language.vectors, from, to),
         words: Some(SwappedWords {
             from: from.phrase(),
             to: to.phrase(),
@@ -274,6 +438,11 @@ mod tests {
     #[test]
     fn a_replacement_keeps_the_capital_of_the_word_it_replaces() {
         assert_eq!(cased("put", "Pick"), "Put");
+        assert_eq!(cased("sink", "TOWEL"), "SINK");
+        assert_eq!(cased("book", "CD"), "book");
+        assert_eq!(cased("cd", "book"), "CD");
+        assert_eq!(cased("sink", "CounterTop"), "Sink");
+        assert_eq!(cased("sink", "A"), "Sink");
         assert_eq!(cased("bread", "laptop"), "bread");
         assert_eq!(cased("", "X"), "");
     }

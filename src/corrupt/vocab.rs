@@ -1,5 +1,6 @@
 //! The vocabularies of the swaps: household objects, places and receptacles,
-//! and pairs of opposite or wrong actions. Built-in lists ship in the binary;
+//! pairs of opposite or wrong actions, and groups of words that name the
+//! same thing (never swapped for each other). Built-in lists ship in the binary;
 //! a user adds to them with files of the same name in their own folder.
 
 use std::collections::HashSet;
@@ -8,9 +9,10 @@ use std::path::{Path, PathBuf};
 const BUILT_IN_OBJECTS: &str = include_str!("vocab/objects.txt");
 const BUILT_IN_PLACES: &str = include_str!("vocab/places.txt");
 const BUILT_IN_VERBS: &str = include_str!("vocab/verbs.txt");
+const BUILT_IN_SAME: &str = include_str!("vocab/same.txt");
 
-/// The file names of the three vocabularies, built in and in the user folder.
-pub const VOCABULARY_FILES: [&str; 3] = ["objects.txt", "places.txt", "verbs.txt"];
+/// The file names of the four vocabularies, built in and in the user folder.
+pub const VOCABULARY_FILES: [&str; 4] = ["objects.txt", "places.txt", "verbs.txt", "same.txt"];
 
 /// An action of a verb pair: a verb and an optional particle (`pick up`).
 #[derive(Debug, Clone, PartialEq, Eq)]
@@ -41,6 +43,9 @@ pub struct Vocabulary {
     pub places: Vec<String>,
     /// Action pairs; each works in both directions.
     pub verbs: Vec<(Action, Action)>,
+    /// Groups of words that name the same thing (`fridge`, `refrigerator`):
+    /// a swap between two words of one group would change nothing.
+    pub same: Vec<Vec<String>>,
 }
 
 /// A vocabulary file that cannot be used.
@@ -87,24 +92,30 @@ impl Vocabulary {
             objects: Vec::new(),
             places: Vec::new(),
             verbs: Vec::new(),
+            same: Vec::new(),
         };
         let origin = Path::new("(built in)");
         vocabulary.add(
-            [BUILT_IN_OBJECTS, BUILT_IN_PLACES, BUILT_IN_VERBS],
+            [
+                BUILT_IN_OBJECTS,
+                BUILT_IN_PLACES,
+                BUILT_IN_VERBS,
+                BUILT_IN_SAME,
+            ],
             &VOCABULARY_FILES.map(|f| origin.join(f)),
         )?;
         Ok(vocabulary)
     }
 
     /// The built-in lists extended by the files of `user_dir` that exist
-    /// (`objects.txt`, `places.txt`, `verbs.txt`).
+    /// (`objects.txt`, `places.txt`, `verbs.txt`, `same.txt`).
     pub fn load(user_dir: Option<&Path>) -> Result<Self, VocabularyError> {
         let mut vocabulary = Self::built_in()?;
         let Some(dir) = user_dir else {
             return Ok(vocabulary);
         };
         let paths = VOCABULARY_FILES.map(|f| dir.join(f));
-        let mut texts: [String; 3] = Default::default();
+        let mut texts: [String; 4] = Default::default();
         for (text, path) in texts.iter_mut().zip(&paths) {
             match std::fs::read_to_string(path) {
                 Ok(t) => *text = t,
@@ -121,9 +132,33 @@ impl Vocabulary {
         Ok(vocabulary)
     }
 
-    /// Adds the words of the objects, places and verbs texts.
-    fn add(&mut self, texts: [&str; 3], paths: &[PathBuf; 3]) -> Result<(), VocabularyError> {
-        let [objects, places, verbs] = texts;
+    /// Whether `a` and `b` name the same thing, so that swapping one for
+    /// the other is no corruption: the same word, a plural of the other
+    /// (`book`, `books`), a compound ending in the other (`coffeetable`,
+    /// `table`), or two words of one group of `same.txt`.
+    pub fn same_thing(&self, a: &str, b: &str) -> bool {
+        let (a, b) = (a.to_lowercase(), b.to_lowercase());
+        let derived = |short: &str, long: &str| {
+            long == short
+                || long
+                    .strip_prefix(short)
+                    .is_some_and(|s| s == "s" || s == "es")
+                || short
+                    .strip_suffix('y')
+                    .is_some_and(|stem| long == format!("{stem}ies"))
+                || (short.chars().count() >= 3 && long.ends_with(short))
+        };
+        derived(&a, &b)
+            || derived(&b, &a)
+            || self
+                .same
+                .iter()
+                .any(|group| group.contains(&a) && group.contains(&b))
+    }
+
+    /// Adds the words of the objects, places, verbs and same-thing texts.
+    fn add(&mut self, texts: [&str; 4], paths: &[PathBuf; 4]) -> Result<(), VocabularyError> {
+        let [objects, places, verbs, same] = texts;
         add_words(&mut self.objects, objects, &paths[0])?;
         add_words(&mut self.places, places, &paths[1])?;
         for (line, content) in lines(verbs) {
@@ -146,6 +181,24 @@ impl Vocabulary {
             }
             if !self.verbs.contains(&pair) {
                 self.verbs.push(pair);
+            }
+        }
+        for (line, content) in lines(same) {
+            let group: Vec<String> = content
+                .split(',')
+                .map(|w| w.trim().to_lowercase())
+                .collect();
+            if group.len() < 2 || group.iter().any(|w| w.split_whitespace().count() != 1) {
+                return Err(VocabularyError::Line {
+                    path: paths[3].clone(),
+                    line,
+                    message: format!(
+                        "`{content}` is not a group: write two or more one-word names of one thing separated by commas, e.g. `fridge, refrigerator`"
+                    ),
+                });
+            }
+            if !self.same.contains(&group) {
+                self.same.push(group);
             }
         }
         Ok(())
@@ -226,17 +279,46 @@ mod tests {
     }
 
     #[test]
+    fn words_of_one_thing_are_known_from_the_list_plurals_and_compounds() {
+        let v = Vocabulary::built_in().unwrap_or_else(|e| panic!("{e}"));
+        for (a, b) in [
+            ("fridge", "refrigerator"),
+            ("CD", "disc"),
+            ("book", "books"),
+            ("dish", "dishes"),
+            ("strawberry", "strawberries"),
+            ("coffeetable", "table"),
+            ("sink", "basin"),
+            ("basin", "bathtub"),
+        ] {
+            assert!(v.same_thing(a, b), "{a} {b}");
+            assert!(v.same_thing(b, a), "{b} {a}");
+        }
+        for (a, b) in [
+            ("mug", "cup"),
+            ("sink", "bathtub"),
+            ("pen", "pencil"),
+            ("cd", "d"),
+        ] {
+            assert!(!v.same_thing(a, b), "{a} {b}");
+        }
+    }
+
+    #[test]
     fn user_files_add_words_and_name_their_bad_lines() {
         let dir = tempfile::tempdir().unwrap_or_else(|e| panic!("{e}"));
         std::fs::write(dir.path().join("objects.txt"), "# mine\nHarmonica\nmug\n")
             .unwrap_or_else(|e| panic!("{e}"));
         std::fs::write(dir.path().join("verbs.txt"), "plug in, unplug\n")
             .unwrap_or_else(|e| panic!("{e}"));
+        std::fs::write(dir.path().join("same.txt"), "mug, beaker\n")
+            .unwrap_or_else(|e| panic!("{e}"));
         let v = Vocabulary::load(Some(dir.path())).unwrap_or_else(|e| panic!("{e}"));
         let built_in = Vocabulary::built_in().unwrap_or_else(|e| panic!("{e}"));
         assert_eq!(v.objects.len(), built_in.objects.len() + 1);
         assert_eq!(v.objects.last().map(String::as_str), Some("harmonica"));
         assert_eq!(v.places, built_in.places);
+        assert!(v.same_thing("beaker", "mug") && !built_in.same_thing("beaker", "mug"));
         assert_eq!(
             v.verbs.last().map(|(a, b)| (a.phrase(), b.phrase())),
             Some(("plug in".into(), "unplug".into()))
@@ -251,6 +333,13 @@ mod tests {
             "{err}"
         );
         std::fs::write(dir.path().join("places.txt"), "").unwrap_or_else(|e| panic!("{e}"));
+        std::fs::write(dir.path().join("same.txt"), "mug\n").unwrap_or_else(|e| panic!("{e}"));
+        let err = Vocabulary::load(Some(dir.path())).map(|_| ()).unwrap_err();
+        assert!(
+            err.to_string().contains("same.txt:1: `mug` is not a group"),
+            "{err}"
+        );
+        std::fs::write(dir.path().join("same.txt"), "").unwrap_or_else(|e| panic!("{e}"));
         std::fs::write(dir.path().join("verbs.txt"), "open close\n")
             .unwrap_or_else(|e| panic!("{e}"));
         let err = Vocabulary::load(Some(dir.path())).map(|_| ()).unwrap_err();

@@ -174,6 +174,30 @@ impl Paired {
         }
     }
 
+    /// The two-sided p-values of tau-b, rho and r over the items as they
+    /// are, as scipy computes them ([`super::pvalue`]).
+    pub fn p_values(&self) -> super::pvalue::PValues {
+        let ones = vec![1; self.len()];
+        let (counts, ranks) = self.pair_counts(&ones);
+        let n = ranks.n;
+        let sizes = |ranks: &[u32], distinct: usize| {
+            let mut size = vec![0u64; distinct + 1];
+            for &r in ranks {
+                size[r as usize] += 1;
+            }
+            super::pvalue::TieSums::of(size)
+        };
+        let (x, y) = (
+            sizes(&self.x_rank, self.len()),
+            sizes(&self.y_rank, self.y_distinct),
+        );
+        super::pvalue::PValues {
+            kendall_tau_b: super::pvalue::kendall(n, &counts, x, y),
+            spearman: super::pvalue::spearman(n, self.spearman(&ones, &ranks)),
+            pearson: super::pvalue::pearson(n, self.pearson(&ones, &ranks)),
+        }
+    }
+
     /// Kendall's tau-b alone, over the items with these multiplicities.
     pub fn kendall_tau_b(&self, weights: &[u32]) -> Estimate {
         let (counts, ranks) = self.pair_counts(weights);

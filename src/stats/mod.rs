@@ -11,6 +11,7 @@ pub mod bootstrap;
 pub mod correlation;
 pub mod krippendorff;
 pub mod permutation;
+pub mod pvalue;
 pub mod rank;
 pub mod rng;
 pub mod summary;

@@ -103,7 +103,7 @@ pub fn corrupt_plan(
                 .map(|(i, plan)| Pair::new(format!("other-{i}"), Vec::new(), plan.clone())),
         );
     }
-    let (written, skipped) = corrupter.corrupt_items(&items, &[request.kind]);
+    let (written, skipped) = corrupter.corrupt_items(&items, &[], &[request.kind]);
     let corrupted = written
         .into_iter()
         .find(|p| p.source.as_deref() == Some("plan"));

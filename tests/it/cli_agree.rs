@@ -116,6 +116,35 @@ fn the_golden_set_gives_the_expected_document_and_nothing_else_on_stdout() {
 }
 
 #[test]
+fn p_values_of_the_golden_set_equal_scipy_to_1e_9_relative() {
+    let out = agree_golden(&["--json"]);
+    assert!(out.status.success(), "{}", text(&out.stderr));
+    let doc: Value = serde_json::from_slice(&out.stdout).unwrap_or_else(|e| panic!("{e}"));
+    // Written by `scripts/agree_cases.py PYTHON --golden-fixture` with the
+    // scipy pinned there.
+    let path =
+        Path::new(env!("CARGO_MANIFEST_DIR")).join("tests/fixtures/agree.golden.p_values.json");
+    let fixture: Value = serde_json::from_str(&std::fs::read_to_string(&path).unwrap_or_default())
+        .unwrap_or_else(|e| panic!("{}: {e}", path.display()));
+    let metrics = fixture["metrics"]
+        .as_object()
+        .unwrap_or_else(|| panic!("{fixture}"));
+    assert_eq!(metrics.len(), 4);
+    for (metric, row) in metrics {
+        for statistic in ["kendall_tau_b", "spearman", "pearson"] {
+            let want = row[statistic].as_f64().unwrap_or(f64::NAN);
+            let got = doc["metrics"][metric]["p_values"][statistic]
+                .as_f64()
+                .unwrap_or_else(|| panic!("{metric} {statistic}: {}", doc["metrics"][metric]));
+            assert!(
+                (got - want).abs() <= 1e-9 * want.abs(),
+                "{metric} {statistic}: {got:e} != {want:e}"
+            );
+        }
+    }
+}
+
+#[test]
 fn the_report_of_the_golden_set() {
     let out = agree_golden(&[]);
     assert!(out.status.success(), "{}", text(&out.stderr));

@@ -24,6 +24,8 @@ mod cli_eval;
 mod cli_plan;
 mod cli_score;
 mod cli_shards;
+mod corrupt_blind;
+mod corrupt_seeds;
 mod deploy;
 mod docs;
 mod en_parse;
