@@ -107,9 +107,12 @@ impl AgentArgs {
     /// The runner these options describe, and the recording being made.
     pub fn runner(&self) -> anyhow::Result<(Runner, Option<Arc<Mutex<Recording>>>)> {
         if let Some(path) = &self.record {
-            check_writable(path).context(
-                "--record: the recording could not be written, so nothing was asked of any model",
-            )?;
+            check_writable(path).with_context(|| {
+                format!(
+                    "--record {}: the recording could not be written, so nothing was asked of any model",
+                    crate::sanitize::for_terminal(&path.display().to_string())
+                )
+            })?;
         }
         let env = |name: &str| std::env::var(name).ok();
         let file = self.config_file()?;

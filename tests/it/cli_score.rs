@@ -130,13 +130,15 @@ fn a_closed_pipe_ends_the_run_quietly_with_status_0() {
     use std::io::{BufRead as _, BufReader};
     let dir = tempfile::tempdir().unwrap_or_else(|e| panic!("{e}"));
     // Far more output than a pipe holds, so the writer meets the closed end.
-    let pair =
-        r#"{"id": "p", "gt": ["Walk to the sink.", "Wash the mug."], "pred": ["Wash the mug."]}"#;
-    let pairs = write(
-        dir.path(),
-        "pairs.jsonl",
-        format!("{pair}\n").repeat(5_000).as_bytes(),
-    );
+    // (Ids are unique, as every pairs file's must be.)
+    let lines: String = (0..5_000)
+        .map(|n| {
+            format!(
+                "{{\"id\": \"p{n}\", \"gt\": [\"Walk to the sink.\", \"Wash the mug.\"], \"pred\": [\"Wash the mug.\"]}}\n"
+            )
+        })
+        .collect();
+    let pairs = write(dir.path(), "pairs.jsonl", lines.as_bytes());
     let mut child = common::mapvlm_command()
         .args(["score", "--metrics", "kas", "--pairs", &pairs])
         .stdout(std::process::Stdio::piped())
@@ -148,7 +150,7 @@ fn a_closed_pipe_ends_the_run_quietly_with_status_0() {
     BufReader::new(stdout)
         .read_line(&mut first)
         .unwrap_or_else(|e| panic!("{e}"));
-    assert_eq!(first, "p\n", "the reader got its line, as `head -1` would");
+    assert_eq!(first, "p0\n", "the reader got its line, as `head -1` would");
     // The reader is dropped here: the pipe is closed with output still to come.
     let out = child.wait_with_output().unwrap_or_else(|e| panic!("{e}"));
     assert_eq!(stderr(&out), "", "nothing is said of the closed pipe");

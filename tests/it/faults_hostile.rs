@@ -710,18 +710,32 @@ async fn files_a_dataset_names_stay_in_the_dataset_unless_allowed() {
             "{id}"
         );
     }
-    let again = run(
+    // Allowing them changes the tasks the run holds: the folder written
+    // without them is not resumed (its provenance differs), a new one is.
+    let mixed = run(
         eval_args(&data, &out, &server, &["--allow-outside-paths"]),
+        home.path(),
+    )
+    .await;
+    let err = String::from_utf8_lossy(&mixed.stderr).into_owned();
+    assert!(
+        !mixed.status.success() && err.contains("dataset_tasks"),
+        "{err}"
+    );
+    assert_eq!(
+        asked(&server).await,
+        3,
+        "nothing asked for a refused folder"
+    );
+    let allowed = home.path().join("allowed");
+    let again = run(
+        eval_args(&data, &allowed, &server, &["--allow-outside-paths"]),
         home.path(),
     )
     .await;
     let err = String::from_utf8_lossy(&again.stderr).into_owned();
     assert!(again.status.success(), "{err}");
-    assert_eq!(
-        asked(&server).await,
-        6,
-        "the three outside, once allowed: {err}"
-    );
+    assert_eq!(asked(&server).await, 9, "all six, once allowed: {err}");
 }
 
 #[tokio::test(flavor = "multi_thread")]
@@ -802,9 +816,14 @@ async fn task_ids_are_unique_valid_and_injective_on_disk() {
         .clone();
     let legacy = home.path().join("legacy");
     std::fs::create_dir_all(legacy.join("tasks")).unwrap();
-    std::fs::copy(
-        out.join("tasks").join(&spaced),
+    // Files of that age predate provenance too: the copy has none.
+    let mut result: serde_json::Value =
+        serde_json::from_str(&std::fs::read_to_string(out.join("tasks").join(&spaced)).unwrap())
+            .unwrap();
+    result.as_object_mut().unwrap().remove("provenance");
+    std::fs::write(
         legacy.join("tasks/task_1.single-image.json"),
+        serde_json::to_string_pretty(&result).unwrap(),
     )
     .unwrap();
     std::fs::write(data.join("tasks.jsonl"), task_line("task 1", "scene.png")).unwrap();
