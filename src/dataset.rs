@@ -50,6 +50,9 @@ pub struct LineError {
     pub line: usize,
     /// What was wrong with it.
     pub message: String,
+    /// The `id` the line gives, when one can be read from it: a shard
+    /// fails only for a bad line of its own tasks.
+    pub id: Option<String>,
 }
 
 impl fmt::Display for LineError {
@@ -177,7 +180,7 @@ impl IdRule {
         check_id(id)?;
         if let Some(first) = self.seen.get(id) {
             return Err(format!(
-                "the id `{}` is also the id of line {first}: ids must be unique; this line was left out",
+                "the id `{}` is also the id of line {first}: ids must be unique",
                 crate::sanitize::for_terminal(id)
             ));
         }
@@ -296,6 +299,7 @@ impl Dataset {
                 path: file.clone(),
                 line: n,
                 message,
+                id: None,
             };
             let line = match line {
                 Ok(line) => line,
@@ -307,14 +311,20 @@ impl Dataset {
             if line.trim().is_empty() {
                 continue;
             }
+            let with_id = |message: String| LineError {
+                id: serde_json::from_str::<serde_json::Value>(&line)
+                    .ok()
+                    .and_then(|value| value.get("id")?.as_str().map(str::to_string)),
+                ..error(message)
+            };
             match serde_json::from_str::<RawTask>(&line) {
                 Ok(raw) => match Task::from_raw(raw, &root, allow_outside_paths)
                     .and_then(|task| ids.admit(&task.id, n).map(|()| task))
                 {
                     Ok(task) => tasks.push(task),
-                    Err(message) => errors.push(error(message)),
+                    Err(message) => errors.push(with_id(message)),
                 },
-                Err(e) => errors.push(error(format!("not a task: {e}"))),
+                Err(e) => errors.push(with_id(format!("not a task: {e}"))),
             }
         }
         Ok((Dataset { root, tasks }, errors))
@@ -536,6 +546,7 @@ impl Iterator for PairsReader {
                 path: self.path.clone(),
                 line,
                 message,
+                id: None,
             };
             let (n, text) = match self.lines.next()? {
                 Ok(line) => line,

@@ -159,7 +159,9 @@ impl Default for HttpSettings {
 pub struct HttpEndpoint {
     /// The provider's name for messages.
     pub provider: &'static str,
-    /// The client (rustls, timeouts set).
+    /// The client (rustls with the bundled web roots and the system's,
+    /// `SSL_CERT_FILE`/`SSL_CERT_DIR` included; gzip bodies decoded;
+    /// timeouts set).
     pub client: reqwest::Client,
     /// The base URL, without a trailing slash.
     pub base_url: String,
@@ -389,7 +391,7 @@ impl HttpEndpoint {
             AgentError::Connect {
                 provider: self.provider,
                 url: self.shown_url(),
-                message: self.redact(&root_cause(err)),
+                message: self.redact(&with_certificate_hint(root_cause(err))),
             }
         } else {
             AgentError::InvalidResponse {
@@ -654,6 +656,19 @@ fn root_cause(err: &(dyn std::error::Error + 'static)) -> String {
         cause = next;
     }
     cause.to_string()
+}
+
+/// A TLS failure's cause with where trusted certificates come from: the
+/// system's roots, `SSL_CERT_FILE` and `SSL_CERT_DIR` (read by
+/// rustls-native-certs), so a server behind a private CA can be reached.
+fn with_certificate_hint(cause: String) -> String {
+    if cause.to_ascii_lowercase().contains("certificate") {
+        format!(
+            "{cause} (the system's certificates and the bundled web roots are trusted; for a private CA put its PEM file in SSL_CERT_FILE or its folder in SSL_CERT_DIR)"
+        )
+    } else {
+        cause
+    }
 }
 
 /// At most `limit` characters of `text`, with `…` when cut.

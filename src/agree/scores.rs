@@ -121,6 +121,7 @@ pub fn load_scores(path: &Path) -> Result<LoadedScores, DatasetError> {
                 path: path.to_path_buf(),
                 line: n + 1,
                 message,
+                id: None,
             }),
         }
     }

@@ -308,6 +308,7 @@ impl Annotations {
                     path: path.to_path_buf(),
                     line: n + 1,
                     message,
+                    id: None,
                 }),
             }
         }

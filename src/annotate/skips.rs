@@ -95,6 +95,7 @@ pub fn load_skips(
                 path: path.to_path_buf(),
                 line: n + 1,
                 message,
+                id: None,
             }),
         }
     }

@@ -113,10 +113,8 @@ pub fn run(args: &EvalArgs) -> anyhow::Result<ExitCode> {
     let _lock = Lock::acquire(&args.out.join(LOCK_FILE), "mapvlm eval")
         .context("another eval is writing this --out, so nothing was asked of any model")?;
     let (mut dataset, bad_lines) = Dataset::load_with(&args.dataset, args.allow_outside_paths)?;
-    let tasks_file = Dataset::tasks_file(&args.dataset);
-    let tasks_text = std::fs::read(&tasks_file)
-        .with_context(|| format!("{}: cannot be read", tasks_file.display()))?;
-    let bad_tasks = bad_lines_of_shard(&bad_lines, &tasks_text, shard);
+    let dataset_hash = super::file_sha256(&Dataset::tasks_file(&args.dataset))?;
+    let bad_tasks = bad_lines_of_shard(&bad_lines, shard);
     let dataset_tasks: Vec<String> = dataset.tasks.iter().map(|t| t.id.clone()).collect();
     dataset.tasks.retain(|task| shard.contains(&task.id));
     let approaches = if args.approaches.is_empty() {
@@ -133,7 +131,7 @@ pub fn run(args: &EvalArgs) -> anyhow::Result<ExitCode> {
     };
     let provenance = Provenance {
         mapvlm_version: env!("CARGO_PKG_VERSION").to_string(),
-        dataset_hash: crate::agents::sha256_hex(&tasks_text),
+        dataset_hash,
         metrics: [Some("kas"), scorer.is_some().then_some("pg2s")]
             .into_iter()
             .flatten()
@@ -235,16 +233,10 @@ pub fn run(args: &EvalArgs) -> anyhow::Result<ExitCode> {
 /// only the shard of that task (the others skip it); a line with no
 /// readable `id` fails every shard, so that `merge` refuses until it is
 /// fixed.
-fn bad_lines_of_shard(bad_lines: &[LineError], text: &[u8], shard: Shard) -> Vec<String> {
-    let text = String::from_utf8_lossy(text);
+fn bad_lines_of_shard(bad_lines: &[LineError], shard: Shard) -> Vec<String> {
     let mut failed = Vec::new();
     for bad in bad_lines {
-        let id = text
-            .lines()
-            .nth(bad.line.saturating_sub(1))
-            .and_then(|line| serde_json::from_str::<serde_json::Value>(line).ok())
-            .and_then(|value| value.get("id")?.as_str().map(str::to_string));
-        match id {
+        match bad.id.clone() {
             Some(id) if !shard.contains(&id) => {}
             Some(id) => {
                 eprintln!(

@@ -68,7 +68,14 @@ impl FakeBatches {
 
     fn openai(&self, request: &Request, path: &str) -> ResponseTemplate {
         let bearer = format!("Bearer {KEY}");
-        if request.headers.get("authorization").map(|v| v.as_bytes()) != Some(bearer.as_bytes()) {
+        // With credentials in the base URL, reqwest sends them as a Basic
+        // authorization before the key's Bearer one.
+        let authorised = request
+            .headers
+            .get_all("authorization")
+            .iter()
+            .any(|v| v.as_bytes() == bearer.as_bytes());
+        if !authorised {
             self.state().unauthorised += 1;
             return ResponseTemplate::new(401);
         }
@@ -352,11 +359,11 @@ async fn run(args: Vec<String>, home: &Path) -> Output {
     .unwrap()
 }
 
-/// Every file under `dir` whose bytes contain the key.
-fn files_with_key(dir: &Path) -> Vec<PathBuf> {
+/// Every file under `dir` whose bytes contain `secret`.
+fn files_with(dir: &Path, secret: &str) -> Vec<PathBuf> {
     common::files_under(dir)
         .into_iter()
-        .filter(|(_, bytes)| String::from_utf8_lossy(bytes).contains(KEY))
+        .filter(|(_, bytes)| String::from_utf8_lossy(bytes).contains(secret))
         .map(|(path, _)| path)
         .collect()
 }
@@ -371,7 +378,8 @@ async fn an_interrupted_openai_batch_eval_resumes_from_the_saved_ids_without_sub
     let data = alfred_tasks(home.path(), &[0, 3, 6]);
     let (server, fake) = fake_server().await;
     let out = home.path().join("eval");
-    let base = format!("{}/v1", server.uri());
+    // Credentials in the base URL reach the server, never batches.json.
+    let base = format!("{}/v1", server.uri()).replace("://", "://user:url-secret@");
     let args = batch_args(&data, &out, &base, "openai", "single-image");
 
     let log = home.path().join("first.stderr");
@@ -399,7 +407,10 @@ async fn an_interrupted_openai_batch_eval_resumes_from_the_saved_ids_without_sub
     first.wait().unwrap();
     let first_log = std::fs::read_to_string(&log).unwrap();
     assert!(first_log.contains("estimate (rough"), "{first_log}");
-    let ids: Value = serde_json::from_str(&std::fs::read_to_string(&saved).unwrap()).unwrap();
+    let saved_text = std::fs::read_to_string(&saved).unwrap();
+    assert!(!saved_text.contains("url-secret"), "{saved_text}");
+    assert!(saved_text.contains("://***@"), "{saved_text}");
+    let ids: Value = serde_json::from_str(&saved_text).unwrap();
     assert_eq!(ids["batches"][0]["id"], "batch_1");
     assert_eq!(ids["batches"][0]["keys"].as_array().unwrap().len(), 3);
     assert_eq!(fake.state().batches.len(), 1);
@@ -450,7 +461,8 @@ async fn an_interrupted_openai_batch_eval_resumes_from_the_saved_ids_without_sub
 
     let state = fake.state();
     assert_eq!((state.unauthorised, state.leaked), (0, 0));
-    assert_eq!(files_with_key(home.path()), Vec::<PathBuf>::new());
+    assert_eq!(files_with(home.path(), KEY), Vec::<PathBuf>::new());
+    assert_eq!(files_with(home.path(), "url-secret"), Vec::<PathBuf>::new());
 }
 
 #[tokio::test(flavor = "multi_thread")]
@@ -527,5 +539,5 @@ async fn anthropic_batches_run_in_stages_and_an_expired_request_is_retried_by_th
 
     let state = fake.state();
     assert_eq!((state.unauthorised, state.leaked), (0, 0));
-    assert_eq!(files_with_key(home.path()), Vec::<PathBuf>::new());
+    assert_eq!(files_with(home.path(), KEY), Vec::<PathBuf>::new());
 }

@@ -43,6 +43,7 @@ mod models_hub;
 mod mpnet;
 mod pg2s_golden;
 mod run_diff_e2e;
+mod tls_and_gzip;
 mod tui;
 mod tui_agents;
 mod tui_corrupt;

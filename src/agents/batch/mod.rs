@@ -100,7 +100,9 @@ pub enum Outcome {
 pub struct SavedBatch {
     /// The provider.
     pub provider: ProviderKind,
-    /// The endpoint's base URL.
+    /// The endpoint's base URL, its credentials replaced by `***`
+    /// ([`crate::sanitize::redact_url_credentials`]): the file is a record,
+    /// and the run that polls takes them from its own settings.
     pub base_url: String,
     /// The model of every request in it.
     pub model: String,
@@ -225,7 +227,7 @@ pub async fn run_batches(
                 };
                 let batch = SavedBatch {
                     provider,
-                    base_url: base_url.clone(),
+                    base_url: crate::sanitize::redact_url_credentials(&base_url),
                     model: model.clone(),
                     role,
                     id,
@@ -327,7 +329,15 @@ async fn collect(
     cancel: &CancellationToken,
 ) -> Result<(), BatchError> {
     let cache = runner.cache().ok_or(BatchError::NoCache)?;
-    let client = client(runner, batch.provider, &batch.base_url, batch.role)?;
+    // The saved URL has its credentials redacted: the settings' own URL is
+    // used when it is the same endpoint (an older file kept them in full).
+    let configured = &runner.settings().agent(batch.role).base_url;
+    let base_url = if crate::sanitize::redact_url_credentials(configured) == batch.base_url {
+        configured
+    } else {
+        &batch.base_url
+    };
+    let client = client(runner, batch.provider, base_url, batch.role)?;
     let status = loop {
         let status = match batch.provider {
             ProviderKind::Openai => openai::status(&client, &batch.id, cancel).await?,
