@@ -236,13 +236,13 @@ pub fn run(args: &EvalArgs) -> anyhow::Result<ExitCode> {
 fn bad_lines_of_shard(bad_lines: &[LineError], shard: Shard) -> Vec<String> {
     let mut failed = Vec::new();
     for bad in bad_lines {
-        match bad.id.clone() {
-            Some(id) if !shard.contains(&id) => {}
+        match &bad.id {
+            Some(id) if !shard.contains(id) => {}
             Some(id) => {
                 eprintln!(
                     "mapvlm: {}; task {} is in this shard, so the shard fails until the line is fixed",
                     crate::sanitize::for_terminal(&bad.to_string()),
-                    crate::sanitize::for_terminal(&id)
+                    crate::sanitize::for_terminal(id)
                 );
                 failed.push(format!("{id} (line {} of the tasks file)", bad.line));
             }

@@ -79,6 +79,17 @@ async fn plan(args: Vec<String>, home: &Path, ca_file: Option<&Path>) -> std::pr
     .unwrap()
 }
 
+/// The run succeeded and printed the served plan's two steps.
+fn assert_planned(run: &std::process::Output) {
+    let err = String::from_utf8_lossy(&run.stderr);
+    assert!(run.status.success(), "{err}");
+    let out = String::from_utf8_lossy(&run.stdout);
+    assert!(
+        out.contains("Walk to the sink.") && out.contains("Wash the mug."),
+        "{out}"
+    );
+}
+
 #[tokio::test(flavor = "multi_thread")]
 async fn a_server_of_a_private_ca_is_reached_through_ssl_cert_file_and_refused_with_a_hint_without_it(
 ) {
@@ -105,14 +116,7 @@ async fn a_server_of_a_private_ca_is_reached_through_ssl_cert_file_and_refused_w
 
     let ca_file = home.path().join("private-ca.pem");
     std::fs::write(&ca_file, ca_pem).unwrap();
-    let trusted = plan(args, home.path(), Some(&ca_file)).await;
-    let err = String::from_utf8_lossy(&trusted.stderr);
-    assert!(trusted.status.success(), "{err}");
-    let out = String::from_utf8_lossy(&trusted.stdout);
-    assert!(
-        out.contains("Walk to the sink.") && out.contains("Wash the mug."),
-        "{out}"
-    );
+    assert_planned(&plan(args, home.path(), Some(&ca_file)).await);
 }
 
 #[tokio::test(flavor = "multi_thread")]
@@ -138,14 +142,7 @@ async fn a_gzip_encoded_answer_is_decoded() {
         .await;
     let base = base_url(&server, provider);
     let args = plan_args(home.path(), &base, &["--no-cache", "--no-stream"]);
-    let run = plan(args, home.path(), None).await;
-    let err = String::from_utf8_lossy(&run.stderr);
-    assert!(run.status.success(), "{err}");
-    let out = String::from_utf8_lossy(&run.stdout);
-    assert!(
-        out.contains("Walk to the sink.") && out.contains("Wash the mug."),
-        "{out}"
-    );
+    assert_planned(&plan(args, home.path(), None).await);
     let request = &server.received_requests().await.unwrap()[0];
     let accepted = request
         .headers
