@@ -10,6 +10,7 @@
 pub mod bootstrap;
 pub mod correlation;
 pub mod krippendorff;
+pub mod pairs;
 pub mod permutation;
 pub mod pvalue;
 pub mod rank;
