@@ -7,11 +7,30 @@ use serde_json::{json, Map, Value};
 use super::{Agreement, Detection, HumanAgreement, InterAnnotator, Interval};
 use crate::stats::Estimate;
 
+/// The keys that need human judgements, `null` without annotations.
+const HUMAN_KEYS: [&str; 6] = [
+    "items",
+    "annotators",
+    "metrics",
+    "pg2s_vs_kas",
+    "inter_annotator",
+    "pairwise",
+];
+
 /// The whole document.
 pub fn to_json(agreement: &Agreement) -> Value {
     let mut doc = Map::new();
-    if let Some(human) = &agreement.human {
-        human_json(human, &mut doc);
+    match &agreement.human {
+        Some(human) => human_json(human, &mut doc),
+        None => {
+            // Every key is there; each is null for the same reason.
+            let mut reasons = Map::new();
+            for key in HUMAN_KEYS {
+                doc.insert(key.into(), Value::Null);
+                reasons.insert(key.into(), json!("no annotations given"));
+            }
+            doc.insert("reasons".into(), Value::Object(reasons));
+        }
     }
     let corruption: Map<String, Value> = agreement
         .corruption
@@ -30,6 +49,7 @@ pub fn to_json(agreement: &Agreement) -> Value {
         "settings".into(),
         json!({"bootstrap": s.bootstrap.resamples, "permutations": s.permutations, "seed": s.bootstrap.seed}),
     );
+    doc.insert("warnings".into(), json!(agreement.warnings));
     Value::Object(doc)
 }
 
@@ -53,6 +73,11 @@ fn human_json(h: &HumanAgreement, doc: &mut Map<String, Value>) {
             ci.interval("pearson", m.ci95.pearson);
             ci.interval("pairwise_accuracy", m.ci95.pairwise_accuracy);
             obj.map.insert("ci95".into(), ci.done());
+            let [tau, rho, r, acc] = m.ci95_resamples;
+            obj.map.insert(
+                "ci95_resamples".into(),
+                json!({"kendall_tau_b": tau, "spearman": rho, "pearson": r, "pairwise_accuracy": acc}),
+            );
             let mut p = Fields::default();
             p.estimate("kendall_tau_b", m.p_values.kendall_tau_b);
             p.estimate("spearman", m.p_values.spearman);
@@ -63,16 +88,13 @@ fn human_json(h: &HumanAgreement, doc: &mut Map<String, Value>) {
         .collect();
     doc.insert("metrics".into(), Value::Object(metrics));
     let mut test = Fields::default();
-    match &h.pg2s_vs_kas {
-        Ok(t) => {
-            test.map.insert("p_value".into(), json!(t.p_value));
-            test.map.insert("difference".into(), json!(t.difference));
-            test.map.insert("n".into(), json!(t.n));
-            test.map
-                .insert("permutations".into(), json!(t.permutations));
-        }
-        Err(why) => test.estimate("p_value", Err(*why)),
-    }
+    let t = &h.pg2s_vs_kas;
+    test.map.insert("n".into(), json!(t.n));
+    test.estimate("difference", t.difference);
+    test.estimate("p_value", t.test.map(|t| t.p_value));
+    test.map
+        .insert("permutations".into(), json!(t.permutations_used()));
+    test.map.insert("permutations_asked".into(), json!(t.asked));
     doc.insert("pg2s_vs_kas".into(), test.done());
     doc.insert(
         "inter_annotator".into(),

@@ -47,9 +47,16 @@ pub struct Settings {
     pub permutations: usize,
 }
 
+/// Below this many items a statistic is reported with a warning: it
+/// rests on too few items to mean much.
+pub const FEW_ITEMS: usize = 10;
+
 /// Everything `agree` reports.
 #[derive(Debug, Clone, PartialEq)]
 pub struct Agreement {
+    /// What the reader should know before trusting a number: statistics
+    /// over very few items, resamples or permutations left out.
+    pub warnings: Vec<String>,
     /// Agreement with people; `None` when no annotations were given.
     pub human: Option<HumanAgreement>,
     /// Corruption detection: kind → metric (or `human`) → counts.
@@ -68,11 +75,32 @@ pub struct HumanAgreement {
     /// One entry per metric, in the order of [`METRICS`].
     pub metrics: Vec<MetricAgreement>,
     /// The paired permutation test of PG2S against KAS on tau-b.
-    pub pg2s_vs_kas: Result<PermutationTest, Undefined>,
+    pub pg2s_vs_kas: KasTest,
     /// Agreement between annotators.
     pub inter_annotator: InterAnnotator,
     /// Agreement with pairwise preferences, in the order of [`METRICS`].
     pub pairwise: Vec<PairwiseAgreement>,
+}
+
+/// The paired permutation test of PG2S against KAS, with what it was
+/// computed over even when it has no value.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct KasTest {
+    /// The rated items that have both PG2S and KAS.
+    pub n: usize,
+    /// tau-b of PG2S minus tau-b of KAS over those items.
+    pub difference: Estimate,
+    /// The test itself (its p-value and the permutations that had a value).
+    pub test: Result<PermutationTest, Undefined>,
+    /// The permutations asked for (`--permutations`).
+    pub asked: usize,
+}
+
+impl KasTest {
+    /// The permutations whose difference was defined (0 without a test).
+    pub fn permutations_used(&self) -> usize {
+        self.test.map_or(0, |t| t.permutations)
+    }
 }
 
 /// One metric against the human score.
@@ -84,6 +112,9 @@ pub struct MetricAgreement {
     pub correlations: Correlations,
     /// Their 95% percentile-bootstrap intervals.
     pub ci95: Intervals,
+    /// How many resamples each interval rests on (those on which the
+    /// statistic was defined), in the order of the fields of [`Intervals`].
+    pub ci95_resamples: [usize; 4],
     /// The two-sided p-values of tau-b, rho and r (as scipy's).
     pub p_values: PValues,
     /// (human score, metric value) of every item compared, for plots.
@@ -168,6 +199,10 @@ pub fn analyse(
     let human_scores = judged.map(human_scores).unwrap_or_default();
     let human = judged.map(|j| human_agreement(j, &human_scores, scores, settings));
     Agreement {
+        warnings: human
+            .as_ref()
+            .map(|h| warnings(h, settings))
+            .unwrap_or_default(),
         human,
         corruption: corruption(items, scores, &human_scores),
         settings,
@@ -227,8 +262,17 @@ fn human_agreement(
             let interval = |f: fn(&Correlations) -> Estimate| {
                 percentile_interval(resampled.iter().map(|r| f(&r[m])), 0.95)
             };
+            let used = |f: fn(&Correlations) -> Estimate| {
+                resampled.iter().filter(|r| f(&r[m]).is_ok()).count()
+            };
             MetricAgreement {
                 metric: METRICS[m],
+                ci95_resamples: [
+                    used(|c| c.kendall_tau_b),
+                    used(|c| c.spearman),
+                    used(|c| c.pearson),
+                    used(|c| c.pairwise_accuracy),
+                ],
                 correlations: paired[m].correlations(),
                 p_values: paired[m].p_values(),
                 ci95: Intervals {
@@ -251,13 +295,22 @@ fn human_agreement(
         .filter(|i| value(i, pg2s).is_some() && value(i, kas).is_some())
         .collect();
     let column = |m: usize| -> Vec<f64> { both.iter().filter_map(|i| value(i, m)).collect() };
-    let pg2s_vs_kas = tau_b_difference(
-        &column(pg2s),
-        &column(kas),
-        &both.iter().map(|i| human[*i]).collect::<Vec<_>>(),
-        settings.permutations,
-        settings.bootstrap.seed,
-    );
+    let human_both: Vec<f64> = both.iter().map(|i| human[*i]).collect();
+    let (a, b) = (column(pg2s), column(kas));
+    let all = vec![1u32; both.len()];
+    let tau = |x: &[f64]| Paired::new(x, &human_both).kendall_tau_b(&all);
+    let pg2s_vs_kas = KasTest {
+        n: both.len(),
+        difference: tau(&a).and_then(|ta| tau(&b).map(|tb| ta - tb)),
+        test: tau_b_difference(
+            &a,
+            &b,
+            &human_both,
+            settings.permutations,
+            settings.bootstrap.seed,
+        ),
+        asked: settings.permutations,
+    };
     let annotators: Vec<String> = judged
         .ratings
         .iter()
@@ -273,6 +326,46 @@ fn human_agreement(
         pg2s_vs_kas,
         pairwise: pairwise(judged, scores),
     }
+}
+
+/// The warnings of a result: statistics over fewer than [`FEW_ITEMS`]
+/// items, intervals or tests that rest on fewer resamples or permutations
+/// than were asked for.
+fn warnings(h: &HumanAgreement, settings: Settings) -> Vec<String> {
+    let mut out = Vec::new();
+    let few = |n: usize| n > 0 && n < FEW_ITEMS;
+    let asked = settings.bootstrap.resamples;
+    let names = ["tau-b", "rho", "r", "pairwise accuracy"];
+    for m in &h.metrics {
+        let n = m.correlations.n as usize;
+        if few(n) {
+            out.push(format!("{}: correlations over {n} items", m.metric));
+        }
+        for (name, &used) in names.iter().zip(&m.ci95_resamples) {
+            if n > 0 && used < asked {
+                out.push(format!(
+                    "{} {name}: interval over {used} of {asked} resamples (undefined on the others)",
+                    m.metric
+                ));
+            }
+        }
+    }
+    let t = &h.pg2s_vs_kas;
+    if few(t.n) {
+        out.push(format!("PG2S against KAS over {} items", t.n));
+    }
+    if t.difference.is_ok() && t.permutations_used() < t.asked {
+        out.push(format!(
+            "PG2S against KAS: {} of {} permutations had a defined tau-b",
+            t.permutations_used(),
+            t.asked
+        ));
+    }
+    let shared = h.inter_annotator.shared_items;
+    if few(shared) {
+        out.push(format!("Krippendorff's alpha over {shared} shared items"));
+    }
+    out
 }
 
 fn inter_annotator(judged: &Judged, rated: &[&str], annotators: &[String]) -> InterAnnotator {
@@ -368,4 +461,115 @@ fn corruption(
     }
     table.retain(|_, row| !row.is_empty());
     table
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    fn settings(resamples: usize, permutations: usize) -> Settings {
+        Settings {
+            bootstrap: Bootstrap { resamples, seed: 5 },
+            permutations,
+        }
+    }
+
+    fn scores(rows: &[(&str, MetricValues)]) -> HashMap<String, MetricValues> {
+        rows.iter().map(|(id, v)| (id.to_string(), *v)).collect()
+    }
+
+    fn ratings(rows: &[(&str, &str, f64)]) -> Judged {
+        Judged {
+            ratings: rows
+                .iter()
+                .map(|(i, a, r)| (i.to_string(), a.to_string(), *r))
+                .collect(),
+            ..Judged::default()
+        }
+    }
+
+    #[test]
+    fn every_key_is_there_with_null_and_a_reason() {
+        // Two items; KAS is the same on both, so its tau-b, the difference
+        // and the test are undefined, and nothing has S_plan.
+        let scores = scores(&[
+            ("a", [Some(0.2), None, Some(0.1), Some(0.3)]),
+            ("b", [Some(0.4), None, Some(0.9), Some(0.3)]),
+        ]);
+        let judged = ratings(&[("a", "x", 1.0), ("b", "x", 3.0)]);
+        let agreement = analyse(&[], &scores, Some(&judged), settings(20, 50));
+        let doc = json::to_json(&agreement);
+        let test = &doc["pg2s_vs_kas"];
+        assert_eq!(test["n"], 2);
+        assert!(test["difference"].is_null() && test["p_value"].is_null());
+        assert_eq!(
+            test["reasons"]["difference"],
+            "the metric column is constant"
+        );
+        assert_eq!(test["permutations"], 0);
+        assert_eq!(test["permutations_asked"], 50);
+        let s_plan = &doc["metrics"]["s_plan"];
+        assert_eq!(s_plan["n"], 0);
+        assert!(s_plan["kendall_tau_b"].is_null());
+        assert_eq!(s_plan["reasons"]["kendall_tau_b"], "fewer than two items");
+        assert_eq!(s_plan["ci95_resamples"]["pearson"], 0);
+        let warnings = doc["warnings"].as_array().cloned().unwrap_or_default();
+        assert!(
+            warnings.contains(&"pg2s: correlations over 2 items".into()),
+            "{warnings:?}"
+        );
+        assert!(
+            warnings.contains(&"PG2S against KAS over 2 items".into()),
+            "{warnings:?}"
+        );
+        let without = json::to_json(&analyse(&[], &scores, None, settings(20, 50)));
+        for key in [
+            "items",
+            "metrics",
+            "pg2s_vs_kas",
+            "inter_annotator",
+            "pairwise",
+        ] {
+            assert!(without[key].is_null(), "{key}");
+            assert_eq!(without["reasons"][key], "no annotations given");
+        }
+    }
+
+    #[test]
+    fn the_resamples_an_interval_rests_on_are_counted() {
+        // Two items with different scores: tau-b is defined on a resample
+        // exactly when it holds both items once each.
+        let scores = scores(&[
+            ("a", [Some(0.2), None, None, Some(0.3)]),
+            ("b", [Some(0.4), None, None, Some(0.1)]),
+        ]);
+        let judged = ratings(&[("a", "x", 1.0), ("b", "x", 3.0)]);
+        let s = settings(200, 40);
+        let agreement = analyse(&[], &scores, Some(&judged), s);
+        let both = (0..200)
+            .filter(|&b| s.bootstrap.counts(b, 2) == [1, 1])
+            .count();
+        assert!(both > 50 && both < 150, "{both}");
+        let h = agreement
+            .human
+            .as_ref()
+            .unwrap_or_else(|| panic!("no human part"));
+        assert_eq!(h.metrics[0].ci95_resamples[0], both);
+        assert_eq!(h.metrics[0].ci95_resamples[3], both);
+        let warning =
+            format!("pg2s tau-b: interval over {both} of 200 resamples (undefined on the others)");
+        assert!(
+            agreement.warnings.contains(&warning),
+            "{:?}",
+            agreement.warnings
+        );
+        // Swapping the ranks of two items: half the swaps tie the columns.
+        let t = h.pg2s_vs_kas;
+        assert_eq!((t.n, t.difference), (2, Ok(2.0)));
+        assert!(t.permutations_used() < 40, "{t:?}");
+        assert!(agreement
+            .warnings
+            .iter()
+            .any(|w| w.ends_with("of 40 permutations had a defined tau-b")));
+    }
 }

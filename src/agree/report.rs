@@ -14,6 +14,13 @@ const PLOT_HEIGHT: usize = 10;
 /// The whole report.
 pub fn render(agreement: &Agreement) -> String {
     let mut out = String::new();
+    if !agreement.warnings.is_empty() {
+        out.push_str("Warnings:\n");
+        for w in &agreement.warnings {
+            let _ = writeln!(out, "  – {w}");
+        }
+        out.push('\n');
+    }
     match &agreement.human {
         Some(h) => human_section(h, agreement, &mut out),
         None => out.push_str("No annotations given: only corruption detection is reported.\n\n"),
@@ -90,16 +97,28 @@ fn human_section(h: &HumanAgreement, agreement: &Agreement, out: &mut String) {
             p(m.p_values.pearson)
         );
     }
-    match &h.pg2s_vs_kas {
-        Ok(t) => {
+    let t = &h.pg2s_vs_kas;
+    match (t.difference, t.test) {
+        (Ok(d), Ok(test)) => {
             let _ = writeln!(
                 out,
-                "\nPG2S against KAS on tau-b: difference {:+.3} over {} items, p = {:.3} ({} paired permutations)",
-                t.difference, t.n, t.p_value, t.permutations
+                "\nPG2S against KAS on tau-b: difference {d:+.3} over {} items, p = {:.3} ({} of {} paired permutations)",
+                t.n, test.p_value, test.permutations, t.asked
             );
         }
-        Err(why) => {
-            let _ = writeln!(out, "\nPG2S against KAS on tau-b: no test ({why})");
+        (Ok(d), Err(why)) => {
+            let _ = writeln!(
+                out,
+                "\nPG2S against KAS on tau-b: difference {d:+.3} over {} items, no p-value ({why})",
+                t.n
+            );
+        }
+        (Err(why), _) => {
+            let _ = writeln!(
+                out,
+                "\nPG2S against KAS on tau-b: no test over {} items ({why})",
+                t.n
+            );
         }
     }
     let ia = &h.inter_annotator;

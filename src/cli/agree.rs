@@ -124,6 +124,11 @@ pub fn run(args: &AgreeArgs) -> anyhow::Result<ExitCode> {
             None => bail!("--plot needs --annotations: the figure plots metrics against people"),
         }
     }
+    if args.json {
+        for w in &agreement.warnings {
+            eprintln!("mapvlm: warning: {w}");
+        }
+    }
     let text = if args.json {
         format!("{:#}\n", json::to_json(&agreement))
     } else {
