@@ -52,6 +52,7 @@ fn data() -> (Vec<Pair>, HashMap<String, MetricValues>, Judged) {
     let judged = Judged {
         ratings,
         preferences: Vec::new(),
+        step_labels: Vec::new(),
     };
     (items, scores, judged)
 }

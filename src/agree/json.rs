@@ -119,6 +119,17 @@ fn inter_annotator(ia: &InterAnnotator) -> Value {
     obj.estimate("krippendorff_alpha_interval", ia.interval);
     obj.map
         .insert("shared_items".into(), json!(ia.shared_items));
+    let mut ci = Fields::default();
+    ci.interval("krippendorff_alpha_ordinal", ia.ci95[0]);
+    ci.interval("krippendorff_alpha_interval", ia.ci95[1]);
+    obj.map.insert("ci95".into(), ci.done());
+    obj.map.insert(
+        "ci95_resamples".into(),
+        json!({"krippendorff_alpha_ordinal": ia.ci95_resamples[0], "krippendorff_alpha_interval": ia.ci95_resamples[1]}),
+    );
+    obj.estimate("krippendorff_alpha_nominal_step_labels", ia.step_labels);
+    obj.map
+        .insert("step_labels_shared".into(), json!(ia.step_labels_shared));
     let pairs: Vec<Value> = ia
         .by_pair
         .iter()

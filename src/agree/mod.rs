@@ -17,7 +17,7 @@ use std::collections::{BTreeMap, BTreeSet, HashMap};
 use crate::dataset::Pair;
 use crate::stats::bootstrap::{percentile_interval, Bootstrap};
 use crate::stats::correlation::{Correlations, Paired};
-use crate::stats::krippendorff::{alpha, Level};
+use crate::stats::krippendorff::{alpha, alpha_weighted, Level};
 use crate::stats::permutation::{tau_b_difference, PermutationTest};
 use crate::stats::pvalue::PValues;
 use crate::stats::{Estimate, Undefined};
@@ -36,6 +36,9 @@ pub struct Judged {
     pub ratings: Vec<(String, String, f64)>,
     /// Current preferences other than "neither": (preferred item, other item).
     pub preferences: Vec<(String, String)>,
+    /// Current step labels: (item, annotator, 0-based step, label); a step
+    /// given several labels by one annotator has them joined by `+`.
+    pub step_labels: Vec<(String, String, usize, String)>,
 }
 
 /// How the resampling statistics are drawn.
@@ -144,6 +147,16 @@ pub struct InterAnnotator {
     pub ordinal: Estimate,
     /// Krippendorff's alpha, interval.
     pub interval: Estimate,
+    /// The 95% percentile-bootstrap intervals of the ordinal and interval
+    /// alpha, on the resamples of the rated items that the correlations use.
+    pub ci95: [Interval; 2],
+    /// How many resamples each of those intervals rests on.
+    pub ci95_resamples: [usize; 2],
+    /// Krippendorff's alpha, nominal, of the step labels: a unit is a step of
+    /// an item that an annotator labelled, a value the label given.
+    pub step_labels: Estimate,
+    /// Steps labelled by two or more annotators.
+    pub step_labels_shared: usize,
     /// Items rated by two or more annotators.
     pub shared_items: usize,
     /// For each pair of annotators (sorted), the items both rated.
@@ -247,16 +260,38 @@ fn human_agreement(
             Paired::new(&x, &y)
         })
         .collect();
-    let resampled = settings.bootstrap.map(rated.len(), |counts| {
-        columns
+    let annotators: Vec<String> = judged
+        .ratings
+        .iter()
+        .map(|(_, a, _)| a.clone())
+        .collect::<BTreeSet<_>>()
+        .into_iter()
+        .collect();
+    let matrix = coder_matrix(judged, &rated, &annotators);
+    let alphas = |weights: &[u32]| {
+        [Level::Ordinal, Level::Interval].map(|level| {
+            if annotators.len() < 2 {
+                Err(Undefined::NoSharedUnits)
+            } else {
+                alpha_weighted(&matrix, level, weights)
+            }
+        })
+    };
+    let both_resampled = settings.bootstrap.map(rated.len(), |counts| {
+        let correlations = columns
             .iter()
             .zip(&paired)
             .map(|(idx, p)| {
                 let w: Vec<u32> = idx.iter().map(|&i| counts[i]).collect();
                 p.correlations_weighted(&w)
             })
-            .collect::<Vec<_>>()
+            .collect::<Vec<_>>();
+        (correlations, alphas(counts))
     });
+    let (resampled, alpha_resampled): (Vec<_>, Vec<_>) = both_resampled.into_iter().unzip();
+    let alpha_ci = [0, 1]
+        .map(|k| percentile_interval(alpha_resampled.iter().map(|a: &[Estimate; 2]| a[k]), 0.95));
+    let alpha_used = [0, 1].map(|k| alpha_resampled.iter().filter(|a| a[k].is_ok()).count());
     let metrics = (0..METRICS.len())
         .map(|m| {
             let interval = |f: fn(&Correlations) -> Estimate| {
@@ -311,16 +346,16 @@ fn human_agreement(
         ),
         asked: settings.permutations,
     };
-    let annotators: Vec<String> = judged
-        .ratings
-        .iter()
-        .map(|(_, a, _)| a.clone())
-        .collect::<BTreeSet<_>>()
-        .into_iter()
-        .collect();
+    let mut inter_annotator = inter_annotator(&matrix, &annotators);
+    inter_annotator.ci95 = alpha_ci;
+    inter_annotator.ci95_resamples = alpha_used;
+    (
+        inter_annotator.step_labels,
+        inter_annotator.step_labels_shared,
+    ) = step_label_alpha(judged);
     HumanAgreement {
         items: rated.len(),
-        inter_annotator: inter_annotator(judged, &rated, &annotators),
+        inter_annotator,
         annotators,
         metrics,
         pg2s_vs_kas,
@@ -361,14 +396,32 @@ fn warnings(h: &HumanAgreement, settings: Settings) -> Vec<String> {
             t.asked
         ));
     }
-    let shared = h.inter_annotator.shared_items;
-    if few(shared) {
-        out.push(format!("Krippendorff's alpha over {shared} shared items"));
+    let ia = &h.inter_annotator;
+    if few(ia.shared_items) {
+        out.push(format!(
+            "Krippendorff's alpha over {} shared items",
+            ia.shared_items
+        ));
+    }
+    for (name, &used) in ["ordinal", "interval"].iter().zip(&ia.ci95_resamples) {
+        if ia.shared_items > 0 && used < asked {
+            out.push(format!(
+                "alpha {name}: interval over {used} of {asked} resamples (undefined on the others)"
+            ));
+        }
+    }
+    if few(ia.step_labels_shared) {
+        out.push(format!(
+            "nominal alpha of the step labels over {} shared steps",
+            ia.step_labels_shared
+        ));
     }
     out
 }
 
-fn inter_annotator(judged: &Judged, rated: &[&str], annotators: &[String]) -> InterAnnotator {
+/// The ratings as coders × units (one row per annotator, one column per
+/// rated item), as Krippendorff's alpha reads them.
+fn coder_matrix(judged: &Judged, rated: &[&str], annotators: &[String]) -> Vec<Vec<Option<f64>>> {
     let unit: HashMap<&str, usize> = rated.iter().enumerate().map(|(u, &i)| (i, u)).collect();
     let coder: HashMap<&str, usize> = annotators
         .iter()
@@ -381,13 +434,51 @@ fn inter_annotator(judged: &Judged, rated: &[&str], annotators: &[String]) -> In
             data[c][u] = Some(*rating);
         }
     }
-    let shared_items = (0..rated.len())
+    data
+}
+
+/// Nominal alpha of the step labels and how many labelled steps two or more
+/// annotators labelled.
+fn step_label_alpha(judged: &Judged) -> (Estimate, usize) {
+    let mut units: BTreeMap<(&str, usize), BTreeMap<&str, &str>> = BTreeMap::new();
+    let mut labels: BTreeSet<&str> = BTreeSet::new();
+    for (item, annotator, step, label) in &judged.step_labels {
+        units
+            .entry((item.as_str(), *step))
+            .or_default()
+            .insert(annotator.as_str(), label.as_str());
+        labels.insert(label.as_str());
+    }
+    let coders: BTreeSet<&str> = units.values().flat_map(|u| u.keys().copied()).collect();
+    let code = |label: &str| labels.iter().position(|&l| l == label).map(|p| p as f64);
+    let data: Vec<Vec<Option<f64>>> = coders
+        .iter()
+        .map(|c| {
+            units
+                .values()
+                .map(|u| u.get(c).and_then(|l| code(l)))
+                .collect()
+        })
+        .collect();
+    let shared = units.values().filter(|u| u.len() >= 2).count();
+    let estimate = if shared == 0 {
+        Err(Undefined::NoSharedSteps)
+    } else {
+        alpha(&data, Level::Nominal)
+    };
+    (estimate, shared)
+}
+
+/// Krippendorff's alpha of the coder matrix and the items it shares.
+fn inter_annotator(data: &[Vec<Option<f64>>], annotators: &[String]) -> InterAnnotator {
+    let units = data.first().map_or(0, Vec::len);
+    let shared_items = (0..units)
         .filter(|&u| data.iter().filter(|row| row[u].is_some()).count() >= 2)
         .count();
     let mut by_pair = Vec::new();
     for a in 0..annotators.len() {
         for b in a + 1..annotators.len() {
-            let shared = (0..rated.len())
+            let shared = (0..units)
                 .filter(|&u| data[a][u].is_some() && data[b][u].is_some())
                 .count();
             by_pair.push((annotators[a].clone(), annotators[b].clone(), shared));
@@ -397,12 +488,16 @@ fn inter_annotator(judged: &Judged, rated: &[&str], annotators: &[String]) -> In
         if annotators.len() < 2 || shared_items == 0 {
             Err(Undefined::NoSharedUnits)
         } else {
-            alpha(&data, level)
+            alpha(data, level)
         }
     };
     InterAnnotator {
         ordinal: level(Level::Ordinal),
         interval: level(Level::Interval),
+        ci95: [Err(Undefined::NoResample); 2],
+        ci95_resamples: [0; 2],
+        step_labels: Err(Undefined::NoSharedSteps),
+        step_labels_shared: 0,
         shared_items,
         by_pair,
     }
@@ -533,6 +628,62 @@ mod tests {
             assert!(without[key].is_null(), "{key}");
             assert_eq!(without["reasons"][key], "no annotations given");
         }
+    }
+
+    #[test]
+    fn alpha_has_an_interval_on_the_resamples_of_the_correlations() {
+        // Three items, two annotators: the interval is the percentile
+        // interval of alpha on each resample of the three items.
+        let scores = scores(&[
+            ("a", [Some(0.1), None, None, None]),
+            ("b", [Some(0.5), None, None, None]),
+            ("c", [Some(0.9), None, None, None]),
+        ]);
+        let mut judged = ratings(&[
+            ("a", "x", 1.0),
+            ("b", "x", 3.0),
+            ("c", "x", 5.0),
+            ("a", "y", 2.0),
+            ("b", "y", 3.0),
+            ("c", "y", 4.0),
+        ]);
+        let step = |i: &str, a: &str, s, l: &str| (i.into(), a.into(), s, l.to_string());
+        judged.step_labels = vec![
+            step("a", "x", 0, "ok"),
+            step("a", "y", 0, "ok"),
+            step("b", "x", 1, "unsafe"),
+            step("b", "y", 1, "unsafe"),
+            step("c", "x", 2, "unsafe"),
+            step("c", "y", 2, "ok"),
+        ];
+        let s = settings(300, 10);
+        let h = analyse(&[], &scores, Some(&judged), s)
+            .human
+            .unwrap_or_else(|| panic!("no human part"));
+        let ia = &h.inter_annotator;
+        // Interval alpha by hand: pairable values 1, 2, 3, 3, 5, 4 (n = 6);
+        // D_o = 2·1² + 0 + 2·1² = 4 over ordered pairs within units;
+        // D_e = 2·(6·Σv² − (Σv)²) / (n − 1) = 2·(384 − 324) / 5 = 24.
+        assert_eq!(
+            ia.interval.map(|a| (a * 1e12).round()),
+            Ok((5e12 / 6.0_f64).round())
+        );
+        let data = vec![
+            vec![Some(1.0), Some(3.0), Some(5.0)],
+            vec![Some(2.0), Some(3.0), Some(4.0)],
+        ];
+        let by_resample: Vec<Estimate> = (0..300)
+            .map(|b| alpha_weighted(&data, Level::Interval, &s.bootstrap.counts(b, 3)))
+            .collect();
+        let used = by_resample.iter().filter(|a| a.is_ok()).count();
+        assert_eq!(ia.ci95_resamples[1], used);
+        assert!(used > 200 && used < 300, "{used}");
+        assert_eq!(ia.ci95[1], percentile_interval(by_resample, 0.95));
+        // Step labels: units (a,0) ok/ok, (b,1) unsafe/unsafe, (c,2)
+        // unsafe/ok: the nominal case worked by hand in stats::krippendorff.
+        let nominal = ia.step_labels.unwrap_or(f64::NAN);
+        assert!((nominal - (1.0 - 2.0 / 3.6)).abs() < 1e-12, "{nominal}");
+        assert_eq!(ia.step_labels_shared, 3);
     }
 
     #[test]

@@ -125,9 +125,15 @@ fn human_section(h: &HumanAgreement, agreement: &Agreement, out: &mut String) {
     let _ = writeln!(
         out,
         "\nBetween annotators: Krippendorff's alpha ordinal {}, interval {}; {} items rated by two or more",
-        value(ia.ordinal),
-        value(ia.interval),
+        with_interval(ia.ordinal, ia.ci95[0]),
+        with_interval(ia.interval, ia.ci95[1]),
         ia.shared_items
+    );
+    let _ = writeln!(
+        out,
+        "  step labels: nominal alpha {} over {} steps labelled by two or more",
+        value(ia.step_labels),
+        ia.step_labels_shared
     );
     for (a, b, n) in &ia.by_pair {
         let _ = writeln!(out, "  {a} & {b}: {n} shared items");

@@ -239,7 +239,22 @@ fn read_judgements(
             args.items.display()
         );
     }
+    let mut step_labels = Vec::new();
+    for j in current.judgements() {
+        if let (crate::annotate::Subject::Item(item), Some(v)) = (&j.subject, &j.verdict) {
+            let mut by_step: BTreeMap<usize, Vec<&str>> = BTreeMap::new();
+            for l in &v.step_labels {
+                by_step.entry(l.step).or_default().push(l.label.as_str());
+            }
+            for (step, mut labels) in by_step {
+                labels.sort_unstable();
+                labels.dedup();
+                step_labels.push((item.clone(), j.annotator.clone(), step, labels.join("+")));
+            }
+        }
+    }
     Ok(Judged {
+        step_labels,
         ratings: current
             .ratings()
             .map(|(item, who, r)| (item.to_string(), who.to_string(), f64::from(r)))
