@@ -60,6 +60,7 @@ fn data() -> (Vec<Pair>, HashMap<String, MetricValues>, Judged) {
 fn bench(c: &mut Criterion) {
     let (items, scores, judged) = data();
     let settings = Settings {
+        aggregate: mapvlm::agree::Aggregate::Mean,
         bootstrap: Bootstrap {
             resamples: 1000,
             seed: 0,

@@ -5,11 +5,13 @@
 use serde_json::{json, Map, Value};
 
 use super::{Agreement, Detection, HumanAgreement, InterAnnotator, Interval};
+use crate::stats::correlation::Correlations;
 use crate::stats::Estimate;
 
 /// The keys that need human judgements, `null` without annotations.
-const HUMAN_KEYS: [&str; 6] = [
+const HUMAN_KEYS: [&str; 7] = [
     "items",
+    "human_ceiling",
     "annotators",
     "metrics",
     "pg2s_vs_kas",
@@ -47,7 +49,7 @@ pub fn to_json(agreement: &Agreement) -> Value {
     let s = agreement.settings;
     doc.insert(
         "settings".into(),
-        json!({"bootstrap": s.bootstrap.resamples, "permutations": s.permutations, "seed": s.bootstrap.seed}),
+        json!({"aggregate": s.aggregate.as_str(), "bootstrap": s.bootstrap.resamples, "permutations": s.permutations, "seed": s.bootstrap.seed}),
     );
     doc.insert("warnings".into(), json!(agreement.warnings));
     Value::Object(doc)
@@ -83,10 +85,19 @@ fn human_json(h: &HumanAgreement, doc: &mut Map<String, Value>) {
             p.estimate("spearman", m.p_values.spearman);
             p.estimate("pearson", m.p_values.pearson);
             obj.map.insert("p_values".into(), p.done());
+            obj.map
+                .insert("by_annotator".into(), by_annotator(&m.by_annotator));
             (m.metric.to_string(), obj.done())
         })
         .collect();
     doc.insert("metrics".into(), Value::Object(metrics));
+    doc.insert(
+        "human_ceiling".into(),
+        json!({
+            "by_annotator": by_annotator(&h.ceiling.by_annotator),
+            "mean": correlations(&h.ceiling.mean),
+        }),
+    );
     let mut test = Fields::default();
     let t = &h.pg2s_vs_kas;
     test.map.insert("n".into(), json!(t.n));
@@ -111,6 +122,25 @@ fn human_json(h: &HumanAgreement, doc: &mut Map<String, Value>) {
         })
         .collect();
     doc.insert("pairwise".into(), Value::Object(pairwise));
+}
+
+/// `{n, kendall_tau_b, spearman, pearson}` of one set of correlations.
+fn correlations(c: &Correlations) -> Value {
+    let mut obj = Fields::default();
+    obj.map.insert("n".into(), json!(c.n));
+    obj.estimate("kendall_tau_b", c.kendall_tau_b);
+    obj.estimate("spearman", c.spearman);
+    obj.estimate("pearson", c.pearson);
+    obj.done()
+}
+
+/// `{ANNOTATOR: {n, kendall_tau_b, spearman, pearson}}`.
+fn by_annotator(rows: &[(String, Correlations)]) -> Value {
+    Value::Object(
+        rows.iter()
+            .map(|(name, c)| (name.clone(), correlations(c)))
+            .collect(),
+    )
 }
 
 fn inter_annotator(ia: &InterAnnotator) -> Value {

@@ -15,7 +15,7 @@ pub mod scores;
 use std::collections::{BTreeMap, BTreeSet, HashMap};
 
 use crate::dataset::Pair;
-use crate::stats::bootstrap::{percentile_interval, Bootstrap};
+use crate::stats::bootstrap::{percentile, percentile_interval, Bootstrap};
 use crate::stats::correlation::{Correlations, Paired};
 use crate::stats::krippendorff::{alpha, alpha_weighted, Level};
 use crate::stats::permutation::{tau_b_difference, PermutationTest};
@@ -41,9 +41,37 @@ pub struct Judged {
     pub step_labels: Vec<(String, String, usize, String)>,
 }
 
-/// How the resampling statistics are drawn.
+/// How the current ratings of an item make its human score.
+#[derive(Debug, Clone, Copy, Default, PartialEq, Eq, clap::ValueEnum)]
+pub enum Aggregate {
+    /// The mean of its ratings.
+    #[default]
+    Mean,
+    /// The median of its ratings.
+    Median,
+    /// The mean of its ratings as z-scores of each annotator (the rating
+    /// minus the annotator's mean, over the annotator's population standard
+    /// deviation, as `scipy.stats.zscore`), so that a harsh and a lenient
+    /// annotator weigh alike.
+    Z,
+}
+
+impl Aggregate {
+    /// The name `--aggregate` takes.
+    pub fn as_str(self) -> &'static str {
+        match self {
+            Aggregate::Mean => "mean",
+            Aggregate::Median => "median",
+            Aggregate::Z => "z",
+        }
+    }
+}
+
+/// How the resampling statistics are drawn, and how ratings are combined.
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
 pub struct Settings {
+    /// How an item's ratings make its human score.
+    pub aggregate: Aggregate,
     /// Bootstrap resamples and the seed shared by both streams.
     pub bootstrap: Bootstrap,
     /// Permutations of the PG2S-against-KAS test.
@@ -83,7 +111,24 @@ pub struct HumanAgreement {
     pub inter_annotator: InterAnnotator,
     /// Agreement with pairwise preferences, in the order of [`METRICS`].
     pub pairwise: Vec<PairwiseAgreement>,
+    /// The human ceiling: each annotator against the mean of the others.
+    pub ceiling: Ceiling,
 }
+
+/// The human ceiling, the usual upper bound of metric–human agreement: for
+/// each annotator, the correlation of their ratings with the mean rating of
+/// the other annotators, over the items they rated that another annotator
+/// rated too (leave one annotator out).
+#[derive(Debug, Clone, PartialEq)]
+pub struct Ceiling {
+    /// (annotator, correlations), in the order of the annotators.
+    pub by_annotator: Vec<(String, Correlations)>,
+    /// The mean over annotators of each defined correlation.
+    pub mean: Correlations,
+}
+
+/// The statistics of one column against one annotator's own ratings.
+pub type ByAnnotator = Vec<(String, Correlations)>;
 
 /// The paired permutation test of PG2S against KAS, with what it was
 /// computed over even when it has no value.
@@ -120,6 +165,9 @@ pub struct MetricAgreement {
     pub ci95_resamples: [usize; 4],
     /// The two-sided p-values of tau-b, rho and r (as scipy's).
     pub p_values: PValues,
+    /// The metric against each annotator's own ratings, over the items that
+    /// annotator rated, in the order of the annotators.
+    pub by_annotator: ByAnnotator,
     /// (human score, metric value) of every item compared, for plots.
     pub points: Vec<(f64, f64)>,
 }
@@ -209,30 +257,136 @@ pub fn analyse(
     judged: Option<&Judged>,
     settings: Settings,
 ) -> Agreement {
-    let human_scores = judged.map(human_scores).unwrap_or_default();
+    let mut warnings_out = Vec::new();
+    let human_scores = judged
+        .map(|j| human_scores(j, settings.aggregate, &mut warnings_out))
+        .unwrap_or_default();
     let human = judged.map(|j| human_agreement(j, &human_scores, scores, settings));
+    if let Some(h) = &human {
+        warnings_out.extend(warnings(h, settings));
+    }
     Agreement {
-        warnings: human
-            .as_ref()
-            .map(|h| warnings(h, settings))
-            .unwrap_or_default(),
+        warnings: warnings_out,
         human,
         corruption: corruption(items, scores, &human_scores),
         settings,
     }
 }
 
-/// The mean of each item's current ratings.
-fn human_scores(judged: &Judged) -> BTreeMap<String, f64> {
-    let mut sums: BTreeMap<&str, (f64, u32)> = BTreeMap::new();
-    for (item, _, rating) in &judged.ratings {
-        let entry = sums.entry(item).or_default();
-        entry.0 += rating;
-        entry.1 += 1;
+/// Each item's human score: its current ratings combined by `aggregate`.
+/// With z-scores, an annotator whose ratings are all the same has none,
+/// and is left out with a warning.
+fn human_scores(
+    judged: &Judged,
+    aggregate: Aggregate,
+    warnings: &mut Vec<String>,
+) -> BTreeMap<String, f64> {
+    let mut by_item: BTreeMap<&str, Vec<f64>> = BTreeMap::new();
+    let standard = if aggregate == Aggregate::Z {
+        z_parameters(judged, warnings)
+    } else {
+        HashMap::new()
+    };
+    for (item, annotator, rating) in &judged.ratings {
+        let value = match aggregate {
+            Aggregate::Z => match standard.get(annotator.as_str()) {
+                Some((mean, sd)) => (rating - mean) / sd,
+                None => continue,
+            },
+            _ => *rating,
+        };
+        by_item.entry(item).or_default().push(value);
     }
-    sums.into_iter()
-        .map(|(item, (sum, n))| (item.to_string(), sum / f64::from(n)))
+    by_item
+        .into_iter()
+        .map(|(item, mut values)| {
+            let score = match aggregate {
+                Aggregate::Median => {
+                    values.sort_unstable_by(f64::total_cmp);
+                    percentile(&values, 0.5)
+                }
+                _ => values.iter().sum::<f64>() / values.len() as f64,
+            };
+            (item.to_string(), score)
+        })
         .collect()
+}
+
+/// The mean and population standard deviation of each annotator's current
+/// ratings; annotators whose ratings do not vary are left out, with a warning.
+fn z_parameters<'a>(
+    judged: &'a Judged,
+    warnings: &mut Vec<String>,
+) -> HashMap<&'a str, (f64, f64)> {
+    let mut by_annotator: BTreeMap<&str, Vec<f64>> = BTreeMap::new();
+    for (_, annotator, rating) in &judged.ratings {
+        by_annotator.entry(annotator).or_default().push(*rating);
+    }
+    let mut out = HashMap::new();
+    for (annotator, ratings) in by_annotator {
+        let n = ratings.len() as f64;
+        let mean = ratings.iter().sum::<f64>() / n;
+        let sd = (ratings.iter().map(|r| (r - mean).powi(2)).sum::<f64>() / n).sqrt();
+        if sd > 0.0 {
+            out.insert(annotator, (mean, sd));
+        } else {
+            warnings.push(format!(
+                "--aggregate z: {} gave every item the same rating, so has no z-scores; left out",
+                crate::sanitize::for_terminal(annotator)
+            ));
+        }
+    }
+    out
+}
+
+/// Each annotator's own ratings by item.
+fn ratings_by_annotator<'a>(
+    judged: &'a Judged,
+    annotators: &[String],
+) -> Vec<BTreeMap<&'a str, f64>> {
+    let mut out = vec![BTreeMap::new(); annotators.len()];
+    for (item, annotator, rating) in &judged.ratings {
+        if let Ok(a) = annotators.binary_search(annotator) {
+            out[a].insert(item.as_str(), *rating);
+        }
+    }
+    out
+}
+
+/// The human ceiling ([`Ceiling`]).
+fn ceiling(own: &[BTreeMap<&str, f64>], annotators: &[String]) -> Ceiling {
+    let by_annotator: Vec<(String, Correlations)> = annotators
+        .iter()
+        .enumerate()
+        .map(|(a, name)| {
+            let (mut x, mut y) = (Vec::new(), Vec::new());
+            for (item, &rating) in &own[a] {
+                let others: Vec<f64> = (0..own.len())
+                    .filter(|&b| b != a)
+                    .filter_map(|b| own[b].get(item).copied())
+                    .collect();
+                if !others.is_empty() {
+                    x.push(rating);
+                    y.push(others.iter().sum::<f64>() / others.len() as f64);
+                }
+            }
+            (name.clone(), Paired::new(&x, &y).correlations())
+        })
+        .collect();
+    let mean = |f: fn(&Correlations) -> Estimate| -> Estimate {
+        let defined: Vec<f64> = by_annotator.iter().filter_map(|(_, c)| f(c).ok()).collect();
+        crate::stats::summary::mean(&defined).map_err(|_| Undefined::NoSharedUnits)
+    };
+    Ceiling {
+        mean: Correlations {
+            n: by_annotator.iter().map(|(_, c)| c.n).sum(),
+            kendall_tau_b: mean(|c| c.kendall_tau_b),
+            spearman: mean(|c| c.spearman),
+            pearson: mean(|c| c.pearson),
+            pairwise_accuracy: mean(|c| c.pairwise_accuracy),
+        },
+        by_annotator,
+    }
 }
 
 fn human_agreement(
@@ -292,6 +446,7 @@ fn human_agreement(
     let alpha_ci = [0, 1]
         .map(|k| percentile_interval(alpha_resampled.iter().map(|a: &[Estimate; 2]| a[k]), 0.95));
     let alpha_used = [0, 1].map(|k| alpha_resampled.iter().filter(|a| a[k].is_ok()).count());
+    let own = ratings_by_annotator(judged, &annotators);
     let metrics = (0..METRICS.len())
         .map(|m| {
             let interval = |f: fn(&Correlations) -> Estimate| {
@@ -309,6 +464,17 @@ fn human_agreement(
                     used(|c| c.pairwise_accuracy),
                 ],
                 correlations: paired[m].correlations(),
+                by_annotator: annotators
+                    .iter()
+                    .zip(&own)
+                    .map(|(name, theirs)| {
+                        let (x, y): (Vec<f64>, Vec<f64>) = theirs
+                            .iter()
+                            .filter_map(|(item, &r)| Some((value(item, m)?, r)))
+                            .unzip();
+                        (name.clone(), Paired::new(&x, &y).correlations())
+                    })
+                    .collect(),
                 p_values: paired[m].p_values(),
                 ci95: Intervals {
                     kendall_tau_b: interval(|c| c.kendall_tau_b),
@@ -355,6 +521,7 @@ fn human_agreement(
     ) = step_label_alpha(judged);
     HumanAgreement {
         items: rated.len(),
+        ceiling: ceiling(&own, &annotators),
         inter_annotator,
         annotators,
         metrics,
@@ -564,6 +731,7 @@ mod tests {
 
     fn settings(resamples: usize, permutations: usize) -> Settings {
         Settings {
+            aggregate: Aggregate::Mean,
             bootstrap: Bootstrap { resamples, seed: 5 },
             permutations,
         }
@@ -684,6 +852,154 @@ mod tests {
         let nominal = ia.step_labels.unwrap_or(f64::NAN);
         assert!((nominal - (1.0 - 2.0 / 3.6)).abs() < 1e-12, "{nominal}");
         assert_eq!(ia.step_labels_shared, 3);
+    }
+
+    /// Three annotators over five items (`y` leaves `e` out).
+    fn three_annotators() -> (HashMap<String, MetricValues>, Judged) {
+        let metric = |v: f64| [Some(v), None, None, None];
+        let scores = scores(&[
+            ("a", metric(0.1)),
+            ("b", metric(0.3)),
+            ("c", metric(0.2)),
+            ("d", metric(0.8)),
+            ("e", metric(0.7)),
+        ]);
+        let mut rows = Vec::new();
+        for (who, ratings) in [
+            (
+                "x",
+                [("a", 1.0), ("b", 2.0), ("c", 3.0), ("d", 4.0), ("e", 5.0)].as_slice(),
+            ),
+            ("y", &[("a", 2.0), ("b", 2.0), ("c", 4.0), ("d", 5.0)]),
+            (
+                "z",
+                &[("a", 1.0), ("c", 2.0), ("d", 4.0), ("e", 4.0), ("b", 3.0)],
+            ),
+        ] {
+            rows.extend(ratings.iter().map(|&(i, r)| (i, who, r)));
+        }
+        (scores, ratings(&rows))
+    }
+
+    fn near(e: Estimate, want: f64) {
+        let got = e.unwrap_or(f64::NAN);
+        assert!((got - want).abs() < 1e-12, "{got} against {want}");
+    }
+
+    #[test]
+    fn the_ceiling_and_the_annotators_match_definitional_python() {
+        // scipy 1.17.1: each annotator against the mean of the others, and
+        // PG2S against each annotator (/tmp scratch ceiling.py).
+        let (scores, judged) = three_annotators();
+        let h = analyse(&[], &scores, Some(&judged), settings(10, 10))
+            .human
+            .unwrap_or_else(|| panic!("no human part"));
+        let want = [
+            (
+                "x",
+                5,
+                0.7999999999999999,
+                0.8999999999999998,
+                0.9271726499455307,
+            ),
+            (
+                "y",
+                4,
+                0.7999999999999999,
+                0.8333333333333335,
+                0.816496580927726,
+            ),
+            (
+                "z",
+                5,
+                0.7378647873726218,
+                0.8720815992723809,
+                0.7922178413538746,
+            ),
+        ];
+        for ((name, c), (w, n, tau, rho, r)) in h.ceiling.by_annotator.iter().zip(want) {
+            assert_eq!((name.as_str(), c.n), (w, n));
+            near(c.kendall_tau_b, tau);
+            near(c.spearman, rho);
+            near(c.pearson, r);
+        }
+        near(
+            h.ceiling.mean.kendall_tau_b,
+            (0.7999999999999999 * 2.0 + 0.7378647873726218) / 3.0,
+        );
+        let want = [
+            ("x", 5, 0.6, 0.7999999999999999, 0.8630442403635761),
+            (
+                "y",
+                4,
+                0.5477225575051662,
+                0.632455532033676,
+                0.7504787743864566,
+            ),
+            (
+                "z",
+                5,
+                0.9486832980505137,
+                0.9746794344808964,
+                0.9357789437979189,
+            ),
+        ];
+        for ((name, c), (w, n, tau, rho, r)) in h.metrics[0].by_annotator.iter().zip(want) {
+            assert_eq!((name.as_str(), c.n), (w, n));
+            near(c.kendall_tau_b, tau);
+            near(c.spearman, rho);
+            near(c.pearson, r);
+        }
+    }
+
+    #[test]
+    fn z_scores_and_the_median_match_definitional_python() {
+        let (scores, judged) = three_annotators();
+        let with = |aggregate| {
+            let s = Settings {
+                aggregate,
+                ..settings(10, 10)
+            };
+            let mut warnings = Vec::new();
+            let h = human_scores(&judged, aggregate, &mut warnings);
+            assert!(warnings.is_empty(), "{warnings:?}");
+            (h, analyse(&[], &scores, Some(&judged), s))
+        };
+        // The mean over annotators of scipy.stats.zscore of each one's ratings.
+        let (z, agreement) = with(Aggregate::Z);
+        for (item, want) in [
+            ("a", -1.3066504257683504),
+            ("b", -0.49928621489780495),
+            ("c", -0.03621469046013651),
+            ("d", 1.0277496400502426),
+            ("e", 1.2216025366140741),
+        ] {
+            near(Ok(z[item]), want);
+        }
+        let pg2s = |a: &Agreement| a.human.as_ref().map(|h| h.metrics[0].correlations);
+        near(
+            pg2s(&agreement).map_or(Err(Undefined::NoResample), |c| c.kendall_tau_b),
+            0.6,
+        );
+        let (median, agreement) = with(Aggregate::Median);
+        assert_eq!(median["e"], 4.5);
+        assert_eq!(median["b"], 2.0);
+        near(
+            pg2s(&agreement).map_or(Err(Undefined::NoResample), |c| c.pearson),
+            0.8745845667776,
+        );
+        // An annotator who gives one rating throughout has no z-scores.
+        let flat = ratings(&[
+            ("a", "x", 1.0),
+            ("b", "x", 3.0),
+            ("a", "q", 4.0),
+            ("b", "q", 4.0),
+        ]);
+        let mut warnings = Vec::new();
+        let z = human_scores(&flat, Aggregate::Z, &mut warnings);
+        assert_eq!((z["a"], z["b"]), (-1.0, 1.0));
+        assert_eq!(warnings.len(), 1, "{warnings:?}");
+        assert!(warnings[0].contains("q gave every item the same rating"));
     }
 
     #[test]

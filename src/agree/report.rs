@@ -46,8 +46,14 @@ fn human_section(h: &HumanAgreement, agreement: &Agreement, out: &mut String) {
     );
     let _ = writeln!(
         out,
-        "95% intervals: percentile bootstrap, {} resamples, seed {}\n",
-        s.bootstrap.resamples, s.bootstrap.seed
+        "Human score: the {} of an item's ratings; 95% intervals: percentile bootstrap, {} resamples, seed {}\n",
+        match s.aggregate {
+            super::Aggregate::Mean => "mean",
+            super::Aggregate::Median => "median",
+            super::Aggregate::Z => "mean z-score (per annotator)",
+        },
+        s.bootstrap.resamples,
+        s.bootstrap.seed
     );
     let _ = writeln!(
         out,
@@ -81,6 +87,39 @@ fn human_section(h: &HumanAgreement, agreement: &Agreement, out: &mut String) {
     }
     for note in &notes {
         let _ = writeln!(out, "  – {note}");
+    }
+    let _ = writeln!(
+        out,
+        "\nHuman ceiling (each annotator against the mean of the others) and each metric against each annotator, tau-b / rho / r:"
+    );
+    let three = |c: &crate::stats::correlation::Correlations| {
+        format!(
+            "{} / {} / {} (n {})",
+            short(c.kendall_tau_b),
+            short(c.spearman),
+            short(c.pearson),
+            c.n
+        )
+    };
+    for (name, c) in &h.ceiling.by_annotator {
+        let _ = writeln!(
+            out,
+            "  ceiling  {:<10} {}",
+            crate::sanitize::for_terminal(name),
+            three(c)
+        );
+    }
+    let _ = writeln!(out, "  ceiling  {:<10} {}", "mean", three(&h.ceiling.mean));
+    for m in &h.metrics {
+        for (name, c) in &m.by_annotator {
+            let _ = writeln!(
+                out,
+                "  {:<8} {:<10} {}",
+                m.metric,
+                crate::sanitize::for_terminal(name),
+                three(c)
+            );
+        }
     }
     let _ = writeln!(out, "\nTwo-sided p-values (as scipy.stats):");
     for m in &h.metrics {
@@ -190,6 +229,11 @@ fn value(e: Estimate) -> String {
         Ok(x) => format!("{x:.3}"),
         Err(why) => format!("n/a ({why})"),
     }
+}
+
+/// A value with three decimals, or `—` when it has none.
+fn short(e: Estimate) -> String {
+    e.map_or_else(|_| "—".to_string(), |x| format!("{x:.3}"))
 }
 
 fn with_interval(e: Estimate, ci: Interval) -> String {

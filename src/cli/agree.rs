@@ -10,7 +10,7 @@ use anyhow::bail;
 use clap::Args;
 
 use crate::agree::scores::load_scores;
-use crate::agree::{analyse, json, plot, report, Judged, Settings};
+use crate::agree::{analyse, json, plot, report, Aggregate, Judged, Settings};
 use crate::annotate::{Annotations, Current, Preference};
 use crate::dataset::{open_pairs, Pair};
 use crate::stats::bootstrap::Bootstrap;
@@ -44,6 +44,10 @@ pub struct AgreeArgs {
     /// Also draw the scatter plots into this figure (.svg or .png).
     #[arg(long, value_name = "FILE.svg|FILE.png")]
     pub plot: Option<PathBuf>,
+    /// How an item's ratings make its human score: their mean, their median,
+    /// or the mean of each annotator's z-scores.
+    #[arg(long, value_enum, default_value_t = Aggregate::Mean, value_name = "HOW")]
+    pub aggregate: Aggregate,
     /// Bootstrap resamples for the 95% intervals.
     #[arg(
         long,
@@ -111,6 +115,7 @@ pub fn run(args: &AgreeArgs) -> anyhow::Result<ExitCode> {
         Some(read_judgements(args, &items, &mut bad_lines)?)
     };
     let settings = Settings {
+        aggregate: args.aggregate,
         bootstrap: Bootstrap {
             resamples: args.bootstrap,
             seed: args.seed,
