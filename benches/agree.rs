@@ -52,6 +52,7 @@ fn data() -> (Vec<Pair>, HashMap<String, MetricValues>, Judged) {
     let judged = Judged {
         ratings,
         preferences: Vec::new(),
+        step_labels: Vec::new(),
     };
     (items, scores, judged)
 }
@@ -59,6 +60,7 @@ fn data() -> (Vec<Pair>, HashMap<String, MetricValues>, Judged) {
 fn bench(c: &mut Criterion) {
     let (items, scores, judged) = data();
     let settings = Settings {
+        aggregate: mapvlm::agree::Aggregate::Mean,
         bootstrap: Bootstrap {
             resamples: 1000,
             seed: 0,

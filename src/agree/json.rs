@@ -5,13 +5,34 @@
 use serde_json::{json, Map, Value};
 
 use super::{Agreement, Detection, HumanAgreement, InterAnnotator, Interval};
+use crate::stats::correlation::Correlations;
 use crate::stats::Estimate;
+
+/// The keys that need human judgements, `null` without annotations.
+const HUMAN_KEYS: [&str; 7] = [
+    "items",
+    "human_ceiling",
+    "annotators",
+    "metrics",
+    "pg2s_vs_kas",
+    "inter_annotator",
+    "pairwise",
+];
 
 /// The whole document.
 pub fn to_json(agreement: &Agreement) -> Value {
     let mut doc = Map::new();
-    if let Some(human) = &agreement.human {
-        human_json(human, &mut doc);
+    match &agreement.human {
+        Some(human) => human_json(human, &mut doc),
+        None => {
+            // Every key is there; each is null for the same reason.
+            let mut reasons = Map::new();
+            for key in HUMAN_KEYS {
+                doc.insert(key.into(), Value::Null);
+                reasons.insert(key.into(), json!("no annotations given"));
+            }
+            doc.insert("reasons".into(), Value::Object(reasons));
+        }
     }
     let corruption: Map<String, Value> = agreement
         .corruption
@@ -28,8 +49,9 @@ pub fn to_json(agreement: &Agreement) -> Value {
     let s = agreement.settings;
     doc.insert(
         "settings".into(),
-        json!({"bootstrap": s.bootstrap.resamples, "permutations": s.permutations, "seed": s.bootstrap.seed}),
+        json!({"aggregate": s.aggregate.as_str(), "bootstrap": s.bootstrap.resamples, "permutations": s.permutations, "seed": s.bootstrap.seed}),
     );
+    doc.insert("warnings".into(), json!(agreement.warnings));
     Value::Object(doc)
 }
 
@@ -53,26 +75,37 @@ fn human_json(h: &HumanAgreement, doc: &mut Map<String, Value>) {
             ci.interval("pearson", m.ci95.pearson);
             ci.interval("pairwise_accuracy", m.ci95.pairwise_accuracy);
             obj.map.insert("ci95".into(), ci.done());
+            let [tau, rho, r, acc] = m.ci95_resamples;
+            obj.map.insert(
+                "ci95_resamples".into(),
+                json!({"kendall_tau_b": tau, "spearman": rho, "pearson": r, "pairwise_accuracy": acc}),
+            );
             let mut p = Fields::default();
             p.estimate("kendall_tau_b", m.p_values.kendall_tau_b);
             p.estimate("spearman", m.p_values.spearman);
             p.estimate("pearson", m.p_values.pearson);
             obj.map.insert("p_values".into(), p.done());
+            obj.map
+                .insert("by_annotator".into(), by_annotator(&m.by_annotator));
             (m.metric.to_string(), obj.done())
         })
         .collect();
     doc.insert("metrics".into(), Value::Object(metrics));
+    doc.insert(
+        "human_ceiling".into(),
+        json!({
+            "by_annotator": by_annotator(&h.ceiling.by_annotator),
+            "mean": correlations(&h.ceiling.mean),
+        }),
+    );
     let mut test = Fields::default();
-    match &h.pg2s_vs_kas {
-        Ok(t) => {
-            test.map.insert("p_value".into(), json!(t.p_value));
-            test.map.insert("difference".into(), json!(t.difference));
-            test.map.insert("n".into(), json!(t.n));
-            test.map
-                .insert("permutations".into(), json!(t.permutations));
-        }
-        Err(why) => test.estimate("p_value", Err(*why)),
-    }
+    let t = &h.pg2s_vs_kas;
+    test.map.insert("n".into(), json!(t.n));
+    test.estimate("difference", t.difference);
+    test.estimate("p_value", t.test.map(|t| t.p_value));
+    test.map
+        .insert("permutations".into(), json!(t.permutations_used()));
+    test.map.insert("permutations_asked".into(), json!(t.asked));
     doc.insert("pg2s_vs_kas".into(), test.done());
     doc.insert(
         "inter_annotator".into(),
@@ -91,12 +124,42 @@ fn human_json(h: &HumanAgreement, doc: &mut Map<String, Value>) {
     doc.insert("pairwise".into(), Value::Object(pairwise));
 }
 
+/// `{n, kendall_tau_b, spearman, pearson}` of one set of correlations.
+fn correlations(c: &Correlations) -> Value {
+    let mut obj = Fields::default();
+    obj.map.insert("n".into(), json!(c.n));
+    obj.estimate("kendall_tau_b", c.kendall_tau_b);
+    obj.estimate("spearman", c.spearman);
+    obj.estimate("pearson", c.pearson);
+    obj.done()
+}
+
+/// `{ANNOTATOR: {n, kendall_tau_b, spearman, pearson}}`.
+fn by_annotator(rows: &[(String, Correlations)]) -> Value {
+    Value::Object(
+        rows.iter()
+            .map(|(name, c)| (name.clone(), correlations(c)))
+            .collect(),
+    )
+}
+
 fn inter_annotator(ia: &InterAnnotator) -> Value {
     let mut obj = Fields::default();
     obj.estimate("krippendorff_alpha_ordinal", ia.ordinal);
     obj.estimate("krippendorff_alpha_interval", ia.interval);
     obj.map
         .insert("shared_items".into(), json!(ia.shared_items));
+    let mut ci = Fields::default();
+    ci.interval("krippendorff_alpha_ordinal", ia.ci95[0]);
+    ci.interval("krippendorff_alpha_interval", ia.ci95[1]);
+    obj.map.insert("ci95".into(), ci.done());
+    obj.map.insert(
+        "ci95_resamples".into(),
+        json!({"krippendorff_alpha_ordinal": ia.ci95_resamples[0], "krippendorff_alpha_interval": ia.ci95_resamples[1]}),
+    );
+    obj.estimate("krippendorff_alpha_nominal_step_labels", ia.step_labels);
+    obj.map
+        .insert("step_labels_shared".into(), json!(ia.step_labels_shared));
     let pairs: Vec<Value> = ia
         .by_pair
         .iter()

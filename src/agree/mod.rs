@@ -15,9 +15,9 @@ pub mod scores;
 use std::collections::{BTreeMap, BTreeSet, HashMap};
 
 use crate::dataset::Pair;
-use crate::stats::bootstrap::{percentile_interval, Bootstrap};
+use crate::stats::bootstrap::{percentile, percentile_interval, Bootstrap};
 use crate::stats::correlation::{Correlations, Paired};
-use crate::stats::krippendorff::{alpha, Level};
+use crate::stats::krippendorff::{alpha, alpha_weighted, Level};
 use crate::stats::permutation::{tau_b_difference, PermutationTest};
 use crate::stats::pvalue::PValues;
 use crate::stats::{Estimate, Undefined};
@@ -36,20 +36,58 @@ pub struct Judged {
     pub ratings: Vec<(String, String, f64)>,
     /// Current preferences other than "neither": (preferred item, other item).
     pub preferences: Vec<(String, String)>,
+    /// Current step labels: (item, annotator, 0-based step, label); a step
+    /// given several labels by one annotator has them joined by `+`.
+    pub step_labels: Vec<(String, String, usize, String)>,
 }
 
-/// How the resampling statistics are drawn.
+/// How the current ratings of an item make its human score.
+#[derive(Debug, Clone, Copy, Default, PartialEq, Eq, clap::ValueEnum)]
+pub enum Aggregate {
+    /// The mean of its ratings.
+    #[default]
+    Mean,
+    /// The median of its ratings.
+    Median,
+    /// The mean of its ratings as z-scores of each annotator (the rating
+    /// minus the annotator's mean, over the annotator's population standard
+    /// deviation, as `scipy.stats.zscore`), so that a harsh and a lenient
+    /// annotator weigh alike.
+    Z,
+}
+
+impl Aggregate {
+    /// The name `--aggregate` takes.
+    pub fn as_str(self) -> &'static str {
+        match self {
+            Aggregate::Mean => "mean",
+            Aggregate::Median => "median",
+            Aggregate::Z => "z",
+        }
+    }
+}
+
+/// How the resampling statistics are drawn, and how ratings are combined.
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
 pub struct Settings {
+    /// How an item's ratings make its human score.
+    pub aggregate: Aggregate,
     /// Bootstrap resamples and the seed shared by both streams.
     pub bootstrap: Bootstrap,
     /// Permutations of the PG2S-against-KAS test.
     pub permutations: usize,
 }
 
+/// Below this many items a statistic is reported with a warning: it
+/// rests on too few items to mean much.
+pub const FEW_ITEMS: usize = 10;
+
 /// Everything `agree` reports.
 #[derive(Debug, Clone, PartialEq)]
 pub struct Agreement {
+    /// What the reader should know before trusting a number: statistics
+    /// over very few items, resamples or permutations left out.
+    pub warnings: Vec<String>,
     /// Agreement with people; `None` when no annotations were given.
     pub human: Option<HumanAgreement>,
     /// Corruption detection: kind → metric (or `human`) → counts.
@@ -68,11 +106,49 @@ pub struct HumanAgreement {
     /// One entry per metric, in the order of [`METRICS`].
     pub metrics: Vec<MetricAgreement>,
     /// The paired permutation test of PG2S against KAS on tau-b.
-    pub pg2s_vs_kas: Result<PermutationTest, Undefined>,
+    pub pg2s_vs_kas: KasTest,
     /// Agreement between annotators.
     pub inter_annotator: InterAnnotator,
     /// Agreement with pairwise preferences, in the order of [`METRICS`].
     pub pairwise: Vec<PairwiseAgreement>,
+    /// The human ceiling: each annotator against the mean of the others.
+    pub ceiling: Ceiling,
+}
+
+/// The human ceiling, the usual upper bound of metric–human agreement: for
+/// each annotator, the correlation of their ratings with the mean rating of
+/// the other annotators, over the items they rated that another annotator
+/// rated too (leave one annotator out).
+#[derive(Debug, Clone, PartialEq)]
+pub struct Ceiling {
+    /// (annotator, correlations), in the order of the annotators.
+    pub by_annotator: Vec<(String, Correlations)>,
+    /// The mean over annotators of each defined correlation.
+    pub mean: Correlations,
+}
+
+/// The statistics of one column against one annotator's own ratings.
+pub type ByAnnotator = Vec<(String, Correlations)>;
+
+/// The paired permutation test of PG2S against KAS, with what it was
+/// computed over even when it has no value.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct KasTest {
+    /// The rated items that have both PG2S and KAS.
+    pub n: usize,
+    /// tau-b of PG2S minus tau-b of KAS over those items.
+    pub difference: Estimate,
+    /// The test itself (its p-value and the permutations that had a value).
+    pub test: Result<PermutationTest, Undefined>,
+    /// The permutations asked for (`--permutations`).
+    pub asked: usize,
+}
+
+impl KasTest {
+    /// The permutations whose difference was defined (0 without a test).
+    pub fn permutations_used(&self) -> usize {
+        self.test.map_or(0, |t| t.permutations)
+    }
 }
 
 /// One metric against the human score.
@@ -84,8 +160,14 @@ pub struct MetricAgreement {
     pub correlations: Correlations,
     /// Their 95% percentile-bootstrap intervals.
     pub ci95: Intervals,
+    /// How many resamples each interval rests on (those on which the
+    /// statistic was defined), in the order of the fields of [`Intervals`].
+    pub ci95_resamples: [usize; 4],
     /// The two-sided p-values of tau-b, rho and r (as scipy's).
     pub p_values: PValues,
+    /// The metric against each annotator's own ratings, over the items that
+    /// annotator rated, in the order of the annotators.
+    pub by_annotator: ByAnnotator,
     /// (human score, metric value) of every item compared, for plots.
     pub points: Vec<(f64, f64)>,
 }
@@ -113,6 +195,16 @@ pub struct InterAnnotator {
     pub ordinal: Estimate,
     /// Krippendorff's alpha, interval.
     pub interval: Estimate,
+    /// The 95% percentile-bootstrap intervals of the ordinal and interval
+    /// alpha, on the resamples of the rated items that the correlations use.
+    pub ci95: [Interval; 2],
+    /// How many resamples each of those intervals rests on.
+    pub ci95_resamples: [usize; 2],
+    /// Krippendorff's alpha, nominal, of the step labels: a unit is a step of
+    /// an item that an annotator labelled, a value the label given.
+    pub step_labels: Estimate,
+    /// Steps labelled by two or more annotators.
+    pub step_labels_shared: usize,
     /// Items rated by two or more annotators.
     pub shared_items: usize,
     /// For each pair of annotators (sorted), the items both rated.
@@ -165,26 +257,136 @@ pub fn analyse(
     judged: Option<&Judged>,
     settings: Settings,
 ) -> Agreement {
-    let human_scores = judged.map(human_scores).unwrap_or_default();
+    let mut warnings_out = Vec::new();
+    let human_scores = judged
+        .map(|j| human_scores(j, settings.aggregate, &mut warnings_out))
+        .unwrap_or_default();
     let human = judged.map(|j| human_agreement(j, &human_scores, scores, settings));
+    if let Some(h) = &human {
+        warnings_out.extend(warnings(h, settings));
+    }
     Agreement {
+        warnings: warnings_out,
         human,
         corruption: corruption(items, scores, &human_scores),
         settings,
     }
 }
 
-/// The mean of each item's current ratings.
-fn human_scores(judged: &Judged) -> BTreeMap<String, f64> {
-    let mut sums: BTreeMap<&str, (f64, u32)> = BTreeMap::new();
-    for (item, _, rating) in &judged.ratings {
-        let entry = sums.entry(item).or_default();
-        entry.0 += rating;
-        entry.1 += 1;
+/// Each item's human score: its current ratings combined by `aggregate`.
+/// With z-scores, an annotator whose ratings are all the same has none,
+/// and is left out with a warning.
+fn human_scores(
+    judged: &Judged,
+    aggregate: Aggregate,
+    warnings: &mut Vec<String>,
+) -> BTreeMap<String, f64> {
+    let mut by_item: BTreeMap<&str, Vec<f64>> = BTreeMap::new();
+    let standard = if aggregate == Aggregate::Z {
+        z_parameters(judged, warnings)
+    } else {
+        HashMap::new()
+    };
+    for (item, annotator, rating) in &judged.ratings {
+        let value = match aggregate {
+            Aggregate::Z => match standard.get(annotator.as_str()) {
+                Some((mean, sd)) => (rating - mean) / sd,
+                None => continue,
+            },
+            _ => *rating,
+        };
+        by_item.entry(item).or_default().push(value);
     }
-    sums.into_iter()
-        .map(|(item, (sum, n))| (item.to_string(), sum / f64::from(n)))
+    by_item
+        .into_iter()
+        .map(|(item, mut values)| {
+            let score = match aggregate {
+                Aggregate::Median => {
+                    values.sort_unstable_by(f64::total_cmp);
+                    percentile(&values, 0.5)
+                }
+                _ => values.iter().sum::<f64>() / values.len() as f64,
+            };
+            (item.to_string(), score)
+        })
         .collect()
+}
+
+/// The mean and population standard deviation of each annotator's current
+/// ratings; annotators whose ratings do not vary are left out, with a warning.
+fn z_parameters<'a>(
+    judged: &'a Judged,
+    warnings: &mut Vec<String>,
+) -> HashMap<&'a str, (f64, f64)> {
+    let mut by_annotator: BTreeMap<&str, Vec<f64>> = BTreeMap::new();
+    for (_, annotator, rating) in &judged.ratings {
+        by_annotator.entry(annotator).or_default().push(*rating);
+    }
+    let mut out = HashMap::new();
+    for (annotator, ratings) in by_annotator {
+        let n = ratings.len() as f64;
+        let mean = ratings.iter().sum::<f64>() / n;
+        let sd = (ratings.iter().map(|r| (r - mean).powi(2)).sum::<f64>() / n).sqrt();
+        if sd > 0.0 {
+            out.insert(annotator, (mean, sd));
+        } else {
+            warnings.push(format!(
+                "--aggregate z: {} gave every item the same rating, so has no z-scores; left out",
+                crate::sanitize::for_terminal(annotator)
+            ));
+        }
+    }
+    out
+}
+
+/// Each annotator's own ratings by item.
+fn ratings_by_annotator<'a>(
+    judged: &'a Judged,
+    annotators: &[String],
+) -> Vec<BTreeMap<&'a str, f64>> {
+    let mut out = vec![BTreeMap::new(); annotators.len()];
+    for (item, annotator, rating) in &judged.ratings {
+        if let Ok(a) = annotators.binary_search(annotator) {
+            out[a].insert(item.as_str(), *rating);
+        }
+    }
+    out
+}
+
+/// The human ceiling ([`Ceiling`]).
+fn ceiling(own: &[BTreeMap<&str, f64>], annotators: &[String]) -> Ceiling {
+    let by_annotator: Vec<(String, Correlations)> = annotators
+        .iter()
+        .enumerate()
+        .map(|(a, name)| {
+            let (mut x, mut y) = (Vec::new(), Vec::new());
+            for (item, &rating) in &own[a] {
+                let others: Vec<f64> = (0..own.len())
+                    .filter(|&b| b != a)
+                    .filter_map(|b| own[b].get(item).copied())
+                    .collect();
+                if !others.is_empty() {
+                    x.push(rating);
+                    y.push(others.iter().sum::<f64>() / others.len() as f64);
+                }
+            }
+            (name.clone(), Paired::new(&x, &y).correlations())
+        })
+        .collect();
+    let mean = |f: fn(&Correlations) -> Estimate| -> Estimate {
+        let defined: Vec<f64> = by_annotator.iter().filter_map(|(_, c)| f(c).ok()).collect();
+        crate::stats::summary::mean(&defined).map_err(|_| Undefined::NoSharedUnits)
+    };
+    Ceiling {
+        mean: Correlations {
+            n: by_annotator.iter().map(|(_, c)| c.n).sum(),
+            kendall_tau_b: mean(|c| c.kendall_tau_b),
+            spearman: mean(|c| c.spearman),
+            pearson: mean(|c| c.pearson),
+            pairwise_accuracy: mean(|c| c.pairwise_accuracy),
+        },
+        by_annotator,
+    }
 }
 
 fn human_agreement(
@@ -212,24 +414,67 @@ fn human_agreement(
             Paired::new(&x, &y)
         })
         .collect();
-    let resampled = settings.bootstrap.map(rated.len(), |counts| {
-        columns
+    let annotators: Vec<String> = judged
+        .ratings
+        .iter()
+        .map(|(_, a, _)| a.clone())
+        .collect::<BTreeSet<_>>()
+        .into_iter()
+        .collect();
+    let matrix = coder_matrix(judged, &rated, &annotators);
+    let alphas = |weights: &[u32]| {
+        [Level::Ordinal, Level::Interval].map(|level| {
+            if annotators.len() < 2 {
+                Err(Undefined::NoSharedUnits)
+            } else {
+                alpha_weighted(&matrix, level, weights)
+            }
+        })
+    };
+    let both_resampled = settings.bootstrap.map(rated.len(), |counts| {
+        let correlations = columns
             .iter()
             .zip(&paired)
             .map(|(idx, p)| {
                 let w: Vec<u32> = idx.iter().map(|&i| counts[i]).collect();
                 p.correlations_weighted(&w)
             })
-            .collect::<Vec<_>>()
+            .collect::<Vec<_>>();
+        (correlations, alphas(counts))
     });
+    let (resampled, alpha_resampled): (Vec<_>, Vec<_>) = both_resampled.into_iter().unzip();
+    let alpha_ci = [0, 1]
+        .map(|k| percentile_interval(alpha_resampled.iter().map(|a: &[Estimate; 2]| a[k]), 0.95));
+    let alpha_used = [0, 1].map(|k| alpha_resampled.iter().filter(|a| a[k].is_ok()).count());
+    let own = ratings_by_annotator(judged, &annotators);
     let metrics = (0..METRICS.len())
         .map(|m| {
             let interval = |f: fn(&Correlations) -> Estimate| {
                 percentile_interval(resampled.iter().map(|r| f(&r[m])), 0.95)
             };
+            let used = |f: fn(&Correlations) -> Estimate| {
+                resampled.iter().filter(|r| f(&r[m]).is_ok()).count()
+            };
             MetricAgreement {
                 metric: METRICS[m],
+                ci95_resamples: [
+                    used(|c| c.kendall_tau_b),
+                    used(|c| c.spearman),
+                    used(|c| c.pearson),
+                    used(|c| c.pairwise_accuracy),
+                ],
                 correlations: paired[m].correlations(),
+                by_annotator: annotators
+                    .iter()
+                    .zip(&own)
+                    .map(|(name, theirs)| {
+                        let (x, y): (Vec<f64>, Vec<f64>) = theirs
+                            .iter()
+                            .filter_map(|(item, &r)| Some((value(item, m)?, r)))
+                            .unzip();
+                        (name.clone(), Paired::new(&x, &y).correlations())
+                    })
+                    .collect(),
                 p_values: paired[m].p_values(),
                 ci95: Intervals {
                     kendall_tau_b: interval(|c| c.kendall_tau_b),
@@ -251,23 +496,33 @@ fn human_agreement(
         .filter(|i| value(i, pg2s).is_some() && value(i, kas).is_some())
         .collect();
     let column = |m: usize| -> Vec<f64> { both.iter().filter_map(|i| value(i, m)).collect() };
-    let pg2s_vs_kas = tau_b_difference(
-        &column(pg2s),
-        &column(kas),
-        &both.iter().map(|i| human[*i]).collect::<Vec<_>>(),
-        settings.permutations,
-        settings.bootstrap.seed,
-    );
-    let annotators: Vec<String> = judged
-        .ratings
-        .iter()
-        .map(|(_, a, _)| a.clone())
-        .collect::<BTreeSet<_>>()
-        .into_iter()
-        .collect();
+    let human_both: Vec<f64> = both.iter().map(|i| human[*i]).collect();
+    let (a, b) = (column(pg2s), column(kas));
+    let all = vec![1u32; both.len()];
+    let tau = |x: &[f64]| Paired::new(x, &human_both).kendall_tau_b(&all);
+    let pg2s_vs_kas = KasTest {
+        n: both.len(),
+        difference: tau(&a).and_then(|ta| tau(&b).map(|tb| ta - tb)),
+        test: tau_b_difference(
+            &a,
+            &b,
+            &human_both,
+            settings.permutations,
+            settings.bootstrap.seed,
+        ),
+        asked: settings.permutations,
+    };
+    let mut inter_annotator = inter_annotator(&matrix, &annotators);
+    inter_annotator.ci95 = alpha_ci;
+    inter_annotator.ci95_resamples = alpha_used;
+    (
+        inter_annotator.step_labels,
+        inter_annotator.step_labels_shared,
+    ) = step_label_alpha(judged);
     HumanAgreement {
         items: rated.len(),
-        inter_annotator: inter_annotator(judged, &rated, &annotators),
+        ceiling: ceiling(&own, &annotators),
+        inter_annotator,
         annotators,
         metrics,
         pg2s_vs_kas,
@@ -275,7 +530,65 @@ fn human_agreement(
     }
 }
 
-fn inter_annotator(judged: &Judged, rated: &[&str], annotators: &[String]) -> InterAnnotator {
+/// The warnings of a result: statistics over fewer than [`FEW_ITEMS`]
+/// items, intervals or tests that rest on fewer resamples or permutations
+/// than were asked for.
+fn warnings(h: &HumanAgreement, settings: Settings) -> Vec<String> {
+    let mut out = Vec::new();
+    let few = |n: usize| n > 0 && n < FEW_ITEMS;
+    let asked = settings.bootstrap.resamples;
+    let names = ["tau-b", "rho", "r", "pairwise accuracy"];
+    for m in &h.metrics {
+        let n = m.correlations.n as usize;
+        if few(n) {
+            out.push(format!("{}: correlations over {n} items", m.metric));
+        }
+        for (name, &used) in names.iter().zip(&m.ci95_resamples) {
+            if n > 0 && used < asked {
+                out.push(format!(
+                    "{} {name}: interval over {used} of {asked} resamples (undefined on the others)",
+                    m.metric
+                ));
+            }
+        }
+    }
+    let t = &h.pg2s_vs_kas;
+    if few(t.n) {
+        out.push(format!("PG2S against KAS over {} items", t.n));
+    }
+    if t.difference.is_ok() && t.permutations_used() < t.asked {
+        out.push(format!(
+            "PG2S against KAS: {} of {} permutations had a defined tau-b",
+            t.permutations_used(),
+            t.asked
+        ));
+    }
+    let ia = &h.inter_annotator;
+    if few(ia.shared_items) {
+        out.push(format!(
+            "Krippendorff's alpha over {} shared items",
+            ia.shared_items
+        ));
+    }
+    for (name, &used) in ["ordinal", "interval"].iter().zip(&ia.ci95_resamples) {
+        if ia.shared_items > 0 && used < asked {
+            out.push(format!(
+                "alpha {name}: interval over {used} of {asked} resamples (undefined on the others)"
+            ));
+        }
+    }
+    if few(ia.step_labels_shared) {
+        out.push(format!(
+            "nominal alpha of the step labels over {} shared steps",
+            ia.step_labels_shared
+        ));
+    }
+    out
+}
+
+/// The ratings as coders × units (one row per annotator, one column per
+/// rated item), as Krippendorff's alpha reads them.
+fn coder_matrix(judged: &Judged, rated: &[&str], annotators: &[String]) -> Vec<Vec<Option<f64>>> {
     let unit: HashMap<&str, usize> = rated.iter().enumerate().map(|(u, &i)| (i, u)).collect();
     let coder: HashMap<&str, usize> = annotators
         .iter()
@@ -288,13 +601,51 @@ fn inter_annotator(judged: &Judged, rated: &[&str], annotators: &[String]) -> In
             data[c][u] = Some(*rating);
         }
     }
-    let shared_items = (0..rated.len())
+    data
+}
+
+/// Nominal alpha of the step labels and how many labelled steps two or more
+/// annotators labelled.
+fn step_label_alpha(judged: &Judged) -> (Estimate, usize) {
+    let mut units: BTreeMap<(&str, usize), BTreeMap<&str, &str>> = BTreeMap::new();
+    let mut labels: BTreeSet<&str> = BTreeSet::new();
+    for (item, annotator, step, label) in &judged.step_labels {
+        units
+            .entry((item.as_str(), *step))
+            .or_default()
+            .insert(annotator.as_str(), label.as_str());
+        labels.insert(label.as_str());
+    }
+    let coders: BTreeSet<&str> = units.values().flat_map(|u| u.keys().copied()).collect();
+    let code = |label: &str| labels.iter().position(|&l| l == label).map(|p| p as f64);
+    let data: Vec<Vec<Option<f64>>> = coders
+        .iter()
+        .map(|c| {
+            units
+                .values()
+                .map(|u| u.get(c).and_then(|l| code(l)))
+                .collect()
+        })
+        .collect();
+    let shared = units.values().filter(|u| u.len() >= 2).count();
+    let estimate = if shared == 0 {
+        Err(Undefined::NoSharedSteps)
+    } else {
+        alpha(&data, Level::Nominal)
+    };
+    (estimate, shared)
+}
+
+/// Krippendorff's alpha of the coder matrix and the items it shares.
+fn inter_annotator(data: &[Vec<Option<f64>>], annotators: &[String]) -> InterAnnotator {
+    let units = data.first().map_or(0, Vec::len);
+    let shared_items = (0..units)
         .filter(|&u| data.iter().filter(|row| row[u].is_some()).count() >= 2)
         .count();
     let mut by_pair = Vec::new();
     for a in 0..annotators.len() {
         for b in a + 1..annotators.len() {
-            let shared = (0..rated.len())
+            let shared = (0..units)
                 .filter(|&u| data[a][u].is_some() && data[b][u].is_some())
                 .count();
             by_pair.push((annotators[a].clone(), annotators[b].clone(), shared));
@@ -304,12 +655,16 @@ fn inter_annotator(judged: &Judged, rated: &[&str], annotators: &[String]) -> In
         if annotators.len() < 2 || shared_items == 0 {
             Err(Undefined::NoSharedUnits)
         } else {
-            alpha(&data, level)
+            alpha(data, level)
         }
     };
     InterAnnotator {
         ordinal: level(Level::Ordinal),
         interval: level(Level::Interval),
+        ci95: [Err(Undefined::NoResample); 2],
+        ci95_resamples: [0; 2],
+        step_labels: Err(Undefined::NoSharedSteps),
+        step_labels_shared: 0,
         shared_items,
         by_pair,
     }
@@ -368,4 +723,320 @@ fn corruption(
     }
     table.retain(|_, row| !row.is_empty());
     table
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    fn settings(resamples: usize, permutations: usize) -> Settings {
+        Settings {
+            aggregate: Aggregate::Mean,
+            bootstrap: Bootstrap { resamples, seed: 5 },
+            permutations,
+        }
+    }
+
+    fn scores(rows: &[(&str, MetricValues)]) -> HashMap<String, MetricValues> {
+        rows.iter().map(|(id, v)| (id.to_string(), *v)).collect()
+    }
+
+    fn ratings(rows: &[(&str, &str, f64)]) -> Judged {
+        Judged {
+            ratings: rows
+                .iter()
+                .map(|(i, a, r)| (i.to_string(), a.to_string(), *r))
+                .collect(),
+            ..Judged::default()
+        }
+    }
+
+    #[test]
+    fn every_key_is_there_with_null_and_a_reason() {
+        // Two items; KAS is the same on both, so its tau-b, the difference
+        // and the test are undefined, and nothing has S_plan.
+        let scores = scores(&[
+            ("a", [Some(0.2), None, Some(0.1), Some(0.3)]),
+            ("b", [Some(0.4), None, Some(0.9), Some(0.3)]),
+        ]);
+        let judged = ratings(&[("a", "x", 1.0), ("b", "x", 3.0)]);
+        let agreement = analyse(&[], &scores, Some(&judged), settings(20, 50));
+        let doc = json::to_json(&agreement);
+        let test = &doc["pg2s_vs_kas"];
+        assert_eq!(test["n"], 2);
+        assert!(test["difference"].is_null() && test["p_value"].is_null());
+        assert_eq!(
+            test["reasons"]["difference"],
+            "the metric column is constant"
+        );
+        assert_eq!(test["permutations"], 0);
+        assert_eq!(test["permutations_asked"], 50);
+        let s_plan = &doc["metrics"]["s_plan"];
+        assert_eq!(s_plan["n"], 0);
+        assert!(s_plan["kendall_tau_b"].is_null());
+        assert_eq!(s_plan["reasons"]["kendall_tau_b"], "fewer than two items");
+        assert_eq!(s_plan["ci95_resamples"]["pearson"], 0);
+        let warnings = doc["warnings"].as_array().cloned().unwrap_or_default();
+        assert!(
+            warnings.contains(&"pg2s: correlations over 2 items".into()),
+            "{warnings:?}"
+        );
+        assert!(
+            warnings.contains(&"PG2S against KAS over 2 items".into()),
+            "{warnings:?}"
+        );
+        let without = json::to_json(&analyse(&[], &scores, None, settings(20, 50)));
+        for key in [
+            "items",
+            "metrics",
+            "pg2s_vs_kas",
+            "inter_annotator",
+            "pairwise",
+        ] {
+            assert!(without[key].is_null(), "{key}");
+            assert_eq!(without["reasons"][key], "no annotations given");
+        }
+    }
+
+    #[test]
+    fn alpha_has_an_interval_on_the_resamples_of_the_correlations() {
+        // Three items, two annotators: the interval is the percentile
+        // interval of alpha on each resample of the three items.
+        let scores = scores(&[
+            ("a", [Some(0.1), None, None, None]),
+            ("b", [Some(0.5), None, None, None]),
+            ("c", [Some(0.9), None, None, None]),
+        ]);
+        let mut judged = ratings(&[
+            ("a", "x", 1.0),
+            ("b", "x", 3.0),
+            ("c", "x", 5.0),
+            ("a", "y", 2.0),
+            ("b", "y", 3.0),
+            ("c", "y", 4.0),
+        ]);
+        let step = |i: &str, a: &str, s, l: &str| (i.into(), a.into(), s, l.to_string());
+        judged.step_labels = vec![
+            step("a", "x", 0, "ok"),
+            step("a", "y", 0, "ok"),
+            step("b", "x", 1, "unsafe"),
+            step("b", "y", 1, "unsafe"),
+            step("c", "x", 2, "unsafe"),
+            step("c", "y", 2, "ok"),
+        ];
+        let s = settings(300, 10);
+        let h = analyse(&[], &scores, Some(&judged), s)
+            .human
+            .unwrap_or_else(|| panic!("no human part"));
+        let ia = &h.inter_annotator;
+        // Interval alpha by hand: pairable values 1, 2, 3, 3, 5, 4 (n = 6);
+        // D_o = 2·1² + 0 + 2·1² = 4 over ordered pairs within units;
+        // D_e = 2·(6·Σv² − (Σv)²) / (n − 1) = 2·(384 − 324) / 5 = 24.
+        assert_eq!(
+            ia.interval.map(|a| (a * 1e12).round()),
+            Ok((5e12 / 6.0_f64).round())
+        );
+        let data = vec![
+            vec![Some(1.0), Some(3.0), Some(5.0)],
+            vec![Some(2.0), Some(3.0), Some(4.0)],
+        ];
+        let by_resample: Vec<Estimate> = (0..300)
+            .map(|b| alpha_weighted(&data, Level::Interval, &s.bootstrap.counts(b, 3)))
+            .collect();
+        let used = by_resample.iter().filter(|a| a.is_ok()).count();
+        assert_eq!(ia.ci95_resamples[1], used);
+        assert!(used > 200 && used < 300, "{used}");
+        assert_eq!(ia.ci95[1], percentile_interval(by_resample, 0.95));
+        // Step labels: units (a,0) ok/ok, (b,1) unsafe/unsafe, (c,2)
+        // unsafe/ok: the nominal case worked by hand in stats::krippendorff.
+        let nominal = ia.step_labels.unwrap_or(f64::NAN);
+        assert!((nominal - (1.0 - 2.0 / 3.6)).abs() < 1e-12, "{nominal}");
+        assert_eq!(ia.step_labels_shared, 3);
+    }
+
+    /// Three annotators over five items (`y` leaves `e` out).
+    fn three_annotators() -> (HashMap<String, MetricValues>, Judged) {
+        let metric = |v: f64| [Some(v), None, None, None];
+        let scores = scores(&[
+            ("a", metric(0.1)),
+            ("b", metric(0.3)),
+            ("c", metric(0.2)),
+            ("d", metric(0.8)),
+            ("e", metric(0.7)),
+        ]);
+        let mut rows = Vec::new();
+        for (who, ratings) in [
+            (
+                "x",
+                [("a", 1.0), ("b", 2.0), ("c", 3.0), ("d", 4.0), ("e", 5.0)].as_slice(),
+            ),
+            ("y", &[("a", 2.0), ("b", 2.0), ("c", 4.0), ("d", 5.0)]),
+            (
+                "z",
+                &[("a", 1.0), ("c", 2.0), ("d", 4.0), ("e", 4.0), ("b", 3.0)],
+            ),
+        ] {
+            rows.extend(ratings.iter().map(|&(i, r)| (i, who, r)));
+        }
+        (scores, ratings(&rows))
+    }
+
+    fn near(e: Estimate, want: f64) {
+        let got = e.unwrap_or(f64::NAN);
+        assert!((got - want).abs() < 1e-12, "{got} against {want}");
+    }
+
+    #[test]
+    fn the_ceiling_and_the_annotators_match_definitional_python() {
+        // scipy 1.17.1: each annotator against the mean of the others, and
+        // PG2S against each annotator (/tmp scratch ceiling.py).
+        let (scores, judged) = three_annotators();
+        let h = analyse(&[], &scores, Some(&judged), settings(10, 10))
+            .human
+            .unwrap_or_else(|| panic!("no human part"));
+        let want = [
+            (
+                "x",
+                5,
+                0.7999999999999999,
+                0.8999999999999998,
+                0.9271726499455307,
+            ),
+            (
+                "y",
+                4,
+                0.7999999999999999,
+                0.8333333333333335,
+                0.816496580927726,
+            ),
+            (
+                "z",
+                5,
+                0.7378647873726218,
+                0.8720815992723809,
+                0.7922178413538746,
+            ),
+        ];
+        for ((name, c), (w, n, tau, rho, r)) in h.ceiling.by_annotator.iter().zip(want) {
+            assert_eq!((name.as_str(), c.n), (w, n));
+            near(c.kendall_tau_b, tau);
+            near(c.spearman, rho);
+            near(c.pearson, r);
+        }
+        near(
+            h.ceiling.mean.kendall_tau_b,
+            (0.7999999999999999 * 2.0 + 0.7378647873726218) / 3.0,
+        );
+        let want = [
+            ("x", 5, 0.6, 0.7999999999999999, 0.8630442403635761),
+            (
+                "y",
+                4,
+                0.5477225575051662,
+                0.632455532033676,
+                0.7504787743864566,
+            ),
+            (
+                "z",
+                5,
+                0.9486832980505137,
+                0.9746794344808964,
+                0.9357789437979189,
+            ),
+        ];
+        for ((name, c), (w, n, tau, rho, r)) in h.metrics[0].by_annotator.iter().zip(want) {
+            assert_eq!((name.as_str(), c.n), (w, n));
+            near(c.kendall_tau_b, tau);
+            near(c.spearman, rho);
+            near(c.pearson, r);
+        }
+    }
+
+    #[test]
+    fn z_scores_and_the_median_match_definitional_python() {
+        let (scores, judged) = three_annotators();
+        let with = |aggregate| {
+            let s = Settings {
+                aggregate,
+                ..settings(10, 10)
+            };
+            let mut warnings = Vec::new();
+            let h = human_scores(&judged, aggregate, &mut warnings);
+            assert!(warnings.is_empty(), "{warnings:?}");
+            (h, analyse(&[], &scores, Some(&judged), s))
+        };
+        // The mean over annotators of scipy.stats.zscore of each one's ratings.
+        let (z, agreement) = with(Aggregate::Z);
+        for (item, want) in [
+            ("a", -1.3066504257683504),
+            ("b", -0.49928621489780495),
+            ("c", -0.03621469046013651),
+            ("d", 1.0277496400502426),
+            ("e", 1.2216025366140741),
+        ] {
+            near(Ok(z[item]), want);
+        }
+        let pg2s = |a: &Agreement| a.human.as_ref().map(|h| h.metrics[0].correlations);
+        near(
+            pg2s(&agreement).map_or(Err(Undefined::NoResample), |c| c.kendall_tau_b),
+            0.6,
+        );
+        let (median, agreement) = with(Aggregate::Median);
+        assert_eq!(median["e"], 4.5);
+        assert_eq!(median["b"], 2.0);
+        near(
+            pg2s(&agreement).map_or(Err(Undefined::NoResample), |c| c.pearson),
+            0.8745845667776,
+        );
+        // An annotator who gives one rating throughout has no z-scores.
+        let flat = ratings(&[
+            ("a", "x", 1.0),
+            ("b", "x", 3.0),
+            ("a", "q", 4.0),
+            ("b", "q", 4.0),
+        ]);
+        let mut warnings = Vec::new();
+        let z = human_scores(&flat, Aggregate::Z, &mut warnings);
+        assert_eq!((z["a"], z["b"]), (-1.0, 1.0));
+        assert_eq!(warnings.len(), 1, "{warnings:?}");
+        assert!(warnings[0].contains("q gave every item the same rating"));
+    }
+
+    #[test]
+    fn the_resamples_an_interval_rests_on_are_counted() {
+        // Two items with different scores: tau-b is defined on a resample
+        // exactly when it holds both items once each.
+        let scores = scores(&[
+            ("a", [Some(0.2), None, None, Some(0.3)]),
+            ("b", [Some(0.4), None, None, Some(0.1)]),
+        ]);
+        let judged = ratings(&[("a", "x", 1.0), ("b", "x", 3.0)]);
+        let s = settings(200, 40);
+        let agreement = analyse(&[], &scores, Some(&judged), s);
+        let both = (0..200)
+            .filter(|&b| s.bootstrap.counts(b, 2) == [1, 1])
+            .count();
+        assert!(both > 50 && both < 150, "{both}");
+        let h = agreement
+            .human
+            .as_ref()
+            .unwrap_or_else(|| panic!("no human part"));
+        assert_eq!(h.metrics[0].ci95_resamples[0], both);
+        assert_eq!(h.metrics[0].ci95_resamples[3], both);
+        let warning =
+            format!("pg2s tau-b: interval over {both} of 200 resamples (undefined on the others)");
+        assert!(
+            agreement.warnings.contains(&warning),
+            "{:?}",
+            agreement.warnings
+        );
+        // Swapping the ranks of two items: half the swaps tie the columns.
+        let t = h.pg2s_vs_kas;
+        assert_eq!((t.n, t.difference), (2, Ok(2.0)));
+        assert!(t.permutations_used() < 40, "{t:?}");
+        assert!(agreement
+            .warnings
+            .iter()
+            .any(|w| w.ends_with("of 40 permutations had a defined tau-b")));
+    }
 }

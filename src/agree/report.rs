@@ -14,6 +14,13 @@ const PLOT_HEIGHT: usize = 10;
 /// The whole report.
 pub fn render(agreement: &Agreement) -> String {
     let mut out = String::new();
+    if !agreement.warnings.is_empty() {
+        out.push_str("Warnings:\n");
+        for w in &agreement.warnings {
+            let _ = writeln!(out, "  – {w}");
+        }
+        out.push('\n');
+    }
     match &agreement.human {
         Some(h) => human_section(h, agreement, &mut out),
         None => out.push_str("No annotations given: only corruption detection is reported.\n\n"),
@@ -39,8 +46,14 @@ fn human_section(h: &HumanAgreement, agreement: &Agreement, out: &mut String) {
     );
     let _ = writeln!(
         out,
-        "95% intervals: percentile bootstrap, {} resamples, seed {}\n",
-        s.bootstrap.resamples, s.bootstrap.seed
+        "Human score: the {} of an item's ratings; 95% intervals: percentile bootstrap, {} resamples, seed {}\n",
+        match s.aggregate {
+            super::Aggregate::Mean => "mean",
+            super::Aggregate::Median => "median",
+            super::Aggregate::Z => "mean z-score (per annotator)",
+        },
+        s.bootstrap.resamples,
+        s.bootstrap.seed
     );
     let _ = writeln!(
         out,
@@ -75,6 +88,39 @@ fn human_section(h: &HumanAgreement, agreement: &Agreement, out: &mut String) {
     for note in &notes {
         let _ = writeln!(out, "  – {note}");
     }
+    let _ = writeln!(
+        out,
+        "\nHuman ceiling (each annotator against the mean of the others) and each metric against each annotator, tau-b / rho / r:"
+    );
+    let three = |c: &crate::stats::correlation::Correlations| {
+        format!(
+            "{} / {} / {} (n {})",
+            short(c.kendall_tau_b),
+            short(c.spearman),
+            short(c.pearson),
+            c.n
+        )
+    };
+    for (name, c) in &h.ceiling.by_annotator {
+        let _ = writeln!(
+            out,
+            "  ceiling  {:<10} {}",
+            crate::sanitize::for_terminal(name),
+            three(c)
+        );
+    }
+    let _ = writeln!(out, "  ceiling  {:<10} {}", "mean", three(&h.ceiling.mean));
+    for m in &h.metrics {
+        for (name, c) in &m.by_annotator {
+            let _ = writeln!(
+                out,
+                "  {:<8} {:<10} {}",
+                m.metric,
+                crate::sanitize::for_terminal(name),
+                three(c)
+            );
+        }
+    }
     let _ = writeln!(out, "\nTwo-sided p-values (as scipy.stats):");
     for m in &h.metrics {
         let p = |e: Estimate| match e {
@@ -90,25 +136,43 @@ fn human_section(h: &HumanAgreement, agreement: &Agreement, out: &mut String) {
             p(m.p_values.pearson)
         );
     }
-    match &h.pg2s_vs_kas {
-        Ok(t) => {
+    let t = &h.pg2s_vs_kas;
+    match (t.difference, t.test) {
+        (Ok(d), Ok(test)) => {
             let _ = writeln!(
                 out,
-                "\nPG2S against KAS on tau-b: difference {:+.3} over {} items, p = {:.3} ({} paired permutations)",
-                t.difference, t.n, t.p_value, t.permutations
+                "\nPG2S against KAS on tau-b: difference {d:+.3} over {} items, p = {:.3} ({} of {} paired permutations)",
+                t.n, test.p_value, test.permutations, t.asked
             );
         }
-        Err(why) => {
-            let _ = writeln!(out, "\nPG2S against KAS on tau-b: no test ({why})");
+        (Ok(d), Err(why)) => {
+            let _ = writeln!(
+                out,
+                "\nPG2S against KAS on tau-b: difference {d:+.3} over {} items, no p-value ({why})",
+                t.n
+            );
+        }
+        (Err(why), _) => {
+            let _ = writeln!(
+                out,
+                "\nPG2S against KAS on tau-b: no test over {} items ({why})",
+                t.n
+            );
         }
     }
     let ia = &h.inter_annotator;
     let _ = writeln!(
         out,
         "\nBetween annotators: Krippendorff's alpha ordinal {}, interval {}; {} items rated by two or more",
-        value(ia.ordinal),
-        value(ia.interval),
+        with_interval(ia.ordinal, ia.ci95[0]),
+        with_interval(ia.interval, ia.ci95[1]),
         ia.shared_items
+    );
+    let _ = writeln!(
+        out,
+        "  step labels: nominal alpha {} over {} steps labelled by two or more",
+        value(ia.step_labels),
+        ia.step_labels_shared
     );
     for (a, b, n) in &ia.by_pair {
         let _ = writeln!(out, "  {a} & {b}: {n} shared items");
@@ -165,6 +229,11 @@ fn value(e: Estimate) -> String {
         Ok(x) => format!("{x:.3}"),
         Err(why) => format!("n/a ({why})"),
     }
+}
+
+/// A value with three decimals, or `—` when it has none.
+fn short(e: Estimate) -> String {
+    e.map_or_else(|_| "—".to_string(), |x| format!("{x:.3}"))
 }
 
 fn with_interval(e: Estimate, ci: Interval) -> String {

@@ -10,7 +10,7 @@ use anyhow::bail;
 use clap::Args;
 
 use crate::agree::scores::load_scores;
-use crate::agree::{analyse, json, plot, report, Judged, Settings};
+use crate::agree::{analyse, json, plot, report, Aggregate, Judged, Settings};
 use crate::annotate::{Annotations, Current, Preference};
 use crate::dataset::{open_pairs, Pair};
 use crate::stats::bootstrap::Bootstrap;
@@ -44,6 +44,10 @@ pub struct AgreeArgs {
     /// Also draw the scatter plots into this figure (.svg or .png).
     #[arg(long, value_name = "FILE.svg|FILE.png")]
     pub plot: Option<PathBuf>,
+    /// How an item's ratings make its human score: their mean, their median,
+    /// or the mean of each annotator's z-scores.
+    #[arg(long, value_enum, default_value_t = Aggregate::Mean, value_name = "HOW")]
+    pub aggregate: Aggregate,
     /// Bootstrap resamples for the 95% intervals.
     #[arg(
         long,
@@ -111,6 +115,7 @@ pub fn run(args: &AgreeArgs) -> anyhow::Result<ExitCode> {
         Some(read_judgements(args, &items, &mut bad_lines)?)
     };
     let settings = Settings {
+        aggregate: args.aggregate,
         bootstrap: Bootstrap {
             resamples: args.bootstrap,
             seed: args.seed,
@@ -122,6 +127,11 @@ pub fn run(args: &AgreeArgs) -> anyhow::Result<ExitCode> {
         match &agreement.human {
             Some(human) => plot::write_figure(human, path)?,
             None => bail!("--plot needs --annotations: the figure plots metrics against people"),
+        }
+    }
+    if args.json {
+        for w in &agreement.warnings {
+            eprintln!("mapvlm: warning: {w}");
         }
     }
     let text = if args.json {
@@ -234,7 +244,22 @@ fn read_judgements(
             args.items.display()
         );
     }
+    let mut step_labels = Vec::new();
+    for j in current.judgements() {
+        if let (crate::annotate::Subject::Item(item), Some(v)) = (&j.subject, &j.verdict) {
+            let mut by_step: BTreeMap<usize, Vec<&str>> = BTreeMap::new();
+            for l in &v.step_labels {
+                by_step.entry(l.step).or_default().push(l.label.as_str());
+            }
+            for (step, mut labels) in by_step {
+                labels.sort_unstable();
+                labels.dedup();
+                step_labels.push((item.clone(), j.annotator.clone(), step, labels.join("+")));
+            }
+        }
+    }
     Ok(Judged {
+        step_labels,
         ratings: current
             .ratings()
             .map(|(item, who, r)| (item.to_string(), who.to_string(), f64::from(r)))

@@ -7,6 +7,8 @@
 //! multiplicity of the items ([`Paired::correlations_weighted`]), which is
 //! what a bootstrap resample is, without sorting again.
 
+use super::pairs::{pairs, PairCounts, TieSums};
+use super::pvalue::PValues;
 use super::rank::dense_ranks;
 use super::{Column, Estimate, Undefined};
 
@@ -52,59 +54,6 @@ pub struct Ranked {
     pub ranks: Vec<u32>,
     /// How many distinct values (ranks run below this).
     pub distinct: usize,
-}
-
-/// Pair counts of Knight's algorithm, over the items counted with their
-/// multiplicity.
-#[derive(Debug, Clone, Copy, Default, PartialEq, Eq)]
-pub struct PairCounts {
-    /// All pairs, `n (n - 1) / 2`.
-    pub total: u64,
-    /// Pairs ordered oppositely by the two columns.
-    pub discordant: u64,
-    /// Pairs tied on x.
-    pub x_ties: u64,
-    /// Pairs tied on y.
-    pub y_ties: u64,
-    /// Pairs tied on both.
-    pub joint_ties: u64,
-}
-
-impl PairCounts {
-    /// Pairs ordered the same way by both columns.
-    pub fn concordant(&self) -> u64 {
-        self.total + self.joint_ties - self.discordant - self.x_ties - self.y_ties
-    }
-
-    /// Kendall's tau-b, with the arithmetic of `scipy.stats.kendalltau`.
-    pub fn tau_b(&self, n: u64) -> Estimate {
-        if n < 2 {
-            return Err(Undefined::TooFewItems);
-        }
-        if self.x_ties == self.total {
-            return Err(Undefined::Constant(Column::First));
-        }
-        if self.y_ties == self.total {
-            return Err(Undefined::Constant(Column::Second));
-        }
-        let con_minus_dis = self.concordant() as f64 - self.discordant as f64;
-        let tau = con_minus_dis
-            / ((self.total - self.x_ties) as f64).sqrt()
-            / ((self.total - self.y_ties) as f64).sqrt();
-        Ok(tau.clamp(-1.0, 1.0))
-    }
-
-    /// Pairwise accuracy: concordant pairs over the pairs whose y differ.
-    pub fn pairwise_accuracy(&self, n: u64) -> Estimate {
-        if n < 2 {
-            return Err(Undefined::TooFewItems);
-        }
-        let differing = self.total - self.y_ties;
-        if differing == 0 {
-            return Err(Undefined::NoDifferingPairs);
-        }
-        Ok(self.concordant() as f64 / differing as f64)
-    }
 }
 
 impl Paired {
@@ -176,7 +125,7 @@ impl Paired {
 
     /// The two-sided p-values of tau-b, rho and r over the items as they
     /// are, as scipy computes them ([`super::pvalue`]).
-    pub fn p_values(&self) -> super::pvalue::PValues {
+    pub fn p_values(&self) -> PValues {
         let ones = vec![1; self.len()];
         let (counts, ranks) = self.pair_counts(&ones);
         let n = ranks.n;
@@ -185,13 +134,13 @@ impl Paired {
             for &r in ranks {
                 size[r as usize] += 1;
             }
-            super::pvalue::TieSums::of(size)
+            TieSums::of(size)
         };
         let (x, y) = (
             sizes(&self.x_rank, self.len()),
             sizes(&self.y_rank, self.y_distinct),
         );
-        super::pvalue::PValues {
+        PValues {
             kendall_tau_b: super::pvalue::kendall(n, &counts, x, y),
             spearman: super::pvalue::spearman(n, self.spearman(&ones, &ranks)),
             pearson: super::pvalue::pearson(n, self.pearson(&ones, &ranks)),
@@ -385,11 +334,6 @@ fn counting_order(input: impl Iterator<Item = u32>, key: &[u32], distinct: usize
     order
 }
 
-/// `n (n - 1) / 2`.
-fn pairs(n: u64) -> u64 {
-    n * n.saturating_sub(1) / 2
-}
-
 /// The total weight at Fenwick positions `1..=i`.
 fn prefix(tree: &[u64], mut i: u32) -> u64 {
     let mut sum = 0;
@@ -482,6 +426,42 @@ mod tests {
             (Ok(-1.0), Ok(-1.0), Ok(-1.0))
         );
         assert!(Paired::new(&[], &[]).is_empty());
+    }
+
+    /// Within 1e-9 relative (how the p-values must equal scipy's).
+    fn close_rel(actual: f64, expected: f64) {
+        let scale = expected.abs().max(f64::MIN_POSITIVE);
+        assert!(
+            (actual - expected).abs() <= 1e-9 * scale,
+            "{actual:e} against {expected:e}"
+        );
+    }
+
+    #[test]
+    fn p_values_equal_scipy_on_hand_made_cases() {
+        // scipy 1.17.1: kendalltau, spearmanr and pearsonr of these columns.
+        let x = [1.0, 2.0, 3.0, 4.0, 5.0, 6.0, 7.0, 8.0];
+        let y = [2.0, 1.0, 4.0, 3.0, 6.0, 5.0, 8.0, 7.0];
+        let p = Paired::new(&x, &y).p_values();
+        close_rel(p.kendall_tau_b.unwrap_or(f64::NAN), 0.014136904761904762);
+        close_rel(p.spearman.unwrap_or(f64::NAN), 0.002008275505429469);
+        close_rel(p.pearson.unwrap_or(f64::NAN), 0.0020082755054294755);
+        let x = [0.1, 0.4, 0.4, 0.9, 0.3, 0.7, 0.2, 0.8, 0.5, 0.6];
+        let y = [1.0, 2.0, 2.0, 5.0, 3.0, 4.0, 1.0, 4.0, 3.0, 2.0];
+        let p = Paired::new(&x, &y).p_values();
+        close_rel(p.kendall_tau_b.unwrap_or(f64::NAN), 0.004233038463727445);
+        close_rel(p.spearman.unwrap_or(f64::NAN), 0.0015219301526655069);
+        close_rel(p.pearson.unwrap_or(f64::NAN), 0.0006730121941773329);
+    }
+
+    #[test]
+    fn two_items_and_constant_columns() {
+        let p = Paired::new(&[0.1, 0.2], &[1.0, 2.0]).p_values();
+        assert_eq!(p.kendall_tau_b, Ok(1.0));
+        assert_eq!(p.pearson, Ok(1.0));
+        assert_eq!(p.spearman, Err(Undefined::TooFewItems));
+        let p = Paired::new(&[0.1, 0.1, 0.1], &[1.0, 2.0, 3.0]).p_values();
+        assert!(p.kendall_tau_b.is_err() && p.spearman.is_err() && p.pearson.is_err());
     }
 
     proptest! {

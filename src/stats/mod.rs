@@ -10,6 +10,7 @@
 pub mod bootstrap;
 pub mod correlation;
 pub mod krippendorff;
+pub mod pairs;
 pub mod permutation;
 pub mod pvalue;
 pub mod rank;
@@ -31,6 +32,9 @@ pub enum Undefined {
     /// No unit was judged by two or more coders.
     #[error("no item was rated by two or more annotators")]
     NoSharedUnits,
+    /// No step was labelled by two or more annotators.
+    #[error("no step was labelled by two or more annotators")]
+    NoSharedSteps,
     /// Every pairable value is the same, so there is no disagreement to expect.
     #[error("every rating is the same")]
     NoVariation,

@@ -5,7 +5,7 @@
 //! with n − 2 degrees of freedom (`spearmanr`); Pearson's r by its exact
 //! beta distribution under independence (`pearsonr`).
 
-use super::correlation::PairCounts;
+use super::pairs::{PairCounts, TieSums};
 use super::{Estimate, Undefined};
 
 /// The two-sided p-values of the three correlations.
@@ -17,28 +17,6 @@ pub struct PValues {
     pub spearman: Estimate,
     /// Of Pearson's r (`scipy.stats.pearsonr`).
     pub pearson: Estimate,
-}
-
-/// The sizes of the tie groups of one column (values shared by two or more
-/// items), for the variance of tau-b.
-#[derive(Debug, Clone, Copy, Default, PartialEq, Eq)]
-pub struct TieSums {
-    /// Σ t(t − 1)(t − 2) over the groups.
-    pub cubic: u64,
-    /// Σ t(t − 1)(2t + 5) over the groups.
-    pub variance: u64,
-}
-
-impl TieSums {
-    /// The sums over groups of these sizes.
-    pub fn of(sizes: impl IntoIterator<Item = u64>) -> TieSums {
-        let mut sums = TieSums::default();
-        for t in sizes.into_iter().filter(|&t| t > 1) {
-            sums.cubic += t * (t - 1) * (t - 2);
-            sums.variance += t * (t - 1) * (2 * t + 5);
-        }
-        sums
-    }
 }
 
 /// The p-value of tau-b over `n` items with these pair counts and tie
@@ -206,45 +184,10 @@ fn beta_fraction(a: f64, b: f64, x: f64) -> f64 {
 #[cfg(test)]
 mod tests {
     use super::*;
-    use crate::stats::correlation::Paired;
-
-    fn close(actual: f64, expected: f64) {
-        let scale = expected.abs().max(f64::MIN_POSITIVE);
-        assert!(
-            (actual - expected).abs() <= 1e-9 * scale,
-            "{actual:e} against {expected:e}"
-        );
-    }
-
-    #[test]
-    fn p_values_equal_scipy_on_hand_made_cases() {
-        // scipy 1.17.1: kendalltau, spearmanr and pearsonr of these columns.
-        let x = [1.0, 2.0, 3.0, 4.0, 5.0, 6.0, 7.0, 8.0];
-        let y = [2.0, 1.0, 4.0, 3.0, 6.0, 5.0, 8.0, 7.0];
-        let p = Paired::new(&x, &y).p_values();
-        close(p.kendall_tau_b.unwrap_or(f64::NAN), 0.014136904761904762);
-        close(p.spearman.unwrap_or(f64::NAN), 0.002008275505429469);
-        close(p.pearson.unwrap_or(f64::NAN), 0.0020082755054294755);
-        let x = [0.1, 0.4, 0.4, 0.9, 0.3, 0.7, 0.2, 0.8, 0.5, 0.6];
-        let y = [1.0, 2.0, 2.0, 5.0, 3.0, 4.0, 1.0, 4.0, 3.0, 2.0];
-        let p = Paired::new(&x, &y).p_values();
-        close(p.kendall_tau_b.unwrap_or(f64::NAN), 0.004233038463727445);
-        close(p.spearman.unwrap_or(f64::NAN), 0.0015219301526655069);
-        close(p.pearson.unwrap_or(f64::NAN), 0.0006730121941773329);
-    }
-
-    #[test]
-    fn two_items_and_constant_columns() {
-        let p = Paired::new(&[0.1, 0.2], &[1.0, 2.0]).p_values();
-        assert_eq!(p.kendall_tau_b, Ok(1.0));
-        assert_eq!(p.pearson, Ok(1.0));
-        assert_eq!(p.spearman, Err(Undefined::TooFewItems));
-        let p = Paired::new(&[0.1, 0.1, 0.1], &[1.0, 2.0, 3.0]).p_values();
-        assert!(p.kendall_tau_b.is_err() && p.spearman.is_err() && p.pearson.is_err());
-    }
 
     #[test]
     fn the_incomplete_beta_is_exact_where_it_is_known() {
+        let close = |a: f64, b: f64| assert!((a - b).abs() < 1e-14, "{a:e} against {b:e}");
         close(regularized_beta(1.0, 1.0, 0.3), 0.3);
         close(regularized_beta(2.0, 3.0, 0.4), 0.5247999999999999);
         close(regularized_beta(0.5, 0.5, 0.5), 0.5);

@@ -287,7 +287,8 @@ fn without_annotations_only_the_corruption_table_is_reported() {
     let out = mapvlm(&["agree", "--items", &items, "--scores", &scores, "--json"]);
     assert!(out.status.success(), "{}", text(&out.stderr));
     let doc: Value = serde_json::from_slice(&out.stdout).unwrap_or_else(|e| panic!("{e}"));
-    assert!(doc.get("metrics").is_none());
+    assert!(doc["metrics"].is_null(), "{doc}");
+    assert_eq!(doc["reasons"]["metrics"], "no annotations given");
     assert_eq!(doc["corruption"]["reorder"]["kas"]["detected"], 8);
     let out = mapvlm(&["agree", "--items", &items, "--scores", &scores]);
     assert!(text(&out.stdout).contains("No annotations given"));
