@@ -170,6 +170,9 @@ pub struct MetricAgreement {
     pub by_annotator: ByAnnotator,
     /// (human score, metric value) of every item compared, for plots.
     pub points: Vec<(f64, f64)>,
+    /// The id of each point's item, in the order of `points` (the figure
+    /// colours an item by its corruption kind).
+    pub point_items: Vec<String>,
 }
 
 /// A confidence interval `[low, high]`, or why there is none.
@@ -486,6 +489,7 @@ fn human_agreement(
                     .iter()
                     .filter_map(|&i| Some((human[rated[i]], value(rated[i], m)?)))
                     .collect(),
+                point_items: columns[m].iter().map(|&i| rated[i].to_string()).collect(),
             }
         })
         .collect();

@@ -41,13 +41,21 @@ pub struct AgreeArgs {
     /// Print one JSON document instead of the report.
     #[arg(long)]
     pub json: bool,
-    /// Also draw the scatter plots into this figure (.svg or .png).
+    /// Also draw the figure, one panel per metric against the human score,
+    /// into this file (.svg or .png).
     #[arg(long, value_name = "FILE.svg|FILE.png")]
     pub plot: Option<PathBuf>,
     /// How an item's ratings make its human score: their mean, their median,
     /// or the mean of each annotator's z-scores.
     #[arg(long, value_enum, default_value_t = Aggregate::Mean, value_name = "HOW")]
     pub aggregate: Aggregate,
+    /// The figure's size in pixels (the PNG's; the SVG's drawing units).
+    #[arg(long, value_name = "WxH", default_value = "1200x900", value_parser = parse_size)]
+    pub size: (u32, u32),
+    /// The figure's resolution: its physical size is --size / DPI inches,
+    /// and text, lines and points scale with DPI / 96.
+    #[arg(long, value_name = "DPI", default_value_t = plot::DEFAULT_DPI)]
+    pub dpi: u32,
     /// Bootstrap resamples for the 95% intervals.
     #[arg(
         long,
@@ -92,6 +100,7 @@ pub fn run(args: &AgreeArgs) -> anyhow::Result<ExitCode> {
         }
     }
     let pg2s = args.pg2s.settings()?;
+    let layout = plot::Layout::new(args.size, args.dpi, args.seed)?;
     let mut bad_lines = 0usize;
     let mut items = read_items(args, &mut bad_lines)?;
     let scores = match &args.scores {
@@ -125,7 +134,13 @@ pub fn run(args: &AgreeArgs) -> anyhow::Result<ExitCode> {
     let agreement = analyse(&items, &scores, judged.as_ref(), settings);
     if let Some(path) = &args.plot {
         match &agreement.human {
-            Some(human) => plot::write_figure(human, path)?,
+            Some(human) => {
+                let kinds: HashMap<String, String> = items
+                    .iter()
+                    .filter_map(|i| Some((i.id.clone(), i.corruption.as_ref()?.kind.clone())))
+                    .collect();
+                plot::write_figure(&plot::Figure::of(human, &kinds), &layout, path)?;
+            }
             None => bail!("--plot needs --annotations: the figure plots metrics against people"),
         }
     }
@@ -145,6 +160,17 @@ pub fn run(args: &AgreeArgs) -> anyhow::Result<ExitCode> {
     } else {
         ExitCode::FAILURE
     })
+}
+
+/// `WxH` as (width, height) in pixels.
+fn parse_size(text: &str) -> Result<(u32, u32), String> {
+    let wrong =
+        || format!("{text:?} is not a size; write it as WIDTHxHEIGHT in pixels, e.g. 1200x900");
+    let (w, h) = text.split_once(['x', 'X']).ok_or_else(wrong)?;
+    Ok((
+        w.trim().parse().map_err(|_| wrong())?,
+        h.trim().parse().map_err(|_| wrong())?,
+    ))
 }
 
 /// The items, one per id (a later line with the same id replaces an

@@ -151,28 +151,99 @@ fn the_report_of_the_golden_set() {
     insta::assert_snapshot!("agree_report_golden", text(&out.stdout));
 }
 
+/// An SVG drawn by resvg with an empty font database, as a machine without
+/// any font shows it, at `size` pixels.
+fn render_without_fonts(svg: &str, size: (u32, u32)) -> image::RgbImage {
+    let options = resvg::usvg::Options::default();
+    assert!(options.fontdb.is_empty(), "the font database is empty");
+    let tree = resvg::usvg::Tree::from_str(svg, &options).unwrap_or_else(|e| panic!("{e}"));
+    let mut pixmap =
+        resvg::tiny_skia::Pixmap::new(size.0, size.1).unwrap_or_else(|| panic!("a pixmap"));
+    let scale = size.0 as f32 / tree.size().width();
+    resvg::render(
+        &tree,
+        resvg::tiny_skia::Transform::from_scale(scale, scale),
+        &mut pixmap.as_mut(),
+    );
+    let rgba = image::RgbaImage::from_raw(size.0, size.1, pixmap.take())
+        .unwrap_or_else(|| panic!("the pixmap's size"));
+    image::DynamicImage::ImageRgba8(rgba).to_rgb8()
+}
+
+/// The mean absolute difference of two pictures of one size, per channel,
+/// as a share of 255.
+fn difference(a: &image::RgbImage, b: &image::RgbImage) -> f64 {
+    assert_eq!(a.dimensions(), b.dimensions());
+    let sum: u64 = a
+        .as_raw()
+        .iter()
+        .zip(b.as_raw())
+        .map(|(x, y)| u64::from(x.abs_diff(*y)))
+        .sum();
+    sum as f64 / a.as_raw().len() as f64 / 255.0
+}
+
 #[test]
-fn figures_are_written_as_svg_and_png_with_the_embedded_font() {
+fn the_svg_without_fonts_looks_like_the_png() {
     let dir = tempfile::tempdir().unwrap_or_else(|e| panic!("{e}"));
     let svg = dir.path().join("agree.svg");
     let out = agree_golden(&["--plot", &svg.to_string_lossy(), "--bootstrap", "10"]);
     assert!(out.status.success(), "{}", text(&out.stderr));
     let doc = std::fs::read_to_string(&svg).unwrap_or_else(|e| panic!("{e}"));
-    assert!(doc.starts_with("<svg"), "{}", &doc[..80.min(doc.len())]);
-    for label in ["kas (τb = 0.198, n = 123)", "mean human rating", "<circle"] {
+    assert!(
+        doc.starts_with("<svg width=\"12.5000in\""),
+        "{}",
+        &doc[..80.min(doc.len())]
+    );
+    assert!(!doc.contains("<text"), "no text element needs a font");
+    for label in [
+        "aria-label=\"KAS\"",
+        "aria-label=\"S_plan\"",
+        "aria-label=\"least squares; τb = 0.198, n = 123\"",
+        "aria-label=\"mean human rating\"",
+        "aria-label=\"object-swap (16)\"",
+        "<circle",
+    ] {
         assert!(doc.contains(label), "{label:?} not in the SVG");
     }
     let png = dir.path().join("agree.png");
     let out = agree_golden(&["--plot", &png.to_string_lossy(), "--bootstrap", "10"]);
     assert!(out.status.success(), "{}", text(&out.stderr));
-    let image = image::open(&png).unwrap_or_else(|e| panic!("{e}"));
-    assert_eq!((image.width(), image.height()), (1200, 900));
-    let rgb = image.to_rgb8();
-    let dark = rgb.pixels().filter(|p| p.0.iter().all(|&c| c < 80)).count();
-    assert!(
-        dark > 2000,
-        "the title and labels are drawn ({dark} dark pixels)"
-    );
+    let picture = image::open(&png)
+        .unwrap_or_else(|e| panic!("{e}"))
+        .to_rgb8();
+    assert_eq!(picture.dimensions(), (1200, 900));
+    let d = difference(&picture, &render_without_fonts(&doc, (1200, 900)));
+    assert!(d <= 0.02, "the SVG and the PNG differ by {:.2}%", d * 100.0);
+    // The comparison sees text: the SVG with its text left unfilled
+    // differs from the PNG by more.
+    let bare = doc.replace("<path fill=\"#000000\"", "<path fill=\"none\"");
+    let without_text = difference(&picture, &render_without_fonts(&bare, (1200, 900)));
+    assert!(without_text > d * 1.5, "{without_text} against {d}");
+
+    let small = dir.path().join("small.png");
+    let out = agree_golden(&[
+        "--plot",
+        &small.to_string_lossy(),
+        "--bootstrap",
+        "10",
+        "--size",
+        "600x450",
+        "--dpi",
+        "48",
+    ]);
+    assert!(out.status.success(), "{}", text(&out.stderr));
+    let shrunk = image::open(&small).unwrap_or_else(|e| panic!("{e}"));
+    assert_eq!((shrunk.width(), shrunk.height()), (600, 450));
+    for (flag, value, says) in [
+        ("--size", "1200", "WIDTHxHEIGHT"),
+        ("--size", "50x50", "200 to 10000 pixels"),
+        ("--dpi", "5", "24 to 1200 dpi"),
+    ] {
+        let out = agree_golden(&["--plot", &small.to_string_lossy(), flag, value]);
+        assert!(!out.status.success(), "{flag} {value} is refused");
+        assert!(text(&out.stderr).contains(says), "{}", text(&out.stderr));
+    }
     let out = agree_golden(&["--plot", &dir.path().join("agree.pdf").to_string_lossy()]);
     assert!(!out.status.success());
     assert!(
