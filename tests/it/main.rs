@@ -51,4 +51,5 @@ mod tui_e2e;
 mod tui_graphics;
 mod tui_providers;
 mod tui_runs;
+mod tui_xterm;
 mod wordvec;

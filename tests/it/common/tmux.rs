@@ -34,6 +34,11 @@ impl Tmux {
         }
     }
 
+    /// The server's socket name (`tmux -L NAME`), for a client of its own.
+    pub fn socket(&self) -> &str {
+        &self.socket
+    }
+
     /// Runs `tmux ARGS` on this server and returns what it printed.
     pub fn cmd(&self, args: &[&str]) -> String {
         let out = Command::new("tmux")

@@ -94,7 +94,13 @@ impl UserHome {
 
     /// The real `mapvlm` binary in this home.
     pub fn command(&self) -> Command {
-        let mut command = Command::new(env!("CARGO_BIN_EXE_mapvlm"));
+        self.command_program(env!("CARGO_BIN_EXE_mapvlm"))
+    }
+
+    /// `program` (a wrapper that runs the real binary, such as `setsid`)
+    /// with the environment of [`UserHome::command`].
+    pub fn command_program(&self, program: &str) -> Command {
+        let mut command = Command::new(program);
         command.envs(self.env());
         for name in PROVIDER_VARIABLES {
             command.env_remove(name);
@@ -104,7 +110,7 @@ impl UserHome {
 
     /// The shell line that runs `mapvlm ARGS` in this home as a user would
     /// in a terminal, writing its exit status to `status` in the home.
-    fn shell_line(&self, args: &[&str]) -> String {
+    pub fn shell_line(&self, args: &[&str]) -> String {
         let quote = |s: &str| format!("'{}'", s.replace('\'', r"'\''"));
         let unset: String = PROVIDER_VARIABLES
             .iter()
