@@ -503,6 +503,15 @@ pub fn run_blocking(
     request: RunRequest,
 ) -> Result<(BTreeMap<AgentRole, AgentSettings>, Vec<AgentEvent>), RunError> {
     let settings = pipeline.check(&request)?;
+    Ok((settings, run_events(pipeline, request)?))
+}
+
+/// Runs a request the pipeline accepted to its end on the calling thread:
+/// every event of the run, in order.
+pub fn run_events(
+    pipeline: &dyn Pipeline,
+    request: RunRequest,
+) -> Result<Vec<AgentEvent>, RunError> {
     let runtime = tokio::runtime::Builder::new_current_thread()
         .enable_all()
         .build()
@@ -515,7 +524,7 @@ pub fn run_blocking(
     while let Ok((_, event)) = rx.try_recv() {
         events.push(event);
     }
-    Ok((settings, events))
+    Ok(events)
 }
 
 /// Puts what a user must do in the place of a `replay` agent's failure:

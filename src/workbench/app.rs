@@ -5,8 +5,10 @@
 
 use std::collections::BTreeMap;
 use std::path::PathBuf;
+use std::sync::Arc;
 
-use ratatui_textarea::TextArea;
+use image::DynamicImage;
+use ratatui::layout::Rect;
 
 use crate::agents::config::AgentSettings;
 use crate::agents::cost::PriceTable;
@@ -16,17 +18,20 @@ use crate::demo;
 use crate::workbench::agents;
 use crate::workbench::editing::Editing;
 use crate::workbench::keymap::Context;
+use crate::workbench::layout::{pane_rects, Screen};
 use crate::workbench::message::Cmd;
 use crate::workbench::overlays::Overlay;
 use crate::workbench::panes::graph::GraphPane;
 use crate::workbench::panes::prompt::PromptPane;
+use crate::workbench::panes::scene::scene_image_area;
 use crate::workbench::panes::scene::ScenePane;
-use crate::workbench::panes::steps::{demo_ground_truth, Steps};
-use crate::workbench::panes::Pane;
+use crate::workbench::panes::steps::{demo_ground_truth, StepList, Steps};
+use crate::workbench::panes::{Pane, Panes};
 use crate::workbench::persist::Persist;
 use crate::workbench::runs::{AgentStatus, Runs};
 use crate::workbench::scoring::{ModelSlot, ScoreOutcome, ScoreRequest};
 use crate::workbench::session::{GroundTruthSource, PlanSource, Session, SessionError};
+use crate::workbench::shared::Severity;
 use crate::workbench::theme::Theme;
 
 /// The order the approaches cycle in.
@@ -50,17 +55,6 @@ pub struct TaskView {
     pub table: Option<PathBuf>,
     /// Published plans by approach key.
     pub published: BTreeMap<String, Vec<String>>,
-}
-
-/// How important a status message is.
-#[derive(Debug, Clone, Copy, PartialEq, Eq)]
-pub enum Severity {
-    /// For information.
-    Info,
-    /// Something needs the user.
-    Warn,
-    /// Something failed.
-    Error,
 }
 
 /// What the workbench starts from.
@@ -116,32 +110,43 @@ impl AppInit {
     }
 }
 
-/// The whole state of the workbench.
+/// The whole state of the workbench: the session's data, the focus and the
+/// parts the screen is made of, each group in a struct of its own.
 pub struct App {
     /// The terminal's size.
     pub size: (u16, u16),
     /// The focused pane.
     pub focus: Pane,
-    /// Whether the focused pane fills the screen.
-    pub zoom: bool,
-    /// The theme in use.
-    pub theme: Theme,
-    /// The themes to cycle through.
-    pub themes: Vec<Theme>,
-    /// Whether `NO_COLOR` is in force.
-    pub no_color: bool,
     /// A modal view, if open.
     pub overlay: Option<Overlay>,
     /// An editor, if in use.
     pub editing: Editing,
+    /// The agents and the runs.
+    pub runs: Runs,
+    /// The task, the approach and where the plans came from.
+    pub work: Workspace,
+    /// The panes' own state.
+    pub panes: Panes,
+    /// How the workbench looks.
+    pub looks: Looks,
+    /// The status line's messages.
+    pub messages: Messages,
+    /// The session file's side: what changed, the copies, the last save.
+    pub saving: Saving,
+    /// Set when the user asked to quit.
+    pub quit: bool,
+}
+
+/// The session's data that is no pane's own: the task, the dataset, the
+/// approach, the settings runs start from, where the plans came from and
+/// their scores.
+pub struct Workspace {
     /// The task.
     pub task: TaskView,
     /// The dataset, if loaded.
     pub dataset: Option<Dataset>,
     /// The approach.
     pub approach: Approach,
-    /// The agents and the runs.
-    pub runs: Runs,
     /// How many samples `r` asks each agent for (the `S` key, `--samples`).
     pub samples: u32,
     /// The settings configured agents start with on a user's task.
@@ -149,19 +154,13 @@ pub struct App {
     /// The config file's prices, for the cost of each run in the history
     /// (empty: every cost shows as `no price`).
     pub prices: PriceTable,
-    /// The Prompt pane: every template's text, and its editor.
-    pub prompt: PromptPane,
     /// The folder of the named prompt sets, if there is one.
     pub prompt_sets: Option<PathBuf>,
     /// The prompt set saved or loaded last (empty: none yet).
     pub prompt_set: String,
-    /// The plan steps.
-    pub plan: Steps,
     /// Where the plan came from.
     pub plan_source: PlanSource,
-    /// The ground-truth steps.
-    pub ground_truth: Steps,
-    /// Where they came from.
+    /// Where the ground-truth steps came from.
     pub ground_truth_source: GroundTruthSource,
     /// The latest scores.
     pub scores: Option<ScoreOutcome>,
@@ -169,21 +168,29 @@ pub struct App {
     pub score_generation: u64,
     /// The PG2S models.
     pub models: ModelSlot,
-    /// The Knowledge Graph pane.
-    pub graph: GraphPane,
-    /// The search, highlighted in every pane.
-    pub search: String,
+}
+
+/// How the workbench looks.
+pub struct Looks {
+    /// The theme in use.
+    pub theme: Theme,
+    /// The themes to cycle through.
+    pub themes: Vec<Theme>,
+    /// Whether `NO_COLOR` is in force.
+    pub no_color: bool,
+}
+
+/// The status line's messages.
+pub struct Messages {
     /// The latest status message.
     pub status: Option<(String, Severity)>,
     /// A message from the start (e.g. where an unreadable session file was
     /// moved) that stays in the status bar until Esc dismisses it.
     pub notice: Option<(String, Severity)>,
-    /// The Scene pane.
-    pub scene: ScenePane,
-    /// Scroll offsets of the text panes.
-    pub scroll: BTreeMap<Pane, u16>,
-    /// Set when the user asked to quit.
-    pub quit: bool,
+}
+
+/// The session file's side of the workbench.
+pub struct Saving {
     /// Set when something the session holds changed since the last save.
     pub session_dirty: bool,
     /// The loop's copies of the session for the saver.
@@ -212,18 +219,6 @@ pub(crate) fn task_view(task: &Task) -> TaskView {
     }
 }
 
-pub(crate) fn single_line_editor(text: &str) -> TextArea<'static> {
-    let mut editor = TextArea::new(vec![text.to_string()]);
-    editor.move_cursor(ratatui_textarea::CursorMove::End);
-    editor
-}
-
-pub(crate) fn unix_now() -> u64 {
-    std::time::SystemTime::now()
-        .duration_since(std::time::UNIX_EPOCH)
-        .map_or(0, |d| d.as_secs())
-}
-
 impl App {
     /// A workbench in its starting state, with the commands that start it:
     /// the demo run on a fresh start, and the first scoring.
@@ -241,59 +236,75 @@ impl App {
         let mut app = App {
             size: init.size,
             focus: Pane::Plan,
-            zoom: false,
-            theme,
-            themes: init.themes,
-            no_color: init.no_color,
             overlay: None,
             editing: Editing::None,
-            task: demo_task(),
-            dataset: init.dataset,
-            approach: Approach::MultiImage,
             runs: Runs::new(),
-            samples: 1,
-            configured: init.configured,
-            prices: PriceTable::default(),
-            prompt: PromptPane::new(init.prompts),
-            prompt_sets: init.prompt_sets,
-            prompt_set: String::new(),
-            plan: Steps::default(),
-            plan_source: PlanSource::None,
-            ground_truth: Steps::new(demo_ground_truth(0)),
-            ground_truth_source: GroundTruthSource::Demo { index: 0 },
-            scores: None,
-            score_generation: 0,
-            models: init.models,
-            graph: GraphPane::default(),
-            search: String::new(),
-            status: None,
-            notice: init.notice,
-            scene: ScenePane::demo(),
-            scroll: BTreeMap::new(),
+            work: Workspace {
+                task: demo_task(),
+                dataset: init.dataset,
+                approach: Approach::MultiImage,
+                samples: 1,
+                configured: init.configured,
+                prices: PriceTable::default(),
+                prompt_sets: init.prompt_sets,
+                prompt_set: String::new(),
+                plan_source: PlanSource::None,
+                ground_truth_source: GroundTruthSource::Demo { index: 0 },
+                scores: None,
+                score_generation: 0,
+                models: init.models,
+            },
+            panes: Panes {
+                zoom: false,
+                prompt: PromptPane::new(init.prompts),
+                plan: Steps::default(),
+                ground_truth: Steps::new(demo_ground_truth(0)),
+                graph: GraphPane::default(),
+                scene: ScenePane::demo(),
+                scroll: BTreeMap::new(),
+                search: String::new(),
+            },
+            looks: Looks {
+                theme,
+                themes: init.themes,
+                no_color: init.no_color,
+            },
+            messages: Messages {
+                status: None,
+                notice: init.notice,
+            },
+            saving: Saving {
+                session_dirty: false,
+                persist: Persist::default(),
+                saved: None,
+            },
             quit: false,
-            session_dirty: false,
-            persist: Persist::default(),
-            saved: None,
         };
         let mut cmds = Vec::new();
         match init.session {
             Some(session) => cmds.extend(app.restore(session)),
-            None => match app.dataset.as_ref().and_then(|d| d.tasks.first()).cloned() {
+            None => match app
+                .work
+                .dataset
+                .as_ref()
+                .and_then(|d| d.tasks.first())
+                .cloned()
+            {
                 Some(task) => cmds.extend(app.switch_task(&task)),
                 None => cmds.extend(app.start_run(false)),
             },
         }
-        app.load_prompt_editor();
+        app.panes.prompt.load_editor(app.work.approach);
         cmds.push(app.rescore());
         (app, cmds)
     }
 
     pub(crate) fn rescore(&mut self) -> Cmd {
-        self.score_generation += 1;
-        self.session_dirty = true;
+        self.work.score_generation += 1;
+        self.saving.session_dirty = true;
         let (gt, pred) = self.scored_lists();
         Cmd::Score(ScoreRequest {
-            generation: self.score_generation,
+            generation: self.work.score_generation,
             gt,
             pred,
         })
@@ -301,29 +312,30 @@ impl App {
 
     /// Whether scores are being computed for the latest change.
     pub fn scoring(&self) -> bool {
-        self.scores
+        self.work
+            .scores
             .as_ref()
-            .is_none_or(|s| s.generation < self.score_generation)
+            .is_none_or(|s| s.generation < self.work.score_generation)
     }
 
     pub(crate) fn set_status(&mut self, text: impl Into<String>, severity: Severity) {
-        self.status = Some((text.into(), severity));
+        self.messages.status = Some((text.into(), severity));
     }
 
     /// Whether the demo is what is loaded (no dataset task).
     pub fn is_demo(&self) -> bool {
-        self.task.id.is_none()
+        self.work.task.id.is_none()
     }
 
     /// Switches to a dataset task: its ground truth, image and published plan.
     pub(crate) fn switch_task(&mut self, task: &Task) -> Vec<Cmd> {
-        self.task = task_view(task);
-        self.ground_truth.items = task.ground_truth.clone();
-        self.ground_truth_source = GroundTruthSource::Dataset {
+        self.work.task = task_view(task);
+        self.panes.ground_truth.items = task.ground_truth.clone();
+        self.work.ground_truth_source = GroundTruthSource::Dataset {
             task: task.id.clone(),
         };
-        self.ground_truth.selected = 0;
-        if !self.approach.uses_image() && self.task.table.is_none() {
+        self.panes.ground_truth.selected = 0;
+        if !self.work.approach.uses_image() && self.work.task.table.is_none() {
             self.set_approach(Approach::MultiImage);
         }
         for v in self.runs.agents.values_mut() {
@@ -345,7 +357,7 @@ impl App {
             return;
         }
         for (role, view) in self.runs.agents.iter_mut() {
-            if let Some(chosen) = self.configured.get(role) {
+            if let Some(chosen) = self.work.configured.get(role) {
                 if view.settings.provider == ProviderKind::Replay {
                     view.settings = chosen.clone();
                 }
@@ -354,59 +366,181 @@ impl App {
     }
 
     pub(crate) fn load_published_plan(&mut self) {
-        let key = self.approach.dataset_field();
-        match (self.task.id.clone(), self.task.published.get(key)) {
+        let key = self.work.approach.dataset_field();
+        match (self.work.task.id.clone(), self.work.task.published.get(key)) {
             (Some(task), Some(steps)) => {
-                self.plan.items = steps.clone();
-                self.plan_source = PlanSource::Published {
+                self.panes.plan.items = steps.clone();
+                self.work.plan_source = PlanSource::Published {
                     task,
-                    approach: self.approach,
+                    approach: self.work.approach,
                 };
             }
             _ => {
-                self.plan.items.clear();
-                self.plan_source = PlanSource::None;
+                self.panes.plan.items.clear();
+                self.work.plan_source = PlanSource::None;
             }
         }
-        self.plan.selected = 0;
+        self.panes.plan.selected = 0;
     }
 
     /// Switches the approach, the Prompt pane showing the same agent's
     /// template of the new approach (the planning agent when it has none).
     pub(crate) fn set_approach(&mut self, approach: Approach) {
         if matches!(self.editing, Editing::Prompt) {
-            self.store_prompt_editor();
+            self.panes.prompt.store_editor(self.work.approach);
             self.editing = Editing::None;
         }
-        self.approach = approach;
-        if !approach.roles().contains(&self.prompt.agent) {
-            self.prompt.agent = approach.planning_role();
+        self.work.approach = approach;
+        if !approach.roles().contains(&self.panes.prompt.agent) {
+            self.panes.prompt.agent = approach.planning_role();
         }
-        self.load_prompt_editor();
+        self.panes.prompt.load_editor(self.work.approach);
     }
 
     pub(crate) fn cycle_approach(&mut self) -> Vec<Cmd> {
-        let has_table = self.task.table.is_some();
+        let has_table = self.work.task.table.is_some();
         let start = APPROACH_CYCLE
             .iter()
-            .position(|a| *a == self.approach)
+            .position(|a| *a == self.work.approach)
             .unwrap_or(0);
         let next = (1..=4)
             .map(|k| APPROACH_CYCLE[(start + k) % 4])
             .find(|a| has_table || a.uses_image())
             .unwrap_or(Approach::MultiImage);
         self.set_approach(next);
-        self.session_dirty = true;
+        self.saving.session_dirty = true;
         let mut note = format!("approach: {next}");
         if !has_table {
             note.push_str(" (the table approaches need a task with a table)");
         }
         self.set_status(note, Severity::Info);
-        if matches!(self.plan_source, PlanSource::Published { .. }) {
+        if matches!(self.work.plan_source, PlanSource::Published { .. }) {
             self.load_published_plan();
             return vec![self.rescore()];
         }
         Vec::new()
+    }
+
+    /// The plan and ground truth as scored: with the step being edited as typed.
+    pub fn scored_lists(&self) -> (Vec<String>, Vec<String>) {
+        let mut gt = self.panes.ground_truth.items.clone();
+        let mut plan = self.panes.plan.items.clone();
+        if let Editing::Step {
+            list,
+            index,
+            editor,
+            ..
+        } = &self.editing
+        {
+            let target = match list {
+                StepList::Plan => &mut plan,
+                StepList::GroundTruth => &mut gt,
+            };
+            if let Some(step) = target.get_mut(*index) {
+                *step = editor.lines().join(" ");
+            }
+        }
+        gt.retain(|s| !s.trim().is_empty());
+        plan.retain(|s| !s.trim().is_empty());
+        (gt, plan)
+    }
+
+    /// Rebuilds the graph from the SKM's latest output.
+    pub(crate) fn refresh_graph(&mut self) {
+        let output = self
+            .runs
+            .agents
+            .get(&AgentRole::Skm)
+            .map(|v| v.output.as_str())
+            .unwrap_or_default();
+        self.panes.graph.set_output(output);
+    }
+
+    /// The text of `agent`'s prompt template in the current approach, with
+    /// the editor's text when it is being edited.
+    pub fn prompt_of(&self, agent: AgentRole) -> String {
+        let editing = matches!(self.editing, Editing::Prompt);
+        self.panes
+            .prompt
+            .text_of(self.work.approach, agent, editing)
+    }
+
+    pub(crate) fn load_scene(&mut self) -> Vec<Cmd> {
+        self.panes.scene.protocol = None;
+        self.panes.scene.requested = None;
+        if let Some(message) = self.panes.scene.message.take() {
+            if self
+                .messages
+                .status
+                .as_ref()
+                .is_some_and(|(text, _)| *text == message)
+            {
+                self.messages.status = None;
+            }
+        }
+        match &self.work.task.image {
+            Some(path) => {
+                self.panes.scene.image = None;
+                vec![Cmd::LoadImage(path.clone())]
+            }
+            None if self.is_demo() => {
+                self.panes.scene.image =
+                    Some(Arc::new(DynamicImage::ImageRgb8(demo::scene_image())));
+                Vec::new()
+            }
+            None => {
+                self.panes.scene.image = None;
+                Vec::new()
+            }
+        }
+    }
+
+    /// The terminal area the scene image is shown in now, when it is.
+    pub fn image_area(&self) -> Option<Rect> {
+        if !self.panes.scene.enabled || self.panes.scene.image.is_none() {
+            return None;
+        }
+        let screen = Rect::new(0, 0, self.size.0, self.size.1);
+        let Screen::Panes { panes, .. } = pane_rects(screen, self.focus, self.panes.zoom) else {
+            return None;
+        };
+        let (_, rect) = panes.into_iter().find(|(p, _)| *p == Pane::Scene)?;
+        let inner = scene_image_area(rect);
+        (inner.width > 0 && inner.height > 0).then_some(inner)
+    }
+
+    /// Where a picture is on the screen and whether it is held back (an
+    /// overlay is open), when one is drawn: a picture kitty placed directly
+    /// must be taken off whenever this changes.
+    pub fn picture_shown(&self) -> Option<(Rect, bool)> {
+        let area = self.image_area()?;
+        let drawn = matches!(&self.panes.scene.protocol, Some((r, _)) if *r == area);
+        drawn.then_some((area, self.overlay.is_some()))
+    }
+
+    /// The terminal area the scene image should be encoded for, when it is
+    /// shown and not yet encoded for that area.
+    pub fn image_area_wanted(&self) -> Option<Rect> {
+        let inner = self.image_area()?;
+        let encoded = matches!(&self.panes.scene.protocol, Some((r, _)) if *r == inner);
+        (!encoded && self.panes.scene.requested != Some(inner)).then_some(inner)
+    }
+
+    /// Shows `text` on the status line as a message about the scene image:
+    /// it goes away with the image.
+    pub(crate) fn image_status(&mut self, text: String) {
+        self.set_status(text.clone(), Severity::Warn);
+        self.panes.scene.message = Some(text);
+    }
+
+    /// Notes that the scene is being encoded for `area` and returns what the
+    /// encoding needs, when the image is wanted in an area it is not
+    /// encoded (or being encoded) for: the loop hands it to a task.
+    pub fn request_image(&mut self) -> Option<(Rect, Arc<DynamicImage>)> {
+        let area = self.image_area_wanted()?;
+        let image = self.panes.scene.image.clone()?;
+        self.panes.scene.requested = Some(area);
+        Some((area, image))
     }
 
     /// Whether an editor (step, prompt or search) has the keyboard.
@@ -428,7 +562,7 @@ impl App {
     pub fn pane_contexts(&self) -> Vec<Context> {
         let pane = match self.focus {
             Pane::Plan | Pane::GroundTruth => Some(Context::Steps),
-            Pane::Graph => Some(self.graph.context()),
+            Pane::Graph => Some(self.panes.graph.context()),
             Pane::Prompt => Some(Context::Prompt),
             _ => None,
         };

@@ -3,12 +3,13 @@
 use crossterm::event::KeyEvent;
 use ratatui_textarea::TextArea;
 
-use crate::workbench::app::{App, Severity};
+use crate::workbench::app::App;
 use crate::workbench::keymap::{self, Action, Context};
 use crate::workbench::message::Cmd;
 use crate::workbench::panes::steps::StepList;
 use crate::workbench::panes::Pane;
 use crate::workbench::session::GroundTruthSource;
+use crate::workbench::shared::Severity;
 
 /// An editor in use.
 #[derive(Debug, Clone)]
@@ -55,15 +56,16 @@ impl App {
                 inserted,
             } => match action {
                 Some(Action::Accept) => {
-                    self.steps_mut(list)
+                    self.panes
+                        .steps_mut(list)
                         .commit(index, &editor.lines().join(" "));
                     if list == StepList::GroundTruth {
-                        self.ground_truth_source = GroundTruthSource::Typed;
+                        self.work.ground_truth_source = GroundTruthSource::Typed;
                     }
                     vec![self.rescore()]
                 }
                 Some(Action::Leave) => {
-                    self.steps_mut(list).discard(index, inserted);
+                    self.panes.steps_mut(list).discard(index, inserted);
                     vec![self.rescore()]
                 }
                 _ => {
@@ -79,30 +81,30 @@ impl App {
             },
             Editing::Prompt => {
                 if action == Some(Action::Leave) {
-                    self.store_prompt_editor();
-                    self.session_dirty = true;
+                    self.panes.prompt.store_editor(self.work.approach);
+                    self.saving.session_dirty = true;
                     if let Some(note) = self.provider_note() {
                         self.set_status(note, Severity::Warn);
                     }
                     return Vec::new();
                 }
                 if action == Some(Action::RunFromEditor) {
-                    self.store_prompt_editor();
-                    self.session_dirty = true;
+                    self.panes.prompt.store_editor(self.work.approach);
+                    self.saving.session_dirty = true;
                     return self.start_run(false);
                 }
-                self.prompt.editor.input(key);
+                self.panes.prompt.editor.input(key);
                 self.editing = Editing::Prompt;
-                self.session_dirty = true;
+                self.saving.session_dirty = true;
                 Vec::new()
             }
             Editing::Search(mut editor) => {
                 match action {
-                    Some(Action::Leave) => self.search.clear(),
+                    Some(Action::Leave) => self.panes.search.clear(),
                     Some(Action::Accept) => self.jump_to_search(),
                     _ => {
                         editor.input(key);
-                        self.search = editor.lines().join("");
+                        self.panes.search = editor.lines().join("");
                         self.editing = Editing::Search(editor);
                     }
                 }
@@ -120,13 +122,13 @@ impl App {
                 vec![self.rescore()]
             }
             Editing::Prompt => {
-                self.prompt.editor.insert_str(text);
-                self.session_dirty = true;
+                self.panes.prompt.editor.insert_str(text);
+                self.saving.session_dirty = true;
                 Vec::new()
             }
             Editing::Search(editor) => {
                 editor.insert_str(&flat);
-                self.search = editor.lines().join("");
+                self.panes.search = editor.lines().join("");
                 Vec::new()
             }
             Editing::None => Vec::new(),
@@ -135,17 +137,20 @@ impl App {
 
     /// Moves the focused list's selection to the next step holding the search.
     pub(crate) fn jump_to_search(&mut self) {
-        if self.search.is_empty() {
+        if self.panes.search.is_empty() {
             return;
         }
         let list = match self.focus {
             Pane::GroundTruth => StepList::GroundTruth,
             _ => StepList::Plan,
         };
-        let hit = self.steps(list).next_hit(&self.search);
+        let hit = self.panes.steps(list).next_hit(&self.panes.search);
         match hit {
-            Some(i) => self.steps_mut(list).selected = i,
-            None => self.set_status(format!("no step holds “{}”", self.search), Severity::Info),
+            Some(i) => self.panes.steps_mut(list).selected = i,
+            None => self.set_status(
+                format!("no step holds “{}”", self.panes.search),
+                Severity::Info,
+            ),
         }
     }
 }

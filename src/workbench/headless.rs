@@ -1,29 +1,20 @@
 //! The commands of `update` carried out to their end on the calling thread,
 //! in order, with no terminal: the runtime that tests and benchmarks drive
-//! the workbench with. It does what the loop's [`super::runtime`] does (runs
-//! through the same [`Pipeline`], scoring with the same [`score_now`], the
-//! same file readers), only synchronously, so that a test sees every
-//! message a command produces before it asserts.
+//! the workbench with. It carries each command out with the loop's own
+//! [`execute`], only doing the work here and now instead of in background
+//! tasks, so that a test sees every message a command produces before it
+//! asserts.
 
-use std::path::Path;
+use std::collections::VecDeque;
 
-use super::agents::{run_blocking, Pipeline};
+use super::agents::{run_events, Pipeline, RunError, RunRequest};
 use super::app::App;
-use super::corrupting::{corrupt_plan, CorruptError, CorruptionModels};
+use super::corrupting::{CorruptError, CorruptionModels};
+use super::execute::{execute, Carrier, Job, Models};
 use super::graphics::Graphics;
-use super::message::{Cmd, Msg, ReadError};
+use super::message::{Cmd, Msg};
 use super::scene_image;
-use super::scoring::{score_now, score_samples, ModelSlot};
-use crate::agents::prompt_sets;
-
-/// Reads a step file off the loop: the text, or why not.
-pub fn read_step_file(path: &Path) -> Result<String, ReadError> {
-    Ok(crate::dataset::read_text_within(
-        path,
-        crate::limits::MAX_STEP_FILE_BYTES,
-        "a step file",
-    )?)
-}
+use super::scoring::{score_now, ModelSlot, ScoreRequest};
 
 /// Encodes the scene image for the area the app wants it in, if any, here
 /// and now (the loop hands this to a task).
@@ -65,54 +56,57 @@ impl<'a> Headless<'a> {
     /// before `app` gets it. A cancel has nothing to stop: runs end before
     /// the next command.
     pub fn run(&self, app: &mut App, cmds: Vec<Cmd>, seen: &mut dyn FnMut(&mut Msg)) {
-        let mut queue = std::collections::VecDeque::from(cmds);
+        let mut queue = VecDeque::from(cmds);
+        let mut here = HereAndNow {
+            headless: self,
+            answers: Vec::new(),
+        };
         while let Some(cmd) = queue.pop_front() {
-            let msgs = match cmd {
-                Cmd::StartRun(request) => {
-                    let run = request.run;
-                    match run_blocking(self.pipeline, request) {
-                        Ok((settings, events)) => {
-                            app.run_accepted(run, settings);
-                            events.into_iter().map(|e| Msg::Agent(run, e)).collect()
-                        }
-                        Err(reason) => {
-                            app.run_refused(run, reason);
-                            Vec::new()
-                        }
-                    }
-                }
-                Cmd::CancelRun(_) => Vec::new(),
-                Cmd::Score(request) => vec![Msg::Scored(score_now(&self.models, &request))],
-                Cmd::ScoreSamples(request) => vec![Msg::SamplesScored(
-                    request.run,
-                    score_samples(&self.models, &request),
-                )],
-                Cmd::ReadStepFile(path) => {
-                    let text = read_step_file(&path);
-                    vec![Msg::StepFile(path, text)]
-                }
-                Cmd::LoadImage(path) => vec![Msg::SceneImage(scene_image::read(&path))],
-                Cmd::SavePromptSet { root, name, set } => {
-                    let saved = prompt_sets::save(&root, &name, &set);
-                    vec![Msg::PromptSetSaved(name, saved)]
-                }
-                Cmd::ListPromptSets(root) => vec![Msg::PromptSets(prompt_sets::list(&root))],
-                Cmd::LoadPromptSet { root, name } => {
-                    let loaded = prompt_sets::load(&root, &name);
-                    vec![Msg::PromptSetLoaded(name, loaded)]
-                }
-                Cmd::Corrupt(request) => {
-                    let result = match &self.corruption {
-                        Ok(models) => corrupt_plan(models, &request),
-                        Err(reason) => Err(reason.clone()),
-                    };
-                    vec![Msg::Corrupted(result)]
-                }
-            };
-            for mut msg in msgs {
+            execute(cmd, app, &mut here);
+            for mut msg in std::mem::take(&mut here.answers) {
                 seen(&mut msg);
                 queue.extend(app.update(msg));
             }
         }
+    }
+}
+
+/// The [`Carrier`] of [`Headless`]: every job done at once, its messages
+/// kept for `update` in order.
+struct HereAndNow<'h, 'a> {
+    headless: &'h Headless<'a>,
+    answers: Vec<Msg>,
+}
+
+impl Carrier for HereAndNow<'_, '_> {
+    fn pipeline(&self) -> &dyn Pipeline {
+        self.headless.pipeline
+    }
+
+    fn models(&self) -> Models {
+        Models::Fixed(self.headless.models.clone())
+    }
+
+    fn corruption(&self) -> Result<CorruptionModels, CorruptError> {
+        self.headless.corruption.clone()
+    }
+
+    fn spawn(&mut self, job: Job) {
+        self.answers.extend(job());
+    }
+
+    fn start_run(&mut self, request: RunRequest) -> Result<(), RunError> {
+        let run = request.run;
+        let events = run_events(self.headless.pipeline, request)?;
+        self.answers
+            .extend(events.into_iter().map(|e| Msg::Agent(run, e)));
+        Ok(())
+    }
+
+    fn cancel_run(&mut self, _run: u64) {}
+
+    fn score(&mut self, request: ScoreRequest) {
+        let scored = score_now(&self.headless.models, &request);
+        self.answers.push(Msg::Scored(scored));
     }
 }

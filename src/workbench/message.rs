@@ -26,9 +26,6 @@ pub enum ReadError {
     /// The file could not be read as text.
     #[error(transparent)]
     Text(#[from] DatasetError),
-    /// The reading task ended abnormally.
-    #[error("{0}")]
-    Stopped(#[from] tokio::task::JoinError),
 }
 
 /// A message: something that happened.

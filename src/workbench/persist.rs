@@ -3,13 +3,15 @@
 
 use std::time::Instant;
 
-use crate::workbench::app::{single_line_editor, task_view, App, Severity};
+use crate::agents::prompts::template_name;
+use crate::workbench::app::{task_view, App};
 use crate::workbench::editing::Editing;
 use crate::workbench::message::Cmd;
 use crate::workbench::panes::steps::StepList;
 use crate::workbench::panes::Pane;
 use crate::workbench::runs::AgentStatus;
 use crate::workbench::session::{Draft, RunState, Session, SESSION_VERSION};
+use crate::workbench::shared::{single_line_editor, Severity};
 use crate::workbench::snapshot::{Snapshot, SnapshotPacer, SNAPSHOT_EVERY};
 
 /// The session copies of the loop: when the next one is due, and how many
@@ -50,16 +52,16 @@ impl App {
     /// committed, else at most every [`SNAPSHOT_EVERY`]), and otherwise the
     /// instant to ask again, if a change waits.
     pub fn poll_snapshot(&mut self, now: Instant) -> (Option<Session>, Option<Instant>) {
-        if self.session_dirty {
-            self.session_dirty = false;
-            self.persist.pacer.changed();
+        if self.saving.session_dirty {
+            self.saving.session_dirty = false;
+            self.saving.persist.pacer.changed();
         }
         let editing = self.is_editing();
-        let committed = self.persist.was_editing && !editing;
-        self.persist.was_editing = editing;
-        match self.persist.pacer.poll(committed, now) {
+        let committed = self.saving.persist.was_editing && !editing;
+        self.saving.persist.was_editing = editing;
+        match self.saving.persist.pacer.poll(committed, now) {
             Snapshot::Take => {
-                self.persist.taken += 1;
+                self.saving.persist.taken += 1;
                 (Some(self.to_session()), None)
             }
             Snapshot::WaitUntil(at) => (None, Some(at)),
@@ -69,11 +71,14 @@ impl App {
 
     /// The session as it stands, for saving.
     pub fn to_session(&self) -> Session {
-        let mut prompts = self.prompt.texts.clone();
+        let mut prompts = self.panes.prompt.texts.clone();
         if matches!(self.editing, Editing::Prompt) {
-            prompts.insert(self.prompt_name(self.prompt.agent), self.editor_text());
+            prompts.insert(
+                template_name(self.work.approach, self.panes.prompt.agent),
+                self.panes.prompt.editor_text(),
+            );
         }
-        prompts.retain(|name, text| self.prompt.defaults.get(name) != Some(text));
+        prompts.retain(|name, text| self.panes.prompt.defaults.get(name) != Some(text));
         let draft = match &self.editing {
             Editing::Step {
                 list,
@@ -89,12 +94,12 @@ impl App {
         };
         Session {
             version: SESSION_VERSION,
-            task_id: self.task.id.clone(),
-            approach: self.approach,
-            ground_truth_source: self.ground_truth_source.clone(),
-            ground_truth: self.ground_truth.items.clone(),
-            plan_source: self.plan_source.clone(),
-            plan: self.plan.items.clone(),
+            task_id: self.work.task.id.clone(),
+            approach: self.work.approach,
+            ground_truth_source: self.work.ground_truth_source.clone(),
+            ground_truth: self.panes.ground_truth.items.clone(),
+            plan_source: self.work.plan_source.clone(),
+            plan: self.panes.plan.items.clone(),
             prompts,
             settings: self
                 .runs
@@ -115,8 +120,8 @@ impl App {
                 .iter()
                 .filter_map(|(a, v)| v.ran_with.clone().map(|r| (*a, r)))
                 .collect(),
-            theme: self.theme.name.clone(),
-            image: self.scene.enabled,
+            theme: self.looks.theme.name.clone(),
+            image: self.panes.scene.enabled,
             runs: self
                 .runs
                 .history
@@ -129,7 +134,7 @@ impl App {
                         .map(|active| self.run_record(active, RunState::Running)),
                 )
                 .collect(),
-            samples: self.samples,
+            samples: self.work.samples,
             draft,
         }
     }
@@ -137,9 +142,9 @@ impl App {
     pub(crate) fn restore(&mut self, s: Session) -> Vec<Cmd> {
         let mut cmds = Vec::new();
         if let Some(id) = &s.task_id {
-            match self.dataset.as_ref().and_then(|d| d.task(id)).cloned() {
+            match self.work.dataset.as_ref().and_then(|d| d.task(id)).cloned() {
                 Some(task) => {
-                    self.task = task_view(&task);
+                    self.work.task = task_view(&task);
                     cmds.extend(self.load_scene());
                 }
                 None => self.set_status(
@@ -149,12 +154,12 @@ impl App {
             }
         }
         self.set_approach(s.approach);
-        self.ground_truth_source = s.ground_truth_source;
-        self.ground_truth.items = s.ground_truth;
-        self.plan_source = s.plan_source;
-        self.plan.items = s.plan;
+        self.work.ground_truth_source = s.ground_truth_source;
+        self.panes.ground_truth.items = s.ground_truth;
+        self.work.plan_source = s.plan_source;
+        self.panes.plan.items = s.plan;
         for (name, text) in s.prompts {
-            if let Some(prompt) = self.prompt.texts.get_mut(&name) {
+            if let Some(prompt) = self.panes.prompt.texts.get_mut(&name) {
                 *prompt = text;
             }
         }
@@ -168,13 +173,13 @@ impl App {
             }
             view.ran_with = s.ran_with.get(agent).cloned();
         }
-        if let Some(theme) = self.themes.iter().find(|t| t.name == s.theme) {
-            if !self.no_color {
-                self.theme = theme.clone();
+        if let Some(theme) = self.looks.themes.iter().find(|t| t.name == s.theme) {
+            if !self.looks.no_color {
+                self.looks.theme = theme.clone();
             }
         }
         self.use_configured_providers();
-        self.scene.enabled = s.image;
+        self.panes.scene.enabled = s.image;
         self.runs.history = s.runs;
         for run in &mut self.runs.history {
             if run.state == RunState::Running {
@@ -195,7 +200,7 @@ impl App {
                 view.cached = record.cached;
             }
         }
-        self.samples = s.samples;
+        self.work.samples = s.samples;
         self.refresh_graph();
         if let Some(draft) = s.draft {
             let list = if draft.target == StepList::GroundTruth.key() {
@@ -203,10 +208,10 @@ impl App {
             } else {
                 StepList::Plan
             };
-            let len = self.steps(list).len();
+            let len = self.panes.steps(list).len();
             let inserted = draft.index >= len;
             if inserted {
-                self.steps_mut(list).items.push(String::new());
+                self.panes.steps_mut(list).items.push(String::new());
             }
             let index = draft.index.min(len);
             self.editing = Editing::Step {

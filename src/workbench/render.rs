@@ -6,24 +6,25 @@ use ratatui::widgets::{Block, Paragraph, Wrap};
 use ratatui::Frame;
 
 use crate::agents::ProviderKind;
-use crate::workbench::app::{App, Severity};
+use crate::workbench::app::App;
 use crate::workbench::editing::Editing;
 use crate::workbench::keymap::{self};
 use crate::workbench::layout::{pane_rects, Screen, MIN_HEIGHT, MIN_WIDTH};
 use crate::workbench::overlays::{self};
 use crate::workbench::panes::{self, Pane};
 use crate::workbench::scoring::ModelSlot;
+use crate::workbench::shared::Severity;
 
 /// Draws the whole workbench.
 pub fn render(frame: &mut Frame, app: &App) {
     let area = frame.area();
-    frame.render_widget(Block::default().style(app.theme.base), area);
+    frame.render_widget(Block::default().style(app.looks.theme.base), area);
     let Screen::Panes {
         header,
         status,
         tabs,
         panes,
-    } = pane_rects(area, app.focus, app.zoom)
+    } = pane_rects(area, app.focus, app.panes.zoom)
     else {
         let text = format!(
             "mapvlm needs a terminal of at least {MIN_WIDTH}×{MIN_HEIGHT}; this one is {}×{}.\nEnlarge the window (q quits).",
@@ -31,7 +32,7 @@ pub fn render(frame: &mut Frame, app: &App) {
         );
         frame.render_widget(
             Paragraph::new(text)
-                .style(app.theme.warn)
+                .style(app.looks.theme.warn)
                 .wrap(Wrap { trim: true })
                 .alignment(Alignment::Center),
             area,
@@ -50,12 +51,12 @@ pub fn render(frame: &mut Frame, app: &App) {
 }
 
 fn render_header(frame: &mut Frame, app: &App, area: Rect) {
-    let t = &app.theme;
-    let source = match &app.task.id {
+    let t = &app.looks.theme;
+    let source = match &app.work.task.id {
         Some(id) => id.clone(),
         None => "demo".to_string(),
     };
-    let models = match &app.models {
+    let models = match &app.work.models {
         ModelSlot::Ready(_) => Span::styled("models ready", t.good),
         ModelSlot::Loading(p) => Span::styled(format!("models loading: {p}"), t.warn),
         ModelSlot::Unavailable(_) => Span::styled("PG2S models missing", t.warn),
@@ -66,14 +67,14 @@ fn render_header(frame: &mut Frame, app: &App, area: Rect) {
         Span::styled(source, t.accent),
         Span::styled(" │ ", t.border),
     ];
-    if !app.scene.graphics.is_empty() {
-        spans.push(Span::styled(app.scene.graphics.clone(), t.muted));
+    if !app.panes.scene.graphics.is_empty() {
+        spans.push(Span::styled(app.panes.scene.graphics.clone(), t.muted));
         spans.push(Span::styled(" │ ", t.border));
     }
     spans.extend([
-        Span::styled(app.task.text.clone(), t.base),
+        Span::styled(app.work.task.text.clone(), t.base),
         Span::styled(" │ ", t.border),
-        Span::styled(app.approach.name(), t.accent),
+        Span::styled(app.work.approach.name(), t.accent),
         Span::styled(" │ ", t.border),
         Span::styled(providers_in_use(app), t.accent),
         Span::styled(" │ ", t.border),
@@ -87,7 +88,7 @@ fn render_header(frame: &mut Frame, app: &App, area: Rect) {
 /// `SKM·GKM·Planner replay` or `SKM·GKM openai/gpt-4o, Planner replay`.
 pub fn providers_in_use(app: &App) -> String {
     let mut groups: Vec<(Vec<&str>, String)> = Vec::new();
-    for &role in app.approach.roles() {
+    for &role in app.work.approach.roles() {
         let Some(view) = app.runs.agents.get(&role) else {
             continue;
         };
@@ -110,7 +111,7 @@ pub fn providers_in_use(app: &App) -> String {
 }
 
 fn render_tabs(frame: &mut Frame, app: &App, area: Rect) {
-    let t = &app.theme;
+    let t = &app.looks.theme;
     let mut spans = Vec::new();
     for pane in Pane::ALL {
         let style = if pane == app.focus {
@@ -125,7 +126,7 @@ fn render_tabs(frame: &mut Frame, app: &App, area: Rect) {
 }
 
 fn render_status(frame: &mut Frame, app: &App, area: Rect) {
-    let t = &app.theme;
+    let t = &app.looks.theme;
     let context = app.key_context();
     let hints = keymap::hints(context);
     let mode = match context.mode() {
@@ -134,14 +135,15 @@ fn render_status(frame: &mut Frame, app: &App, area: Rect) {
     };
     let mut spans = vec![Span::styled(format!(" {mode} "), t.accent)];
     if let Editing::Search(_) = &app.editing {
-        spans.push(Span::styled(format!("/{}", app.search), t.highlight));
+        spans.push(Span::styled(format!("/{}", app.panes.search), t.highlight));
     }
     let shown = app
+        .messages
         .notice
         .as_ref()
         .map(|(text, severity)| (format!("{text} (Esc dismisses)"), *severity))
         .into_iter()
-        .chain(app.status.clone());
+        .chain(app.messages.status.clone());
     for (text, severity) in shown {
         let style = match severity {
             Severity::Info => t.muted,

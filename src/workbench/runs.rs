@@ -9,7 +9,7 @@ use crate::agents::prompts::{prompt_hash, template_name};
 use crate::agents::{AgentRole, Approach, ProviderKind, Usage};
 use crate::plan::bounded_steps;
 use crate::workbench::agents::{self, RunError, RunRequest};
-use crate::workbench::app::{unix_now, App, Severity};
+use crate::workbench::app::App;
 use crate::workbench::editing::Editing;
 use crate::workbench::message::Cmd;
 use crate::workbench::overlays::Overlay;
@@ -18,6 +18,7 @@ use crate::workbench::scoring::{score_record, Pg2sOutcome, SampleScoring, ScoreO
 use crate::workbench::session::{
     PlanSource, RunRecord, RunState, SampleRecord, ScoreRecord, StepScore,
 };
+use crate::workbench::shared::{unix_now, Severity};
 
 /// Every sample's scores of `run`, in sample order: the one place the run
 /// diff's verdicts and the Scores pane read a run's samples from. The run's
@@ -246,7 +247,7 @@ impl App {
     /// planner when a miner it reads re-runs.
     pub fn agents_to_run(&self, all: bool) -> Vec<AgentRole> {
         let mut out: Vec<AgentRole> = Vec::new();
-        for &agent in self.approach.roles() {
+        for &agent in self.work.approach.roles() {
             let upstream = agent == AgentRole::Planner && !out.is_empty();
             if all || upstream || self.agent_changed(agent) {
                 out.push(agent);
@@ -258,16 +259,19 @@ impl App {
     /// The note shown when the selected agent's prompt was edited but only
     /// recorded outputs can be replayed.
     pub fn provider_note(&self) -> Option<String> {
-        let agent = self.prompt.agent;
+        let agent = self.panes.prompt.agent;
         let view = self.runs.agents.get(&agent)?;
         let prompt = self.prompt_of(agent);
-        let why = if self.approach != Approach::MultiImage {
+        let why = if self.work.approach != Approach::MultiImage {
             "the demo's recording has only the multi-image approach"
         } else {
             "this prompt was edited and the demo's recording has no answer for it"
         };
         (view.settings.provider == ProviderKind::Replay
-            && !self.prompt.is_recorded(self.approach, agent, &prompt))
+            && !self
+                .panes
+                .prompt
+                .is_recorded(self.work.approach, agent, &prompt))
         .then(|| agents::provider_needed(agent, why).to_string())
     }
 
@@ -277,7 +281,7 @@ impl App {
             return Vec::new();
         }
         if matches!(self.editing, Editing::Prompt) {
-            self.store_prompt_editor();
+            self.panes.prompt.store_editor(self.work.approach);
         }
         // More samples than the last run asked for: every agent runs, its
         // earlier samples answered from the cache.
@@ -285,7 +289,7 @@ impl App {
             .runs
             .history
             .last()
-            .is_some_and(|r| r.samples.len() as u32 + 1 < self.samples);
+            .is_some_and(|r| r.samples.len() as u32 + 1 < self.work.samples);
         let to_run = self.agents_to_run(all || more_samples);
         if to_run.is_empty() {
             self.set_status(
@@ -295,11 +299,11 @@ impl App {
             return Vec::new();
         }
         let id = self.runs.history.iter().map(|r| r.id).max().unwrap_or(0) + 1;
-        let approach_agents = self.approach.roles();
+        let approach_agents = self.work.approach.roles();
         let request = RunRequest {
             run: id,
-            approach: self.approach,
-            task: self.task.text.clone(),
+            approach: self.work.approach,
+            task: self.work.task.text.clone(),
             agents: to_run.clone(),
             prompts: approach_agents
                 .iter()
@@ -310,9 +314,9 @@ impl App {
                 .filter_map(|a| self.runs.agents.get(a).map(|v| (*a, v.settings.clone())))
                 .collect(),
             demo: self.is_demo(),
-            image: self.task.image.clone(),
-            table: self.task.table.clone(),
-            samples: self.samples,
+            image: self.work.task.image.clone(),
+            table: self.work.task.table.clone(),
+            samples: self.work.samples,
             fresh: all,
         };
         for &agent in &to_run {
@@ -328,13 +332,13 @@ impl App {
             reported: Vec::new(),
             samples: Vec::new(),
             kept: KeptPlan {
-                items: self.plan.items.clone(),
-                source: self.plan_source.clone(),
-                selected: self.plan.selected,
+                items: self.panes.plan.items.clone(),
+                source: self.work.plan_source.clone(),
+                selected: self.panes.plan.selected,
             },
         });
         let names: Vec<&str> = to_run.iter().map(|a| a.label()).collect();
-        let samples = match self.samples {
+        let samples = match self.work.samples {
             1 => String::new(),
             n => format!(" ({n} samples)"),
         };
@@ -383,6 +387,7 @@ impl App {
         let mut agents = Vec::new();
         let mut error = None;
         let roles = self
+            .work
             .approach
             .roles()
             .iter()
@@ -410,15 +415,15 @@ impl App {
                 ..AgentRecord::blank(
                     a,
                     &v.settings,
-                    &template_name(self.approach, a),
+                    &template_name(self.work.approach, a),
                     &prompt_hash(&prompt),
                 )
             });
             prompts.insert(a, prompt);
         }
-        let planning = self.approach.planning_role();
+        let planning = self.work.approach.planning_role();
         let plan = match (state, self.runs.agents.get(&planning)) {
-            (RunState::Finished, _) | (_, None) => self.plan.items.clone(),
+            (RunState::Finished, _) | (_, None) => self.panes.plan.items.clone(),
             (_, Some(v)) if active.agents.contains(&planning) => bounded_steps(&v.output).0,
             _ => Vec::new(),
         };
@@ -436,12 +441,12 @@ impl App {
         RunRecord {
             id: active.id,
             started_unix: active.started_unix,
-            approach: self.approach,
-            task: self.task.text.clone(),
+            approach: self.work.approach,
+            task: self.work.task.text.clone(),
             agents,
             prompts,
             plan,
-            ground_truth: self.ground_truth.items.clone(),
+            ground_truth: self.panes.ground_truth.items.clone(),
             scores: None,
             state,
             error,
@@ -475,23 +480,23 @@ impl App {
         settle_samples(&mut record);
         let status = format!("run {} {}", record.id, record.state_text());
         self.runs.history.push(record);
-        self.session_dirty = true;
+        self.saving.session_dirty = true;
         let severity = match state {
             RunState::Finished => Severity::Info,
             RunState::Failed => Severity::Error,
             _ => Severity::Warn,
         };
         if !state.is_scored() {
-            self.plan.items = active.kept.items;
-            self.plan_source = active.kept.source;
-            self.plan.selected = active.kept.selected;
+            self.panes.plan.items = active.kept.items;
+            self.work.plan_source = active.kept.source;
+            self.panes.plan.selected = active.kept.selected;
             let cmds = vec![self.rescore()];
             self.refresh_runs();
             self.set_status(status, severity);
             return cmds;
         }
         let mut cmds = vec![self.rescore()];
-        self.runs.awaiting_scores = Some((self.runs.history.len() - 1, self.score_generation));
+        self.runs.awaiting_scores = Some((self.runs.history.len() - 1, self.work.score_generation));
         cmds.extend(self.score_samples(active.id));
         self.refresh_runs();
         self.set_status(status, severity);
@@ -500,7 +505,7 @@ impl App {
 
     /// The run whose plan the Plan pane shows, when it shows a run's plan.
     pub fn shown_run(&self) -> Option<&RunRecord> {
-        let PlanSource::Run { run } = self.plan_source else {
+        let PlanSource::Run { run } = self.work.plan_source else {
             return None;
         };
         self.runs.history.iter().find(|r| r.id == run)
@@ -510,7 +515,7 @@ impl App {
     /// another plan (the last good one): the pane says it failed and why.
     pub fn unfinished_latest(&self) -> Option<&RunRecord> {
         let latest = self.runs.history.last()?;
-        (!latest.state.is_scored() && self.plan_source != PlanSource::Run { run: latest.id })
+        (!latest.state.is_scored() && self.work.plan_source != PlanSource::Run { run: latest.id })
             .then_some(latest)
     }
 
@@ -518,11 +523,11 @@ impl App {
     pub(crate) fn next_samples(&mut self) {
         let next = SAMPLE_STEPS
             .iter()
-            .find(|&&n| n > self.samples)
+            .find(|&&n| n > self.work.samples)
             .copied()
             .unwrap_or(SAMPLE_STEPS[0]);
-        self.samples = next;
-        self.session_dirty = true;
+        self.work.samples = next;
+        self.saving.session_dirty = true;
         self.set_status(
             format!("samples per run: {next} (r asks each agent {next} times)"),
             Severity::Info,
@@ -543,7 +548,7 @@ impl App {
         kept.samples.push(sample);
         kept.samples.sort_by_key(|s| s.sample);
         settle_samples(kept);
-        self.session_dirty = true;
+        self.saving.session_dirty = true;
         self.refresh_runs();
         self.score_samples(run).into_iter().collect()
     }
@@ -576,7 +581,7 @@ impl App {
                 s.scores = Some(score);
             }
         }
-        self.session_dirty = true;
+        self.saving.session_dirty = true;
         self.refresh_runs();
     }
 
@@ -598,7 +603,7 @@ impl App {
                     v.status = AgentStatus::Running;
                     v.begin_call();
                 }
-                if agent == self.approach.planning_role() {
+                if agent == self.work.approach.planning_role() {
                     if matches!(
                         self.editing,
                         Editing::Step {
@@ -608,8 +613,8 @@ impl App {
                     ) {
                         self.editing = Editing::None;
                     }
-                    self.plan.items.clear();
-                    self.plan_source = PlanSource::Run { run };
+                    self.panes.plan.items.clear();
+                    self.work.plan_source = PlanSource::Run { run };
                 }
                 Vec::new()
             }
@@ -623,7 +628,7 @@ impl App {
                         Vec::new()
                     }
                     AgentRole::Planner | AgentRole::Single => {
-                        self.plan.items = bounded_steps(&self.runs.agents[&agent].output).0;
+                        self.panes.plan.items = bounded_steps(&self.runs.agents[&agent].output).0;
                         vec![self.rescore()]
                     }
                     AgentRole::Gkm => Vec::new(),
@@ -644,13 +649,13 @@ impl App {
                     v.duration_ms = duration_ms;
                     v.ran_with = Some((prompt, v.settings.clone()));
                 }
-                self.session_dirty = true;
+                self.saving.session_dirty = true;
                 let mut cmds = Vec::new();
                 match agent {
                     AgentRole::Skm => self.refresh_graph(),
                     AgentRole::Planner | AgentRole::Single => {
-                        self.plan.items = bounded_steps(&self.runs.agents[&agent].output).0;
-                        self.plan.selected = 0;
+                        self.panes.plan.items = bounded_steps(&self.runs.agents[&agent].output).0;
+                        self.panes.plan.selected = 0;
                     }
                     AgentRole::Gkm => {}
                 }
@@ -701,7 +706,7 @@ impl App {
     }
 
     pub(crate) fn on_scored(&mut self, outcome: ScoreOutcome) {
-        if outcome.generation > self.score_generation {
+        if outcome.generation > self.work.score_generation {
             return;
         }
         if let Some((index, generation)) = self.runs.awaiting_scores {
@@ -712,10 +717,11 @@ impl App {
                 }
                 self.runs.awaiting_scores = None;
                 self.refresh_runs();
-                self.session_dirty = true;
+                self.saving.session_dirty = true;
             }
         }
         if self
+            .work
             .scores
             .as_ref()
             .is_none_or(|s| s.generation <= outcome.generation)
@@ -723,7 +729,7 @@ impl App {
             if let Some(Overlay::Actions(view)) = &mut self.overlay {
                 view.scores = Some(outcome.clone());
             }
-            self.scores = Some(outcome);
+            self.work.scores = Some(outcome);
         }
     }
 }

@@ -1,6 +1,6 @@
 //! The runtime: sets the terminal up and restores it, runs the loop that
-//! feeds messages to `update`, and carries out the commands it returns in
-//! background tasks ([`CommandRunner`]).
+//! feeds messages to `update`, and carries out the commands it returns
+//! with [`super::execute::execute`], their work in background tasks.
 
 use std::collections::HashMap;
 use std::io::Stdout;
@@ -21,21 +21,22 @@ use ratatui::Terminal;
 use tokio::sync::{mpsc, watch};
 use tokio::task::JoinHandle;
 
-use super::agents::Pipeline;
-use super::app::{App, AppInit, Severity};
+use super::agents::{Pipeline, RunError, RunRequest};
+use super::app::{App, AppInit};
 use super::scoring::{ModelSlot, ScorerLoader, SharedModels};
 use super::session::{Restored, Session};
+use super::shared::Severity;
 use crate::agents::pipeline::AgentEvent;
-use crate::agents::prompt_sets;
 use crate::dataset::Dataset;
 
-use super::corrupting::{self, CorruptError, SharedCorruptionModels};
+use super::corrupting::{CorruptError, CorruptionModels, SharedCorruptionModels};
+use super::execute::{execute, Carrier, Job, Models};
 use super::graphics::{self, Graphics, Kind, Request};
-use super::message::{Cmd, Msg, ReadError};
+use super::message::Msg;
 use super::saver::{self, NumberedCopy, SessionFile};
 use super::scene_image;
-use super::{headless, scoring, session};
 use super::{render, terminal_query, theme, Options, TuiError, SCORE_DEBOUNCE};
+use super::{scoring, session};
 
 /// Puts the terminal back as it was: raw mode off, main screen, no mouse capture.
 fn restore_terminal() {
@@ -114,9 +115,9 @@ fn take_off_placed_picture(
     let backend = terminal.backend_mut();
     backend.write_all(graphics::kitty_direct_clear(graphics.tmux).as_bytes())?;
     backend.flush()?;
-    app.scene.hold = true;
+    app.panes.scene.hold = true;
     let held = terminal.draw(|f| render::render(f, app)).map(|_| ());
-    app.scene.hold = false;
+    app.panes.scene.hold = false;
     held
 }
 
@@ -131,84 +132,46 @@ struct Runtime {
     models: SharedModels,
 }
 
-impl Runtime {
-    fn execute(&mut self, app: &mut App, cmd: Cmd) {
-        match cmd {
-            Cmd::StartRun(request) => {
-                let run = request.run;
-                match self.pipeline.check(&request) {
-                    Ok(settings) => app.run_accepted(run, settings),
-                    Err(reason) => return app.run_refused(run, reason),
-                }
-                let handle = self.pipeline.spawn(request, self.agent_events.clone());
-                self.runs.insert(run, handle);
+impl Carrier for Runtime {
+    fn pipeline(&self) -> &dyn Pipeline {
+        self.pipeline.as_ref()
+    }
+
+    fn models(&self) -> Models {
+        Models::Shared(self.models.clone())
+    }
+
+    fn corruption(&self) -> Result<CorruptionModels, CorruptError> {
+        self.corruption
+            .read()
+            .map(|slot| slot.clone())
+            .unwrap_or_else(|p| p.into_inner().clone())
+    }
+
+    fn spawn(&mut self, job: Job) {
+        let msgs = self.msgs.clone();
+        tokio::task::spawn_blocking(move || {
+            for msg in job() {
+                let _ = msgs.send(msg);
             }
-            Cmd::CancelRun(run) => {
-                if let Some(handle) = self.runs.remove(&run) {
-                    handle.abort();
-                }
-            }
-            Cmd::Score(request) => {
-                self.scores.send_replace(Some(request));
-            }
-            Cmd::ScoreSamples(request) => {
-                let (msgs, models) = (self.msgs.clone(), self.models.clone());
-                tokio::task::spawn_blocking(move || {
-                    let scores = scoring::score_samples(&scoring::loaded_models(&models), &request);
-                    let _ = msgs.send(Msg::SamplesScored(request.run, scores));
-                });
-            }
-            Cmd::ReadStepFile(path) => {
-                let msgs = self.msgs.clone();
-                tokio::spawn(async move {
-                    let result = tokio::task::spawn_blocking({
-                        let path = path.clone();
-                        move || headless::read_step_file(&path)
-                    })
-                    .await
-                    .unwrap_or_else(|e| Err(ReadError::from(e)));
-                    let _ = msgs.send(Msg::StepFile(path, result));
-                });
-            }
-            Cmd::LoadImage(path) => {
-                let msgs = self.msgs.clone();
-                tokio::task::spawn_blocking(move || {
-                    let _ = msgs.send(Msg::SceneImage(scene_image::read(&path)));
-                });
-            }
-            Cmd::SavePromptSet { root, name, set } => {
-                let msgs = self.msgs.clone();
-                tokio::task::spawn_blocking(move || {
-                    let saved = prompt_sets::save(&root, &name, &set);
-                    let _ = msgs.send(Msg::PromptSetSaved(name, saved));
-                });
-            }
-            Cmd::ListPromptSets(root) => {
-                let msgs = self.msgs.clone();
-                tokio::task::spawn_blocking(move || {
-                    let _ = msgs.send(Msg::PromptSets(prompt_sets::list(&root)));
-                });
-            }
-            Cmd::LoadPromptSet { root, name } => {
-                let msgs = self.msgs.clone();
-                tokio::task::spawn_blocking(move || {
-                    let loaded = prompt_sets::load(&root, &name);
-                    let _ = msgs.send(Msg::PromptSetLoaded(name, loaded));
-                });
-            }
-            Cmd::Corrupt(request) => {
-                let models = self
-                    .corruption
-                    .read()
-                    .map(|slot| slot.clone())
-                    .unwrap_or_else(|p| p.into_inner().clone());
-                let msgs = self.msgs.clone();
-                tokio::task::spawn_blocking(move || {
-                    let result = models.and_then(|m| corrupting::corrupt_plan(&m, &request));
-                    let _ = msgs.send(Msg::Corrupted(result));
-                });
-            }
+        });
+    }
+
+    fn start_run(&mut self, request: RunRequest) -> Result<(), RunError> {
+        let run = request.run;
+        let handle = self.pipeline.spawn(request, self.agent_events.clone());
+        self.runs.insert(run, handle);
+        Ok(())
+    }
+
+    fn cancel_run(&mut self, run: u64) {
+        if let Some(handle) = self.runs.remove(&run) {
+            handle.abort();
         }
+    }
+
+    fn score(&mut self, request: scoring::ScoreRequest) {
+        self.scores.send_replace(Some(request));
     }
 }
 
@@ -376,9 +339,9 @@ async fn run_async(options: Options) -> Result<(), TuiError> {
             .unwrap_or_default(),
         prompt_sets: options.prompt_sets.clone(),
     });
-    app.prices = options.prices.as_ref().ok().cloned().unwrap_or_default();
+    app.work.prices = options.prices.as_ref().ok().cloned().unwrap_or_default();
     if let Some(samples) = options.samples {
-        app.samples = samples;
+        app.work.samples = samples;
     }
     terminal.draw(|f| render::render(f, &app))?;
 
@@ -386,7 +349,7 @@ async fn run_async(options: Options) -> Result<(), TuiError> {
     // The query reads stdin itself, so it runs before the input thread
     // exists; what was typed meanwhile and the size the window has now
     // (a resize during the query has no reader yet) go first in the queue.
-    let probe = terminal_query::probe(options.graphics, options.query_timeout, app.no_color);
+    let probe = terminal_query::probe(options.graphics, options.query_timeout, app.looks.no_color);
     for key in probe.typed {
         let _ = msg_tx.send(Msg::Key(key));
     }
@@ -398,10 +361,10 @@ async fn run_async(options: Options) -> Result<(), TuiError> {
         app.set_status(notice, Severity::Warn);
     }
     if options.graphics == Request::None {
-        app.scene.enabled = false;
+        app.panes.scene.enabled = false;
     }
     let graphics = probe.graphics;
-    app.scene.graphics = graphics.summary();
+    app.panes.scene.graphics = graphics.summary();
     let (agent_tx, mut agent_rx) = mpsc::unbounded_channel();
     let (score_tx, score_rx) = watch::channel(None);
     let (save_tx, save_rx) = watch::channel::<Option<NumberedCopy>>(None);
@@ -464,7 +427,7 @@ async fn run_async(options: Options) -> Result<(), TuiError> {
         models: models.clone(),
     };
     for cmd in first_cmds {
-        runtime.execute(&mut app, cmd);
+        execute(cmd, &mut app, &mut runtime);
     }
     request_image(&mut app, &graphics, &runtime.msgs);
     let mut shown = app.picture_shown();
@@ -489,12 +452,12 @@ async fn run_async(options: Options) -> Result<(), TuiError> {
                 terminal.resize(Rect::new(0, 0, w, h))?;
             }
             for cmd in app.update(msg) {
-                runtime.execute(&mut app, cmd);
+                execute(cmd, &mut app, &mut runtime);
             }
         }
         let (copy, next) = app.poll_snapshot(Instant::now());
         if let Some(session) = copy {
-            save_tx.send_replace(Some((app.persist.taken(), session)));
+            save_tx.send_replace(Some((app.saving.persist.taken(), session)));
         }
         wake = next;
         if app.quit {

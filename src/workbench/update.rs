@@ -5,7 +5,7 @@ use crossterm::event::{KeyEvent, KeyEventKind, MouseButton, MouseEvent, MouseEve
 use ratatui::layout::{Position, Rect};
 
 use crate::plan::parse_steps;
-use crate::workbench::app::{single_line_editor, App, Severity};
+use crate::workbench::app::App;
 use crate::workbench::editing::Editing;
 use crate::workbench::keymap::{self, Action, Context};
 use crate::workbench::layout::{pane_rects, Screen};
@@ -16,6 +16,7 @@ use crate::workbench::panes::steps::StepList;
 use crate::workbench::panes::{list_window, Pane};
 use crate::workbench::scoring::ModelSlot;
 use crate::workbench::session::GroundTruthSource;
+use crate::workbench::shared::{single_line_editor, Severity};
 
 impl App {
     /// The top-level update: applies one message.
@@ -39,11 +40,11 @@ impl App {
                 Vec::new()
             }
             Msg::ModelsProgress(line) => {
-                self.models = ModelSlot::Loading(line);
+                self.work.models = ModelSlot::Loading(line);
                 Vec::new()
             }
             Msg::ModelsLoaded(slot) => {
-                self.models = slot;
+                self.work.models = slot;
                 vec![self.rescore()]
             }
             Msg::StepFile(path, result) => match result {
@@ -59,9 +60,9 @@ impl App {
                         );
                         return Vec::new();
                     }
-                    self.ground_truth.items = steps;
-                    self.ground_truth_source = GroundTruthSource::File { path };
-                    self.ground_truth.selected = 0;
+                    self.panes.ground_truth.items = steps;
+                    self.work.ground_truth_source = GroundTruthSource::File { path };
+                    self.panes.ground_truth.selected = 0;
                     vec![self.rescore()]
                 }
                 Err(e) => {
@@ -71,11 +72,11 @@ impl App {
             },
             Msg::SceneImage(result) => {
                 match result {
-                    Ok(img) => self.scene.image = Some(img),
+                    Ok(img) => self.panes.scene.image = Some(img),
                     Err(e) => self.image_status(e.to_string()),
                 }
-                self.scene.protocol = None;
-                self.scene.requested = None;
+                self.panes.scene.protocol = None;
+                self.panes.scene.requested = None;
                 Vec::new()
             }
             Msg::Corrupted(result) => self.on_corrupted(result),
@@ -92,15 +93,15 @@ impl App {
                 Vec::new()
             }
             Msg::ImageReady(rect, encoded) => {
-                if self.scene.requested != Some(rect) {
+                if self.panes.scene.requested != Some(rect) {
                     // For an image or an area since replaced.
                     return Vec::new();
                 }
-                self.scene.requested = None;
+                self.panes.scene.requested = None;
                 match encoded {
-                    Ok(protocol) => self.scene.protocol = Some((rect, protocol)),
+                    Ok(protocol) => self.panes.scene.protocol = Some((rect, protocol)),
                     Err(e) => {
-                        self.scene.enabled = false;
+                        self.panes.scene.enabled = false;
                         self.image_status(format!(
                             "the scene image cannot be drawn here ({e}); i tries again"
                         ));
@@ -112,7 +113,7 @@ impl App {
                 if let Err(e) = &result {
                     self.set_status(format!("session not saved: {e}"), Severity::Error);
                 }
-                self.saved = Some(result);
+                self.saving.saved = Some(result);
                 Vec::new()
             }
             Msg::Quit => {
@@ -155,20 +156,20 @@ impl App {
             Action::NextPane => self.focus_step(1),
             Action::PreviousPane => self.focus_step(-1),
             Action::Help => self.overlay = Some(Overlay::Help),
-            Action::Zoom => self.zoom = !self.zoom,
+            Action::Zoom => self.panes.zoom = !self.panes.zoom,
             Action::Escape => {
-                if self.notice.is_some() {
-                    self.notice = None;
-                } else if self.zoom {
-                    self.zoom = false;
-                } else if !self.search.is_empty() {
-                    self.search.clear();
+                if self.messages.notice.is_some() {
+                    self.messages.notice = None;
+                } else if self.panes.zoom {
+                    self.panes.zoom = false;
+                } else if !self.panes.search.is_empty() {
+                    self.panes.search.clear();
                 } else {
-                    self.status = None;
+                    self.messages.status = None;
                 }
             }
             Action::Search => {
-                self.editing = Editing::Search(single_line_editor(&self.search));
+                self.editing = Editing::Search(single_line_editor(&self.panes.search));
             }
             Action::NextHit => self.jump_to_search(),
             Action::Move(delta) => self.move_selection(self.focus, delta),
@@ -178,22 +179,24 @@ impl App {
             | Action::GraphSelect(_)
             | Action::GraphStep(_)
             | Action::GraphZoom(_)
-            | Action::GraphMode => self.graph.on_action(action),
+            | Action::GraphMode => self.panes.graph.on_action(action),
             Action::PromptStep(step) => self.move_selection(Pane::Prompt, step),
             Action::EditPrompt => {
-                self.prompt
+                self.panes
+                    .prompt
                     .editor
                     .move_cursor(ratatui_textarea::CursorMove::Bottom);
-                self.prompt
+                self.panes
+                    .prompt
                     .editor
                     .move_cursor(ratatui_textarea::CursorMove::End);
                 self.editing = Editing::Prompt;
             }
             Action::PromptOf(position) => {
-                if let Some(&agent) = self.approach.roles().get(position) {
-                    self.store_prompt_editor();
-                    self.prompt.agent = agent;
-                    self.load_prompt_editor();
+                if let Some(&agent) = self.work.approach.roles().get(position) {
+                    self.panes.prompt.store_editor(self.work.approach);
+                    self.panes.prompt.agent = agent;
+                    self.panes.prompt.load_editor(self.work.approach);
                 }
             }
             Action::Run => return self.start_run(false),
@@ -204,9 +207,9 @@ impl App {
             Action::NextSamples => self.next_samples(),
             Action::PublishedPlan => {
                 self.load_published_plan();
-                if self.plan.items.is_empty() {
+                if self.panes.plan.items.is_empty() {
                     self.set_status(
-                        format!("this task has no published {} plan", self.approach),
+                        format!("this task has no published {} plan", self.work.approach),
                         Severity::Info,
                     );
                 }
@@ -216,26 +219,27 @@ impl App {
             Action::SavePromptSet => self.open_save_prompt_set(),
             Action::LoadPromptSet => return self.list_prompt_sets(),
             Action::ToggleImage => {
-                self.scene.enabled = !self.scene.enabled;
-                self.session_dirty = true;
+                self.panes.scene.enabled = !self.panes.scene.enabled;
+                self.saving.session_dirty = true;
             }
             Action::NextTheme => {
-                if !self.no_color && !self.themes.is_empty() {
+                if !self.looks.no_color && !self.looks.themes.is_empty() {
                     let i = self
+                        .looks
                         .themes
                         .iter()
-                        .position(|t| t.name == self.theme.name)
-                        .map_or(0, |i| (i + 1) % self.themes.len());
-                    self.theme = self.themes[i].clone();
-                    self.session_dirty = true;
-                    self.set_status(format!("theme: {}", self.theme.name), Severity::Info);
-                } else if self.no_color {
+                        .position(|t| t.name == self.looks.theme.name)
+                        .map_or(0, |i| (i + 1) % self.looks.themes.len());
+                    self.looks.theme = self.looks.themes[i].clone();
+                    self.saving.session_dirty = true;
+                    self.set_status(format!("theme: {}", self.looks.theme.name), Severity::Info);
+                } else if self.looks.no_color {
                     self.set_status("NO_COLOR is set: themes are off", Severity::Info);
                 }
             }
             Action::Actions => {
                 let view = ActionsView {
-                    scores: self.scores.clone(),
+                    scores: self.work.scores.clone(),
                 };
                 self.overlay = Some(Overlay::Actions(Box::new(view)));
             }
@@ -264,6 +268,33 @@ impl App {
         Vec::new()
     }
 
+    /// Opens the step editor on `list` (see [`Steps::open_edit`]).
+    pub(crate) fn edit_step(&mut self, list: StepList, insert: Option<usize>) -> Vec<Cmd> {
+        let steps = self.panes.steps_mut(list);
+        let (index, inserted) = steps.open_edit(insert);
+        let editor = single_line_editor(&steps.items[index]);
+        self.editing = Editing::Step {
+            list,
+            index,
+            editor,
+            inserted,
+        };
+        Vec::new()
+    }
+
+    /// A key of the Steps context on `list`.
+    pub(crate) fn step_command(&mut self, list: StepList, action: Action) -> Vec<Cmd> {
+        let steps = self.panes.steps(list);
+        let (sel, len) = (steps.selected, steps.len());
+        match action {
+            Action::EditStep => self.edit_step(list, None),
+            Action::InsertAfter => self.edit_step(list, Some(sel + usize::from(len > 0))),
+            Action::InsertBefore => self.edit_step(list, Some(sel)),
+            _ if self.panes.steps_mut(list).rearrange(action) => vec![self.rescore()],
+            _ => Vec::new(),
+        }
+    }
+
     pub(crate) fn focus_step(&mut self, step: isize) {
         let n = Pane::ALL.len() as isize;
         let i = (self.focus.index() as isize + step).rem_euclid(n) as usize;
@@ -275,27 +306,32 @@ impl App {
             (sel as isize + delta).clamp(0, len.saturating_sub(1) as isize) as usize
         };
         match pane {
-            Pane::Plan => self.plan.selected = moved(self.plan.selected, self.plan.items.len()),
-            Pane::GroundTruth => {
-                self.ground_truth.selected =
-                    moved(self.ground_truth.selected, self.ground_truth.items.len())
+            Pane::Plan => {
+                self.panes.plan.selected =
+                    moved(self.panes.plan.selected, self.panes.plan.items.len())
             }
-            Pane::Graph => self.graph.move_neighbour(delta),
+            Pane::GroundTruth => {
+                self.panes.ground_truth.selected = moved(
+                    self.panes.ground_truth.selected,
+                    self.panes.ground_truth.items.len(),
+                )
+            }
+            Pane::Graph => self.panes.graph.move_neighbour(delta),
             Pane::Prompt => {
-                let shown = self.approach.roles();
+                let shown = self.work.approach.roles();
                 let idx = shown
                     .iter()
-                    .position(|a| *a == self.prompt.agent)
+                    .position(|a| *a == self.panes.prompt.agent)
                     .unwrap_or(0);
                 let next = shown[moved(idx, shown.len())];
-                if next != self.prompt.agent {
-                    self.store_prompt_editor();
-                    self.prompt.agent = next;
-                    self.load_prompt_editor();
+                if next != self.panes.prompt.agent {
+                    self.panes.prompt.store_editor(self.work.approach);
+                    self.panes.prompt.agent = next;
+                    self.panes.prompt.load_editor(self.work.approach);
                 }
             }
             Pane::Scene | Pane::Description | Pane::Scores => {
-                let s = self.scroll.entry(pane).or_insert(0);
+                let s = self.panes.scroll.entry(pane).or_insert(0);
                 *s = (i64::from(*s) + delta as i64).clamp(0, 500) as u16;
             }
         }
@@ -303,7 +339,7 @@ impl App {
 
     pub(crate) fn pane_at(&self, column: u16, row: u16) -> Option<(Pane, Rect)> {
         let screen = Rect::new(0, 0, self.size.0, self.size.1);
-        match pane_rects(screen, self.focus, self.zoom) {
+        match pane_rects(screen, self.focus, self.panes.zoom) {
             Screen::Panes { panes, .. } => panes
                 .into_iter()
                 .find(|(_, r)| r.contains(Position::new(column, row))),
@@ -330,24 +366,29 @@ impl App {
                 let height = rect.height.saturating_sub(2) as usize;
                 match pane {
                     Pane::Plan => {
-                        let first =
-                            list_window(self.plan.selected, self.plan.items.len(), 2, height).0;
-                        let target = first + row / 2;
-                        if target < self.plan.items.len() {
-                            self.plan.selected = target;
-                        }
-                    }
-                    Pane::GroundTruth => {
                         let first = list_window(
-                            self.ground_truth.selected,
-                            self.ground_truth.items.len(),
+                            self.panes.plan.selected,
+                            self.panes.plan.items.len(),
                             2,
                             height,
                         )
                         .0;
                         let target = first + row / 2;
-                        if target < self.ground_truth.items.len() {
-                            self.ground_truth.selected = target;
+                        if target < self.panes.plan.items.len() {
+                            self.panes.plan.selected = target;
+                        }
+                    }
+                    Pane::GroundTruth => {
+                        let first = list_window(
+                            self.panes.ground_truth.selected,
+                            self.panes.ground_truth.items.len(),
+                            2,
+                            height,
+                        )
+                        .0;
+                        let target = first + row / 2;
+                        if target < self.panes.ground_truth.items.len() {
+                            self.panes.ground_truth.selected = target;
                         }
                     }
                     _ => {}

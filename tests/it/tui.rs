@@ -210,7 +210,7 @@ fn each_theme_and_no_color() {
     {
         let no_color = theme == "no-color";
         let mut h = Harness::new((100, 30), Some(&theme), no_color, unavailable());
-        assert_eq!(h.app.theme.name, theme);
+        assert_eq!(h.app.looks.theme.name, theme);
         let terminal = h.terminal();
         insta::assert_debug_snapshot!(format!("theme_{theme}"), terminal.backend().buffer());
     }
@@ -229,12 +229,12 @@ fn plan_steps_show_their_matches_and_cosines() {
 #[test]
 fn another_ground_truth_and_an_edited_step_change_the_scores() {
     let mut h = Harness::new((200, 60), None, false, bag_of_words());
-    let kas_of = |h: &Harness| h.app.scores.as_ref().and_then(|s| s.kas.kas);
+    let kas_of = |h: &Harness| h.app.work.scores.as_ref().and_then(|s| s.kas.kas);
     let before = kas_of(&h);
     h.key(KeyCode::Char('g'));
     h.key(KeyCode::Down);
     h.key(KeyCode::Enter);
-    assert_eq!(h.app.ground_truth.items[1], "Pick up the blue mug.");
+    assert_eq!(h.app.panes.ground_truth.items[1], "Pick up the blue mug.");
     let with_b = kas_of(&h);
     assert_ne!(before, with_b);
     // edit plan step 1 in the Plan pane (focused at start)
@@ -242,13 +242,13 @@ fn another_ground_truth_and_an_edited_step_change_the_scores() {
     h.keys(" Then wave");
     h.key(KeyCode::Enter);
     assert!(
-        h.app.plan.items[0].ends_with("Then wave"),
+        h.app.panes.plan.items[0].ends_with("Then wave"),
         "{:?}",
-        h.app.plan.items[0]
+        h.app.panes.plan.items[0]
     );
     assert_ne!(kas_of(&h), with_b);
     let session = h.app.to_session();
-    assert_eq!(session.plan[0], h.app.plan.items[0]);
+    assert_eq!(session.plan[0], h.app.panes.plan.items[0]);
 }
 
 /// The session is copied for the saver at most every `SNAPSHOT_EVERY` while
@@ -260,7 +260,7 @@ fn typing_copies_the_session_at_most_every_period_and_a_commit_at_once() {
     let start = Instant::now();
     let (after_run, _) = h.app.poll_snapshot(start);
     assert!(after_run.is_some(), "the demo's run changed the session");
-    let before = h.app.persist.taken();
+    let before = h.app.saving.persist.taken();
     h.key(KeyCode::Enter);
     let mut clock = start;
     let mut last_copy = None;
@@ -271,7 +271,7 @@ fn typing_copies_the_session_at_most_every_period_and_a_commit_at_once() {
             last_copy = Some(copy);
         }
     }
-    let while_typing = h.app.persist.taken() - before;
+    let while_typing = h.app.saving.persist.taken() - before;
     let periods = (clock - start).as_millis() / SNAPSHOT_EVERY.as_millis();
     assert!(
         (1..=periods as u64 + 1).contains(&while_typing),
@@ -285,7 +285,7 @@ fn typing_copies_the_session_at_most_every_period_and_a_commit_at_once() {
     );
     h.key(KeyCode::Enter);
     let (committed, _) = h.app.poll_snapshot(clock + Duration::from_millis(1));
-    assert_eq!(h.app.persist.taken(), before + while_typing + 1);
+    assert_eq!(h.app.saving.persist.taken(), before + while_typing + 1);
     let plan = committed.map(|s| s.plan).unwrap_or_default();
     assert!(
         plan.first().is_some_and(|s| s.ends_with("abab")),
@@ -322,13 +322,13 @@ fn the_knowledge_graph_is_navigable() {
     }
     h.key(KeyCode::Char('v'));
     assert!(h.screen().contains("counter ─right of─▶"));
-    let start = h.app.graph.cursor.node;
+    let start = h.app.panes.graph.cursor.node;
     h.key(KeyCode::Enter);
-    let next = h.app.graph.cursor.node;
+    let next = h.app.panes.graph.cursor.node;
     assert_ne!(start, next);
-    assert_eq!(h.app.graph.kg.nodes[next], "counter");
+    assert_eq!(h.app.panes.graph.kg.nodes[next], "counter");
     h.key(KeyCode::Backspace);
-    assert_eq!(h.app.graph.cursor.node, start);
+    assert_eq!(h.app.panes.graph.cursor.node, start);
 }
 
 #[test]
@@ -338,13 +338,13 @@ fn scores_of_a_finished_run_are_kept_in_its_record() {
     let scores = h.app.runs.history[0].scores.expect("scored");
     assert!((scores.kas.unwrap() - 0.72).abs() < 0.01);
     assert!(matches!(
-        h.app.scores.as_ref().map(|s| &s.pg2s),
+        h.app.work.scores.as_ref().map(|s| &s.pg2s),
         Some(Pg2sOutcome::Waiting(_))
     ));
     // Each step's KAS is kept beside the run's, as the Plan pane shows it;
     // PG2S matched nothing here (its models are unavailable).
     let run = &h.app.runs.history[0];
-    let kas_steps = &h.app.scores.as_ref().expect("scored").kas.step_scores;
+    let kas_steps = &h.app.work.scores.as_ref().expect("scored").kas.step_scores;
     assert_eq!(run.steps.len(), run.plan.len());
     for (i, step) in run.steps.iter().enumerate() {
         assert_eq!(step.kas, kas_steps.get(i).copied(), "step {i}");
@@ -357,7 +357,7 @@ fn scores_of_a_finished_run_are_kept_in_its_record() {
 fn each_step_of_a_scored_run_keeps_its_pg2s_match() {
     let h = Harness::new((120, 40), None, false, bag_of_words());
     let run = &h.app.runs.history[0];
-    let Some(Pg2sOutcome::Ready(report)) = h.app.scores.as_ref().map(|s| &s.pg2s) else {
+    let Some(Pg2sOutcome::Ready(report)) = h.app.work.scores.as_ref().map(|s| &s.pg2s) else {
         panic!("PG2S was scored");
     };
     let matched: Vec<(usize, usize)> = report
@@ -402,9 +402,9 @@ fn published_plans_score_as_in_mapvlm_score() {
             h.key(KeyCode::Enter);
         }
         let task = &dataset.tasks[index];
-        assert_eq!(h.app.task.id.as_deref(), Some(task.id.as_str()));
+        assert_eq!(h.app.work.task.id.as_deref(), Some(task.id.as_str()));
         let plan = &task.plans["multi_agent_image"];
-        assert_eq!(&h.app.plan.items, plan);
+        assert_eq!(&h.app.panes.plan.items, plan);
         let gt_file = dir.path().join("gt.txt");
         let pred_file = dir.path().join("pred.txt");
         std::fs::write(&gt_file, task.ground_truth.join("\n")).unwrap();
@@ -417,7 +417,7 @@ fn published_plans_score_as_in_mapvlm_score() {
             .output()
             .unwrap();
         let json: serde_json::Value = serde_json::from_slice(&out.stdout).unwrap();
-        let scores = h.app.scores.clone().unwrap();
+        let scores = h.app.work.scores.clone().unwrap();
         let shown = scores.kas.kas;
         assert_eq!(json["kas"].as_f64(), shown, "task {}", task.id);
         let Pg2sOutcome::Ready(report) = &scores.pg2s else {
@@ -449,7 +449,7 @@ fn a_start_notice_stays_until_dismissed() {
     let (app, cmds) = App::new(AppInit {
         notice: Some((
             format!("the session file could not be read; it was moved to {moved_to}"),
-            mapvlm::workbench::app::Severity::Warn,
+            mapvlm::workbench::shared::Severity::Warn,
         )),
         ..AppInit::demo((200, 60), "none")
     });
@@ -690,9 +690,9 @@ fn the_whole_graph_is_the_default_and_the_neighbourhood_a_mode() {
     h.focus(Pane::Graph);
     let whole = h.screen();
     assert!(!whole.contains("node 1/13"), "{whole}");
-    let first = h.app.graph.view.selected();
+    let first = h.app.panes.graph.view.selected();
     h.key(KeyCode::Char(']'));
-    assert_ne!(h.app.graph.view.selected(), first);
+    assert_ne!(h.app.panes.graph.view.selected(), first);
     assert_ne!(h.screen(), whole);
     h.key(KeyCode::Char('v'));
     assert!(h.screen().contains("node 1/13"));
@@ -718,7 +718,7 @@ fn run_history_shows_each_agent_and_run_cost_from_the_price_table() {
         batch_output_per_million: None,
     };
     let models = BTreeMap::from([("gpt-4o".to_string(), price)]);
-    h.app.prices =
+    h.app.work.prices =
         PriceTable::from_config(&BTreeMap::from([("openai".to_string(), models)])).unwrap();
     let mut paid = h.app.runs.history[0].clone();
     for a in &mut paid.agents {
@@ -869,7 +869,7 @@ fn scores_of_a_sampled_run_show_their_spread() {
         })
         .collect();
     h.app.runs.history = vec![one, sampled];
-    h.app.plan_source = mapvlm::workbench::session::PlanSource::Run { run: first.id + 1 };
+    h.app.work.plan_source = mapvlm::workbench::session::PlanSource::Run { run: first.id + 1 };
     let screen = zoomed_scores(&mut h);
     // PG2S of the samples 0.41, 0.455, 0.434: mean 0.433, sd 0.0225.
     assert!(
@@ -900,7 +900,7 @@ fn scores_of_a_sampled_run_show_their_spread() {
 fn readme_capture_is_the_demo_as_drawn() {
     let models = real_models();
     let mut h = Harness::new((120, 36), None, true, models.clone());
-    h.app.models = models;
+    h.app.work.models = models;
     let frame: Vec<String> = h
         .screen()
         .lines()
@@ -1023,8 +1023,8 @@ fn a_failed_run_is_kept_failed_unscored_and_the_last_good_plan_stays() {
         .iter()
         .all(|a| a.output.is_none() && a.elapsed_ms == 0 && a.usage == Default::default()));
     // The last good plan is back, with its source.
-    assert_eq!(h.app.plan.items, good.plan);
-    assert_eq!(h.app.plan_source, PlanSource::Run { run: good.id });
+    assert_eq!(h.app.panes.plan.items, good.plan);
+    assert_eq!(h.app.work.plan_source, PlanSource::Run { run: good.id });
     assert_eq!(h.app.runs.awaiting_scores, None);
     let screen = h.screen();
     assert!(
@@ -1055,7 +1055,7 @@ fn a_failed_run_is_kept_failed_unscored_and_the_last_good_plan_stays() {
     h.key(KeyCode::Esc);
     // Loading the failed run's plan shows it marked, and still unscored.
     h.key(KeyCode::Enter);
-    assert_eq!(h.app.plan.items, failed.plan);
+    assert_eq!(h.app.panes.plan.items, failed.plan);
     let screen = h.screen();
     assert!(
         screen.contains(&format!("run {run} · failed, partial plan, not scored")),
@@ -1090,7 +1090,7 @@ fn a_cancelled_run_and_a_run_in_flight_at_quit_are_kept_as_cancelled() {
     let cancelled = h.app.runs.history.last().unwrap().clone();
     assert_eq!((cancelled.id, cancelled.state), (run, RunState::Cancelled));
     assert_eq!(cancelled.scores, None);
-    assert_eq!(h.app.plan.items, good.plan);
+    assert_eq!(h.app.panes.plan.items, good.plan);
     let screen = h.screen();
     assert!(screen.contains(&format!("run {run} cancelled")), "{screen}");
 }

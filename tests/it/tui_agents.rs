@@ -210,9 +210,9 @@ fn the_demo_replays_byte_for_byte_with_no_provider() {
         tokens > 100,
         "the answers stream a word at a time: {tokens}"
     );
-    assert_eq!(app.plan.items, parse_steps(demo::PLANNER_OUTPUT));
-    assert_eq!(app.plan.items.len(), 7);
-    assert!(app.graph.kg.find("coffee machine").is_some());
+    assert_eq!(app.panes.plan.items, parse_steps(demo::PLANNER_OUTPUT));
+    assert_eq!(app.panes.plan.items.len(), 7);
+    assert!(app.panes.graph.kg.find("coffee machine").is_some());
     assert_eq!(app.runs.history.len(), 1);
     assert!(app
         .runs
@@ -307,7 +307,7 @@ fn a_live_run_streams_into_the_panes_and_an_edited_planner_prompt_asks_once() {
 
     let cmds = key(&mut app, KeyCode::Char('r'));
     let Some(Cmd::StartRun(request)) = cmds.first().cloned() else {
-        panic!("no run: {:?}", app.status)
+        panic!("no run: {:?}", app.messages.status)
     };
     let run = request.run;
     let (settings, events) = run_blocking(&pipeline, request).unwrap();
@@ -328,7 +328,7 @@ fn a_live_run_streams_into_the_panes_and_an_edited_planner_prompt_asks_once() {
         let cmds = app.update(Msg::Agent(run, event));
         run_cmds(&mut app, &pipeline, cmds);
         if planner_token {
-            plan_sizes.push(app.plan.items.len());
+            plan_sizes.push(app.panes.plan.items.len());
         }
     }
     let outputs = finished(&events);
@@ -338,9 +338,9 @@ fn a_live_run_streams_into_the_panes_and_an_edited_planner_prompt_asks_once() {
         plan_sizes.len() > 3 && plan_sizes.first() < plan_sizes.last(),
         "the plan grows as the planner writes: {plan_sizes:?}"
     );
-    assert_eq!(app.plan.items, parse_steps(PLAN_TEXT));
+    assert_eq!(app.panes.plan.items, parse_steps(PLAN_TEXT));
     assert_eq!(app.runs.agents[&AgentRole::Gkm].output, GKM_TEXT);
-    assert!(app.graph.kg.find("sponge").is_some());
+    assert!(app.panes.graph.kg.find("sponge").is_some());
     assert_eq!(
         app.runs.agents[&AgentRole::Planner].status,
         AgentStatus::Done
@@ -360,7 +360,7 @@ fn a_live_run_streams_into_the_panes_and_an_edited_planner_prompt_asks_once() {
     assert!(last.contains(PLANNER_MARK) && last.contains("Be brief."));
     assert_eq!(finished(&events)[&AgentRole::Skm], SKM_TEXT);
     assert_eq!(app.runs.history.len(), 3);
-    assert_eq!(app.plan.items, parse_steps(PLAN_TEXT));
+    assert_eq!(app.panes.plan.items, parse_steps(PLAN_TEXT));
     let planner = app.runs.history[1].agents.last().unwrap();
     assert_eq!(
         (planner.role, planner.settings.base_url.as_str()),
@@ -396,10 +396,10 @@ fn samples_ask_each_agent_n_times_keep_every_sample_and_reuse_them() {
     let requests = || runtime.block_on(server.received_requests()).unwrap();
 
     key(&mut app, KeyCode::Char('S'));
-    assert_eq!(app.samples, 3);
+    assert_eq!(app.work.samples, 3);
     let cmds = key(&mut app, KeyCode::Char('R'));
     let Some(Cmd::StartRun(request)) = cmds.first() else {
-        panic!("no run: {:?}", app.status)
+        panic!("no run: {:?}", app.messages.status)
     };
     let refused = pipeline.check(request).unwrap_err().to_string();
     assert!(
@@ -476,7 +476,7 @@ fn samples_ask_each_agent_n_times_keep_every_sample_and_reuse_them() {
     assert_eq!(fresh.samples.len(), 2);
 
     key(&mut app, KeyCode::Char('S'));
-    assert_eq!(app.samples, 5);
+    assert_eq!(app.work.samples, 5);
     let cmds = key(&mut app, KeyCode::Char('r'));
     run_cmds(&mut app, &pipeline, cmds);
     assert_eq!(

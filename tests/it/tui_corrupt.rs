@@ -59,11 +59,11 @@ fn run(app: &mut App, cmds: Vec<Cmd>) {
 fn demo_with_a_plan() -> App {
     let (mut app, cmds) = App::new(AppInit::demo((120, 40), "no models in this test"));
     run(&mut app, cmds);
-    assert_eq!(app.runs.history.len(), 1, "{:?}", app.status);
+    assert_eq!(app.runs.history.len(), 1, "{:?}", app.messages.status);
     while app.focus != Pane::Plan {
         press(&mut app, KeyCode::Tab);
     }
-    assert!(!app.plan.items.is_empty(), "the demo has a plan");
+    assert!(!app.panes.plan.items.is_empty(), "the demo has a plan");
     app
 }
 
@@ -94,15 +94,15 @@ fn c_corrupts_the_plan_into_a_new_run_scored_at_once() {
     for kind in [Kind::ObjectSwap, Kind::Drop, Kind::Reorder, Kind::Truncate] {
         let mut app = demo_with_a_plan();
         let before = app.runs.history.clone();
-        let plan = app.plan.items.clone();
-        let source = app.plan_source.clone();
-        let generation = app.score_generation;
+        let plan = app.panes.plan.items.clone();
+        let source = app.work.plan_source.clone();
+        let generation = app.work.score_generation;
         corrupt(&mut app, kind);
         assert_eq!(
             app.runs.history.len(),
             before.len() + 1,
             "{kind}: {:?}",
-            app.status
+            app.messages.status
         );
         assert_eq!(
             app.runs.history[..before.len()],
@@ -120,9 +120,9 @@ fn c_corrupts_the_plan_into_a_new_run_scored_at_once() {
             new.plan,
             "{kind}"
         );
-        assert_eq!(app.plan.items, new.plan);
-        assert_eq!(app.plan_source, PlanSource::Run { run: new.id });
-        assert!(app.score_generation > generation);
+        assert_eq!(app.panes.plan.items, new.plan);
+        assert_eq!(app.work.plan_source, PlanSource::Run { run: new.id });
+        assert!(app.work.score_generation > generation);
         assert!(
             new.scores.is_some(),
             "{kind}: the new run is scored at once"
@@ -163,7 +163,7 @@ fn the_picker_lists_every_kind_and_a_kind_that_does_not_apply_says_why() {
     // The demo has no other task to take a step from.
     corrupt(&mut app, Kind::Insert);
     assert_eq!(app.runs.history.len(), runs);
-    let (status, _) = app.status.clone().unwrap();
+    let (status, _) = app.messages.status.clone().unwrap();
     assert!(
         status.starts_with("insert cannot corrupt this plan: "),
         "{status}"

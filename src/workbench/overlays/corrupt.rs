@@ -9,13 +9,14 @@ use ratatui::widgets::{Clear, Paragraph};
 use ratatui::Frame;
 
 use crate::corrupt::Kind;
-use crate::workbench::app::{unix_now, App, Severity};
+use crate::workbench::app::App;
 use crate::workbench::component::Component;
 use crate::workbench::corrupting::{CorruptError, CorruptRequest, Corrupted};
 use crate::workbench::keymap::{Action, Context};
 use crate::workbench::message::Cmd;
 use crate::workbench::overlays::{centred, moved, themed_box, Overlay, Picked};
 use crate::workbench::session::{CorruptedFrom, PlanSource, RunRecord, RunState};
+use crate::workbench::shared::{unix_now, Severity};
 use crate::workbench::theme::Theme;
 
 /// What each kind does, as the picker says it.
@@ -35,7 +36,7 @@ fn describe(kind: Kind) -> &'static str {
 impl App {
     /// Opens the corruption picker, if there is a plan to corrupt.
     pub(crate) fn open_corrupt_picker(&mut self) {
-        if self.plan.items.is_empty() {
+        if self.panes.plan.items.is_empty() {
             self.set_status("the plan is empty: nothing to corrupt", Severity::Info);
         } else if self.runs.active.is_some() {
             self.set_status("a run is in flight: x cancels it", Severity::Warn);
@@ -53,12 +54,13 @@ impl App {
     /// The request for corrupting the plan with `kind` into the next run,
     /// seeded by the number of runs so far.
     fn corrupt_request(&mut self, kind: Kind) -> CorruptRequest {
-        let field = self.approach.dataset_field();
+        let field = self.work.approach.dataset_field();
         let others = self
+            .work
             .dataset
             .iter()
             .flat_map(|d| &d.tasks)
-            .filter(|t| self.task.id.as_deref() != Some(t.id.as_str()))
+            .filter(|t| self.work.task.id.as_deref() != Some(t.id.as_str()))
             .map(|t| t.plans.get(field).unwrap_or(&t.ground_truth).clone())
             .collect();
         self.set_status(format!("corrupting the plan: {kind}…"), Severity::Info);
@@ -66,7 +68,7 @@ impl App {
             run: self.runs.history.iter().map(|r| r.id).max().unwrap_or(0) + 1,
             kind,
             seed: self.runs.history.len() as u64,
-            plan: self.plan.items.clone(),
+            plan: self.panes.plan.items.clone(),
             others,
         }
     }
@@ -75,7 +77,7 @@ impl App {
     /// once; or one line saying why not.
     pub(crate) fn on_corrupted(&mut self, result: Result<Corrupted, CorruptError>) -> Vec<Cmd> {
         let corrupted = match result {
-            Ok(c) if c.source == self.plan.items && self.runs.active.is_none() => c,
+            Ok(c) if c.source == self.panes.plan.items && self.runs.active.is_none() => c,
             Ok(_) => {
                 self.set_status(
                     "the plan changed while it was being corrupted: c tries again",
@@ -104,28 +106,28 @@ impl App {
         self.runs.history.push(RunRecord {
             id: corrupted.run,
             started_unix: unix_now(),
-            approach: self.approach,
-            task: self.task.text.clone(),
+            approach: self.work.approach,
+            task: self.work.task.text.clone(),
             agents: Vec::new(),
             prompts: Default::default(),
             plan: corrupted.plan.clone(),
-            ground_truth: self.ground_truth.items.clone(),
+            ground_truth: self.panes.ground_truth.items.clone(),
             scores: None,
             state: RunState::Finished,
             error: None,
             reason: None,
             corrupted: Some(CorruptedFrom {
-                source: self.plan_source.clone(),
+                source: self.work.plan_source.clone(),
                 corruption: corrupted.corruption,
             }),
             steps: Vec::new(),
             samples: Vec::new(),
         });
-        self.plan.items = corrupted.plan;
-        self.plan.selected = 0;
-        self.plan_source = PlanSource::Run { run: corrupted.run };
+        self.panes.plan.items = corrupted.plan;
+        self.panes.plan.selected = 0;
+        self.work.plan_source = PlanSource::Run { run: corrupted.run };
         let cmd = self.rescore();
-        self.runs.awaiting_scores = Some((self.runs.history.len() - 1, self.score_generation));
+        self.runs.awaiting_scores = Some((self.runs.history.len() - 1, self.work.score_generation));
         self.set_status(status, Severity::Info);
         vec![cmd]
     }

@@ -195,7 +195,7 @@ pub(crate) fn open_box(
 /// Draws the open overlay, if any.
 pub(crate) fn render_overlay(frame: &mut Frame, app: &App, area: Rect) {
     let Some(overlay) = &app.overlay else { return };
-    let t = &app.theme;
+    let t = &app.looks.theme;
     match overlay {
         Overlay::Help => Help.draw(frame, area, t),
         Overlay::GroundTruthPicker(picker) => picker.draw(frame, area, t),

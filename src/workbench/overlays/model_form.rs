@@ -12,12 +12,13 @@ use ratatui_textarea::TextArea;
 
 use crate::agents::config::{check_max_tokens, check_temperature, AgentSettings};
 use crate::agents::{AgentRole, ProviderKind};
-use crate::workbench::app::{single_line_editor, App, Severity};
+use crate::workbench::app::App;
 use crate::workbench::component::{self, Component};
 use crate::workbench::keymap::{Action, Context};
 use crate::workbench::message::Cmd;
 use crate::workbench::overlays::{centred, themed_box, Overlay};
 use crate::workbench::panes::Pane;
+use crate::workbench::shared::{single_line_editor, Severity};
 use crate::workbench::theme::Theme;
 
 /// The form's fields, in order.
@@ -219,7 +220,7 @@ impl App {
                 view.settings = settings.clone();
             }
         }
-        self.session_dirty = true;
+        self.saving.session_dirty = true;
         let who = match agents {
             [one] => one.label().to_string(),
             _ => "every agent".to_string(),
@@ -247,7 +248,7 @@ impl App {
     /// provider"), else the agent of the focused pane (Knowledge Graph:
     /// SKM, Grounded Description: GKM), else the Prompt pane's agent.
     pub fn agent_in_question(&self) -> AgentRole {
-        let messages = [&self.status, &self.notice];
+        let messages = [&self.messages.status, &self.messages.notice];
         let named = messages
             .iter()
             .filter_map(|m| m.as_ref())
@@ -262,7 +263,7 @@ impl App {
         named.unwrap_or(match self.focus {
             Pane::Graph => AgentRole::Skm,
             Pane::Description => AgentRole::Gkm,
-            _ => self.prompt.agent,
+            _ => self.panes.prompt.agent,
         })
     }
 }
@@ -349,7 +350,7 @@ mod tests {
             ),
             ("opnai", "0.5", "100", "unknown provider `opnai`"),
         ] {
-            app.prompt.agent = AgentRole::Planner;
+            app.panes.prompt.agent = AgentRole::Planner;
             app.open_model_form();
             fill(&mut app, [provider, "gpt-4o", temperature, max_tokens]);
             press(&mut app, KeyCode::Enter, KeyModifiers::NONE);
@@ -378,7 +379,7 @@ mod tests {
     #[test]
     fn the_form_opens_for_the_agent_a_message_names_and_saves_for_every_agent() {
         let mut app = demo();
-        app.prompt.agent = AgentRole::Planner;
+        app.panes.prompt.agent = AgentRole::Planner;
         app.set_status(
             "the replay provider only has the demo's recording, not this task: GKM needs a provider. Press m …",
             Severity::Warn,
@@ -395,11 +396,12 @@ mod tests {
             assert_eq!(provider(&app, role), "openai/local", "{role:?}");
         }
         assert!(app
+            .messages
             .status
             .as_ref()
             .is_some_and(|(s, _)| s.starts_with("every agent: openai / local")));
 
-        app.status = None;
+        app.messages.status = None;
         app.focus = Pane::Graph;
         assert_eq!(app.agent_in_question(), AgentRole::Skm);
         app.focus = Pane::Plan;

@@ -150,9 +150,10 @@ impl App {
         let choices = self.ground_truth_choices();
         let selected = choices
             .iter()
-            .position(|(c, _)| match (c, &self.ground_truth_source) {
+            .position(|(c, _)| match (c, &self.work.ground_truth_source) {
                 (GroundTruthChoice::Demo(i), GroundTruthSource::Demo { index }) => i == index,
                 (GroundTruthChoice::Task(i), GroundTruthSource::Dataset { task }) => self
+                    .work
                     .dataset
                     .as_ref()
                     .and_then(|d| d.tasks.get(*i))
@@ -168,7 +169,7 @@ impl App {
     /// The ground truths the picker offers, with their labels.
     pub fn ground_truth_choices(&self) -> Vec<(GroundTruthChoice, String)> {
         let mut out = Vec::new();
-        if self.task.id.is_none() {
+        if self.work.task.id.is_none() {
             out.push((
                 GroundTruthChoice::Demo(0),
                 "Demo: annotator A's ground truth".to_string(),
@@ -178,7 +179,7 @@ impl App {
                 "Demo: annotator B's ground truth".to_string(),
             ));
         }
-        if let Some(ds) = &self.dataset {
+        if let Some(ds) = &self.work.dataset {
             for (i, t) in ds.tasks.iter().enumerate() {
                 out.push((GroundTruthChoice::Task(i), format!("{} · {}", t.id, t.task)));
             }
@@ -195,11 +196,12 @@ impl App {
         self.overlay = None;
         match choice {
             GroundTruthChoice::Demo(index) => {
-                self.ground_truth.items = demo_ground_truth(index);
-                self.ground_truth_source = GroundTruthSource::Demo { index };
+                self.panes.ground_truth.items = demo_ground_truth(index);
+                self.work.ground_truth_source = GroundTruthSource::Demo { index };
             }
             GroundTruthChoice::Task(index) => {
                 let Some(task) = self
+                    .work
                     .dataset
                     .as_ref()
                     .and_then(|d| d.tasks.get(index))
@@ -216,8 +218,8 @@ impl App {
                 return Vec::new();
             }
             GroundTruthChoice::Typed => {
-                self.ground_truth.items = vec![String::new()];
-                self.ground_truth_source = GroundTruthSource::Typed;
+                self.panes.ground_truth.items = vec![String::new()];
+                self.work.ground_truth_source = GroundTruthSource::Typed;
                 self.focus = Pane::GroundTruth;
                 self.editing = Editing::Step {
                     list: StepList::GroundTruth,
@@ -227,7 +229,7 @@ impl App {
                 };
             }
         }
-        self.ground_truth.selected = 0;
+        self.panes.ground_truth.selected = 0;
         vec![self.rescore()]
     }
 }

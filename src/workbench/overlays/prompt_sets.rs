@@ -17,12 +17,13 @@ use ratatui_textarea::TextArea;
 use crate::agents::prompt_sets::{check_name, PromptSetError};
 use crate::agents::prompts::PromptSet;
 use crate::workbench::agents::prompt_texts;
-use crate::workbench::app::{single_line_editor, App, Severity};
+use crate::workbench::app::App;
 use crate::workbench::component::{self, Component};
 use crate::workbench::keymap::{Action, Context};
 use crate::workbench::message::Cmd;
 use crate::workbench::overlays::{centred, moved, themed_box, Overlay, Picked};
 use crate::workbench::panes::list_window;
+use crate::workbench::shared::{single_line_editor, Severity};
 use crate::workbench::theme::Theme;
 
 /// What a key in a prompt-set overlay asks of the workbench: the set's
@@ -164,13 +165,13 @@ impl App {
     /// `S`: asks for the name to save the prompts under.
     pub(crate) fn open_save_prompt_set(&mut self) {
         self.overlay = Some(Overlay::PromptSetName(Box::new(SetName::new(
-            &self.prompt_set,
+            &self.work.prompt_set,
         ))));
     }
 
     /// `L`: lists the saved sets, to choose one from.
     pub(crate) fn list_prompt_sets(&mut self) -> Vec<Cmd> {
-        match self.prompt_sets.clone() {
+        match self.work.prompt_sets.clone() {
             Some(root) => vec![Cmd::ListPromptSets(root)],
             None => {
                 self.set_status(PromptSetError::NoFolder.to_string(), Severity::Warn);
@@ -195,7 +196,7 @@ impl App {
             SetOutcome::Open => self.overlay = Some(Overlay::PromptSetPicker(picker)),
             SetOutcome::Cancelled => {}
             SetOutcome::Chosen(name) => {
-                if let Some(root) = self.prompt_sets.clone() {
+                if let Some(root) = self.work.prompt_sets.clone() {
                     return vec![Cmd::LoadPromptSet { root, name }];
                 }
             }
@@ -204,12 +205,12 @@ impl App {
     }
 
     fn save_prompt_set(&mut self, name: String) -> Vec<Cmd> {
-        let Some(root) = self.prompt_sets.clone() else {
+        let Some(root) = self.work.prompt_sets.clone() else {
             self.set_status(PromptSetError::NoFolder.to_string(), Severity::Warn);
             return Vec::new();
         };
         let set = PromptSet::load(None)
-            .and_then(|set| set.with_texts(&self.prompt.texts, "the workbench"));
+            .and_then(|set| set.with_texts(&self.panes.prompt.texts, "the workbench"));
         match set {
             Ok(set) => vec![Cmd::SavePromptSet { root, name, set }],
             Err(e) => {
@@ -223,7 +224,7 @@ impl App {
     pub(crate) fn on_prompt_sets(&mut self, listed: Result<Vec<String>, PromptSetError>) {
         match listed {
             Ok(names) if names.is_empty() => {
-                let root = self.prompt_sets.clone().unwrap_or_default();
+                let root = self.work.prompt_sets.clone().unwrap_or_default();
                 self.set_status(
                     format!(
                         "no prompt set in {} yet: S in the Prompt pane saves one",
@@ -252,7 +253,7 @@ impl App {
                     ),
                     Severity::Info,
                 );
-                self.prompt_set = name;
+                self.work.prompt_set = name;
             }
             Err(e) => self.set_status(format!("prompt set {name} not saved: {e}"), Severity::Error),
         }
@@ -268,15 +269,15 @@ impl App {
             Ok(set) => {
                 let texts: BTreeMap<String, String> = prompt_texts(&set);
                 for (template, text) in texts {
-                    self.prompt.texts.insert(template, text);
+                    self.panes.prompt.texts.insert(template, text);
                 }
-                self.load_prompt_editor();
-                self.session_dirty = true;
+                self.panes.prompt.load_editor(self.work.approach);
+                self.saving.session_dirty = true;
                 self.set_status(
                     format!("prompt set {name} loaded (r runs what changed)"),
                     Severity::Info,
                 );
-                self.prompt_set = name;
+                self.work.prompt_set = name;
             }
             Err(e) => self.set_status(format!("prompt set {name} not loaded: {e}"), Severity::Warn),
         }
@@ -323,7 +324,12 @@ mod tests {
         }
 
         fn status(&self) -> String {
-            self.app.status.clone().map(|(s, _)| s).unwrap_or_default()
+            self.app
+                .messages
+                .status
+                .clone()
+                .map(|(s, _)| s)
+                .unwrap_or_default()
         }
     }
 
@@ -342,12 +348,12 @@ mod tests {
             "{}",
             b.status()
         );
-        let shipped = b.app.prompt.texts[SKM].clone();
+        let shipped = b.app.panes.prompt.texts[SKM].clone();
         b.key(KeyCode::Enter);
         b.key(KeyCode::End);
         b.keys(" Name every towel.");
         b.key(KeyCode::Esc);
-        let edited = b.app.prompt.texts[SKM].clone();
+        let edited = b.app.panes.prompt.texts[SKM].clone();
         assert!(edited.ends_with("Name every towel."), "{edited}");
 
         b.key(KeyCode::Char('S'));
@@ -380,12 +386,12 @@ mod tests {
             "every template"
         );
 
-        b.app.prompt.texts.insert(SKM.into(), shipped);
+        b.app.panes.prompt.texts.insert(SKM.into(), shipped);
         b.key(KeyCode::Char('L'));
         assert!(matches!(b.app.overlay, Some(Overlay::PromptSetPicker(_))));
         b.key(KeyCode::Enter);
         assert_eq!(b.status(), "prompt set towels loaded (r runs what changed)");
-        assert_eq!(b.app.prompt.texts[SKM], edited);
+        assert_eq!(b.app.panes.prompt.texts[SKM], edited);
         assert_eq!(
             b.app.agents_to_run(false).first(),
             Some(&crate::agents::AgentRole::Skm)
@@ -401,6 +407,6 @@ mod tests {
                 && !status.contains('\n'),
             "{status}"
         );
-        assert_eq!(b.app.prompt.texts[SKM], edited, "nothing lost");
+        assert_eq!(b.app.panes.prompt.texts[SKM], edited, "nothing lost");
     }
 }

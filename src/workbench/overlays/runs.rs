@@ -13,7 +13,7 @@ use ratatui::Frame;
 
 use crate::agents::cost::PriceTable;
 use crate::stats::summary::Spread;
-use crate::workbench::app::{App, Severity};
+use crate::workbench::app::App;
 use crate::workbench::component::Component;
 use crate::workbench::keymap::{Action, Context};
 use crate::workbench::message::Cmd;
@@ -23,6 +23,7 @@ use crate::workbench::panes::list_window;
 use crate::workbench::run_diff::{agent_side, cost_text, run_cost, ReadMetric, RunDiff, METRICS};
 use crate::workbench::runs::{mean_score, sample_scores};
 use crate::workbench::session::{PlanSource, RunRecord, RunState};
+use crate::workbench::shared::Severity;
 use crate::workbench::theme::Theme;
 
 /// The run history, and the diff of two of its runs when one is open.
@@ -322,7 +323,7 @@ impl Component for RunsOverlay {
 impl App {
     /// Opens the run history, the latest run selected.
     pub(crate) fn open_runs(&mut self) {
-        let view = RunsOverlay::new(&self.runs.history, &self.prices);
+        let view = RunsOverlay::new(&self.runs.history, &self.work.prices);
         self.overlay = Some(Overlay::Runs(Box::new(view)));
     }
 
@@ -348,8 +349,8 @@ impl App {
             }
             RunsOutcome::Load(index) => {
                 if let Some(run) = self.runs.history.get(index) {
-                    self.plan.replace(run.plan.clone());
-                    self.plan_source = PlanSource::Run { run: run.id };
+                    self.panes.plan.replace(run.plan.clone());
+                    self.work.plan_source = PlanSource::Run { run: run.id };
                     let id = run.id;
                     self.set_status(format!("plan of run {id} loaded"), Severity::Info);
                     return vec![self.rescore()];

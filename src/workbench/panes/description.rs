@@ -10,7 +10,7 @@ use crate::workbench::app::App;
 use crate::workbench::panes::{agent_badge, highlighted, pane_block, Pane};
 
 pub(crate) fn draw(frame: &mut Frame, app: &App, area: Rect) {
-    let t = &app.theme;
+    let t = &app.looks.theme;
     let block = pane_block(
         app,
         Pane::Description,
@@ -31,11 +31,16 @@ pub(crate) fn draw(frame: &mut Frame, app: &App, area: Rect) {
         Text::from(
             output
                 .lines()
-                .map(|l| Line::from(highlighted(l, &app.search, t.base, t.highlight)))
+                .map(|l| Line::from(highlighted(l, &app.panes.search, t.base, t.highlight)))
                 .collect::<Vec<_>>(),
         )
     };
-    let scroll = app.scroll.get(&Pane::Description).copied().unwrap_or(0);
+    let scroll = app
+        .panes
+        .scroll
+        .get(&Pane::Description)
+        .copied()
+        .unwrap_or(0);
     frame.render_widget(
         Paragraph::new(text)
             .block(block)

@@ -126,23 +126,10 @@ impl GraphPane {
     }
 }
 
-impl App {
-    /// Rebuilds the graph from the SKM's latest output.
-    pub(crate) fn refresh_graph(&mut self) {
-        let output = self
-            .runs
-            .agents
-            .get(&AgentRole::Skm)
-            .map(|v| v.output.as_str())
-            .unwrap_or_default();
-        self.graph.set_output(output);
-    }
-}
-
 /// Draws the Knowledge Graph pane.
 pub(crate) fn draw(frame: &mut Frame, app: &App, area: Rect) {
-    let t = &app.theme;
-    let g = &app.graph.kg;
+    let t = &app.looks.theme;
+    let g = &app.panes.graph.kg;
     let block = pane_block(app, Pane::Graph, Some(agent_badge(app, AgentRole::Skm)));
     let inner = block.inner(area);
     frame.render_widget(block, area);
@@ -157,19 +144,19 @@ pub(crate) fn draw(frame: &mut Frame, app: &App, area: Rect) {
         );
         return;
     }
-    if app.graph.mode == GraphMode::Whole {
-        let widget = GraphWidget::new(&app.graph.view, t).focused(app.focus == Pane::Graph);
+    if app.panes.graph.mode == GraphMode::Whole {
+        let widget = GraphWidget::new(&app.panes.graph.view, t).focused(app.focus == Pane::Graph);
         frame.render_widget(widget, inner);
         return;
     }
-    let node = app.graph.cursor.node.min(g.nodes.len() - 1);
+    let node = app.panes.graph.cursor.node.min(g.nodes.len() - 1);
     let name = &g.nodes[node];
     let incoming: Vec<(&str, usize)> = g
         .incoming(node)
         .map(|e| (e.label.as_str(), e.from))
         .collect();
     let outgoing: Vec<(&str, usize)> = g.outgoing(node).map(|e| (e.label.as_str(), e.to)).collect();
-    let selected = app.graph.cursor.neighbour;
+    let selected = app.panes.graph.cursor.neighbour;
     let box_width = name.chars().count() + 4;
     let [header, body, footer] = Layout::vertical([
         Constraint::Length(3),

@@ -8,6 +8,8 @@ pub mod scene;
 pub mod scores;
 pub mod steps;
 
+use std::collections::BTreeMap;
+
 use ratatui::layout::Rect;
 use ratatui::style::Style;
 use ratatui::text::{Line, Span};
@@ -16,8 +18,48 @@ use ratatui::Frame;
 
 use crate::agents::AgentRole;
 use crate::workbench::app::App;
-use crate::workbench::panes::steps::StepList;
+use crate::workbench::panes::graph::GraphPane;
+use crate::workbench::panes::prompt::PromptPane;
+use crate::workbench::panes::scene::ScenePane;
+use crate::workbench::panes::steps::{StepList, Steps};
 use crate::workbench::runs::AgentStatus;
+
+/// The panes' own state: each pane's content and view.
+pub struct Panes {
+    /// Whether the focused pane fills the screen.
+    pub zoom: bool,
+    /// The Prompt pane: every template's text, and its editor.
+    pub prompt: PromptPane,
+    /// The plan steps.
+    pub plan: Steps,
+    /// The ground-truth steps.
+    pub ground_truth: Steps,
+    /// The Knowledge Graph pane.
+    pub graph: GraphPane,
+    /// The Scene pane.
+    pub scene: ScenePane,
+    /// Scroll offsets of the text panes.
+    pub scroll: BTreeMap<Pane, u16>,
+    /// The search, highlighted in every pane.
+    pub search: String,
+}
+
+impl Panes {
+    /// The steps of a list.
+    pub fn steps(&self, list: StepList) -> &Steps {
+        match list {
+            StepList::Plan => &self.plan,
+            StepList::GroundTruth => &self.ground_truth,
+        }
+    }
+
+    pub(crate) fn steps_mut(&mut self, list: StepList) -> &mut Steps {
+        match list {
+            StepList::Plan => &mut self.plan,
+            StepList::GroundTruth => &mut self.ground_truth,
+        }
+    }
+}
 
 /// The panes, each with the title users and tests find it by.
 #[derive(Debug, Clone, Copy, PartialEq, Eq, PartialOrd, Ord, Hash)]
@@ -96,7 +138,7 @@ pub(crate) fn render_pane(frame: &mut Frame, app: &App, pane: Pane, area: Rect) 
 
 /// A short word for an agent's state, with its style.
 pub(crate) fn agent_badge<'a>(app: &App, agent: AgentRole) -> Span<'a> {
-    let t = &app.theme;
+    let t = &app.looks.theme;
     let Some(v) = app.runs.agents.get(&agent) else {
         return Span::raw("");
     };
@@ -170,10 +212,13 @@ pub(crate) fn highlighted<'a>(
 /// The bordered block of a pane, with its title and the focus border.
 pub(crate) fn pane_block<'a>(app: &App, pane: Pane, extra: Option<Span<'a>>) -> Block<'a> {
     let focused = app.focus == pane;
-    let mut title = vec![Span::styled(format!(" {} ", pane.title()), app.theme.title)];
+    let mut title = vec![Span::styled(
+        format!(" {} ", pane.title()),
+        app.looks.theme.title,
+    )];
     if let Some(extra) = extra {
         title.push(extra);
-        title.push(Span::styled(" ", app.theme.title));
+        title.push(Span::styled(" ", app.looks.theme.title));
     }
     Block::default()
         .borders(Borders::ALL)
@@ -183,10 +228,10 @@ pub(crate) fn pane_block<'a>(app: &App, pane: Pane, extra: Option<Span<'a>>) -> 
             ratatui::widgets::BorderType::Plain
         })
         .border_style(if focused {
-            app.theme.focus
+            app.looks.theme.focus
         } else {
-            app.theme.border
+            app.looks.theme.border
         })
-        .style(app.theme.base)
+        .style(app.looks.theme.base)
         .title(Line::from(title))
 }

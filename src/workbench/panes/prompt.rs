@@ -62,58 +62,54 @@ impl PromptPane {
     }
 }
 
-impl App {
-    /// The name of `agent`'s prompt template in the current approach.
-    pub fn prompt_name(&self, agent: AgentRole) -> String {
-        template_name(self.approach, agent)
+impl PromptPane {
+    /// The editor's text.
+    pub fn editor_text(&self) -> String {
+        self.editor.lines().join("\n")
     }
 
-    /// The text of `agent`'s prompt template in the current approach, with
-    /// the editor's text when it is being edited.
-    pub fn prompt_of(&self, agent: AgentRole) -> String {
-        if agent == self.prompt.agent && matches!(self.editing, Editing::Prompt) {
+    /// The text of `agent`'s template in `approach`, the editor's text when
+    /// `editing` it.
+    pub fn text_of(&self, approach: Approach, agent: AgentRole, editing: bool) -> String {
+        if agent == self.agent && editing {
             return self.editor_text();
         }
-        self.prompt
-            .texts
-            .get(&self.prompt_name(agent))
+        self.texts
+            .get(&template_name(approach, agent))
             .cloned()
             .unwrap_or_default()
     }
 
-    pub(crate) fn editor_text(&self) -> String {
-        self.prompt.editor.lines().join("\n")
-    }
-
-    pub(crate) fn load_prompt_editor(&mut self) {
+    /// Puts the shown agent's template of `approach` in the editor.
+    pub fn load_editor(&mut self, approach: Approach) {
         let text = self
-            .prompt
             .texts
-            .get(&self.prompt_name(self.prompt.agent))
+            .get(&template_name(approach, self.agent))
             .cloned()
             .unwrap_or_default();
-        self.prompt.editor = TextArea::new(text.lines().map(str::to_string).collect());
-        self.prompt
-            .editor
-            .set_wrap_mode(ratatui_textarea::WrapMode::Word);
+        self.editor = TextArea::new(text.lines().map(str::to_string).collect());
+        self.editor.set_wrap_mode(ratatui_textarea::WrapMode::Word);
     }
 
-    pub(crate) fn store_prompt_editor(&mut self) {
+    /// Keeps the editor's text as the shown agent's template of `approach`.
+    pub fn store_editor(&mut self, approach: Approach) {
         let text = self.editor_text();
-        self.prompt
-            .texts
-            .insert(self.prompt_name(self.prompt.agent), text);
+        self.texts.insert(template_name(approach, self.agent), text);
     }
 }
 
 pub(crate) fn draw(frame: &mut Frame, app: &App, area: Rect) {
-    let t = &app.theme;
-    let block = pane_block(app, Pane::Prompt, Some(agent_badge(app, app.prompt.agent)));
+    let t = &app.looks.theme;
+    let block = pane_block(
+        app,
+        Pane::Prompt,
+        Some(agent_badge(app, app.panes.prompt.agent)),
+    );
     let inner = block.inner(area);
     frame.render_widget(block, area);
     let mut tabs = Vec::new();
-    for (i, agent) in app.approach.roles().iter().enumerate() {
-        let style = if *agent == app.prompt.agent {
+    for (i, agent) in app.work.approach.roles().iter().enumerate() {
+        let style = if *agent == app.panes.prompt.agent {
             t.selection
         } else {
             t.base
@@ -123,7 +119,7 @@ pub(crate) fn draw(frame: &mut Frame, app: &App, area: Rect) {
             style,
         ));
     }
-    if let Some(v) = app.runs.agents.get(&app.prompt.agent) {
+    if let Some(v) = app.runs.agents.get(&app.panes.prompt.agent) {
         tabs.push(Span::styled(
             format!(
                 "  {}/{} · t={} · max {}",
@@ -136,7 +132,7 @@ pub(crate) fn draw(frame: &mut Frame, app: &App, area: Rect) {
         ));
     }
     let note = app.provider_note();
-    let changed = app.agent_changed(app.prompt.agent);
+    let changed = app.agent_changed(app.panes.prompt.agent);
     let footer_height = if note.is_some() { 3 } else { 1 };
     let [tab_row, body, footer] = Layout::vertical([
         Constraint::Length(1),
@@ -146,14 +142,15 @@ pub(crate) fn draw(frame: &mut Frame, app: &App, area: Rect) {
     .areas(inner);
     frame.render_widget(Paragraph::new(Line::from(tabs)), tab_row);
     if matches!(app.editing, Editing::Prompt) {
-        frame.render_widget(&app.prompt.editor, body);
+        frame.render_widget(&app.panes.prompt.editor, body);
     } else {
         let text: Vec<Line> = app
+            .panes
             .prompt
             .editor
             .lines()
             .iter()
-            .map(|l| Line::from(highlighted(l, &app.search, t.base, t.highlight)))
+            .map(|l| Line::from(highlighted(l, &app.panes.search, t.base, t.highlight)))
             .collect();
         frame.render_widget(Paragraph::new(text).wrap(Wrap { trim: false }), body);
     }

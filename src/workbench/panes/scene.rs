@@ -9,9 +9,7 @@ use ratatui::widgets::{Block, Paragraph};
 use ratatui::Frame;
 
 use crate::demo;
-use crate::workbench::app::{App, Severity};
-use crate::workbench::layout::{pane_rects, Screen};
-use crate::workbench::message::Cmd;
+use crate::workbench::app::App;
 use crate::workbench::panes::{highlighted, pane_block, Pane};
 use crate::workbench::scene_image::{self, Encoded};
 
@@ -52,103 +50,25 @@ impl ScenePane {
     }
 }
 
-impl App {
-    pub(crate) fn load_scene(&mut self) -> Vec<Cmd> {
-        self.scene.protocol = None;
-        self.scene.requested = None;
-        if let Some(message) = self.scene.message.take() {
-            if self
-                .status
-                .as_ref()
-                .is_some_and(|(text, _)| *text == message)
-            {
-                self.status = None;
-            }
-        }
-        match &self.task.image {
-            Some(path) => {
-                self.scene.image = None;
-                vec![Cmd::LoadImage(path.clone())]
-            }
-            None if self.is_demo() => {
-                self.scene.image = Some(Arc::new(DynamicImage::ImageRgb8(demo::scene_image())));
-                Vec::new()
-            }
-            None => {
-                self.scene.image = None;
-                Vec::new()
-            }
-        }
-    }
-
-    /// The terminal area the scene image is shown in now, when it is.
-    pub fn image_area(&self) -> Option<Rect> {
-        if !self.scene.enabled || self.scene.image.is_none() {
-            return None;
-        }
-        let screen = Rect::new(0, 0, self.size.0, self.size.1);
-        let Screen::Panes { panes, .. } = pane_rects(screen, self.focus, self.zoom) else {
-            return None;
-        };
-        let (_, rect) = panes.into_iter().find(|(p, _)| *p == Pane::Scene)?;
-        let inner = scene_image_area(rect);
-        (inner.width > 0 && inner.height > 0).then_some(inner)
-    }
-
-    /// Where a picture is on the screen and whether it is held back (an
-    /// overlay is open), when one is drawn: a picture kitty placed directly
-    /// must be taken off whenever this changes.
-    pub fn picture_shown(&self) -> Option<(Rect, bool)> {
-        let area = self.image_area()?;
-        let drawn = matches!(&self.scene.protocol, Some((r, _)) if *r == area);
-        drawn.then_some((area, self.overlay.is_some()))
-    }
-
-    /// The terminal area the scene image should be encoded for, when it is
-    /// shown and not yet encoded for that area.
-    pub fn image_area_wanted(&self) -> Option<Rect> {
-        let inner = self.image_area()?;
-        let encoded = matches!(&self.scene.protocol, Some((r, _)) if *r == inner);
-        (!encoded && self.scene.requested != Some(inner)).then_some(inner)
-    }
-
-    /// Shows `text` on the status line as a message about the scene image:
-    /// it goes away with the image.
-    pub(crate) fn image_status(&mut self, text: String) {
-        self.set_status(text.clone(), Severity::Warn);
-        self.scene.message = Some(text);
-    }
-
-    /// Notes that the scene is being encoded for `area` and returns what the
-    /// encoding needs, when the image is wanted in an area it is not
-    /// encoded (or being encoded) for: the loop hands it to a task.
-    pub fn request_image(&mut self) -> Option<(Rect, Arc<DynamicImage>)> {
-        let area = self.image_area_wanted()?;
-        let image = self.scene.image.clone()?;
-        self.scene.requested = Some(area);
-        Some((area, image))
-    }
-}
-
 pub(crate) fn draw(frame: &mut Frame, app: &App, area: Rect) {
-    let t = &app.theme;
+    let t = &app.looks.theme;
     let block = pane_block(app, Pane::Scene, None);
     let inner = block.inner(area);
     frame.render_widget(block, area);
     let caption = Line::from(highlighted(
-        &app.task.text,
-        &app.search,
+        &app.work.task.text,
+        &app.panes.search,
         t.base,
         t.highlight,
     ));
     frame.render_widget(Paragraph::new(caption), Rect { height: 1, ..inner });
     let image_area = scene_image_area(area);
-    let (encoded, note) = if !app.scene.enabled {
+    let (encoded, note) = if !app.panes.scene.enabled {
         (None, "image off (i shows it)")
-    } else if app.scene.image.is_none() {
+    } else if app.panes.scene.image.is_none() {
         (None, "no image for this task")
     } else {
-        (app.scene.protocol.as_ref(), "drawing the image…")
+        (app.panes.scene.protocol.as_ref(), "drawing the image…")
     };
     scene_image::draw(
         frame,
@@ -156,7 +76,7 @@ pub(crate) fn draw(frame: &mut Frame, app: &App, area: Rect) {
         encoded,
         note,
         t.muted,
-        app.overlay.is_some() || app.scene.hold,
+        app.overlay.is_some() || app.panes.scene.hold,
     );
 }
 

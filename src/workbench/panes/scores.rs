@@ -33,7 +33,7 @@ fn spread_of(scores: &[ScoreRecord], of: ScoreOf) -> Option<Spread> {
 /// The run whose plan the Plan pane shows, with its samples' scores, when
 /// more than one sample of it is scored.
 fn sampled_run(app: &App) -> Option<(&RunRecord, Vec<ScoreRecord>)> {
-    let PlanSource::Run { run } = app.plan_source else {
+    let PlanSource::Run { run } = app.work.plan_source else {
         return None;
     };
     let kept = app.runs.history.iter().find(|r| r.id == run)?;
@@ -121,12 +121,13 @@ pub(crate) fn score_span(theme: &Theme, name: &str, value: Option<f64>) -> Vec<S
 }
 
 pub(crate) fn draw(frame: &mut Frame, app: &App, area: Rect) {
-    let t = &app.theme;
+    let t = &app.looks.theme;
     let extra = app
         .scoring()
         .then(|| Span::styled("scoring…", t.warn))
         .or_else(|| {
-            app.scores
+            app.work
+                .scores
                 .as_ref()
                 .map(|s| Span::styled(format!("{:.1} ms", s.millis), t.muted))
         });
@@ -147,7 +148,7 @@ pub(crate) fn draw(frame: &mut Frame, app: &App, area: Rect) {
     if let Some((run, scores)) = sampled_run(app) {
         lines.extend(spread_lines(t, run, &scores));
     }
-    match &app.scores {
+    match &app.work.scores {
         None => lines.push(Line::from(Span::styled("scoring…", t.muted))),
         Some(s) => {
             let report = match &s.pg2s {

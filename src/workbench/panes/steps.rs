@@ -9,10 +9,9 @@ use ratatui::Frame;
 use crate::demo;
 use crate::metrics::pg2s::Pg2sReport;
 use crate::plan::parse_steps;
-use crate::workbench::app::{single_line_editor, App};
+use crate::workbench::app::App;
 use crate::workbench::editing::Editing;
 use crate::workbench::keymap::Action;
-use crate::workbench::message::Cmd;
 use crate::workbench::panes::{highlighted, list_window, pane_block, Pane};
 use crate::workbench::runs::AgentStatus;
 use crate::workbench::scoring::{Pg2sOutcome, ScoreOutcome};
@@ -159,74 +158,6 @@ impl Steps {
     }
 }
 
-impl App {
-    /// The steps of a list.
-    pub fn steps(&self, list: StepList) -> &Steps {
-        match list {
-            StepList::Plan => &self.plan,
-            StepList::GroundTruth => &self.ground_truth,
-        }
-    }
-
-    pub(crate) fn steps_mut(&mut self, list: StepList) -> &mut Steps {
-        match list {
-            StepList::Plan => &mut self.plan,
-            StepList::GroundTruth => &mut self.ground_truth,
-        }
-    }
-
-    /// The plan and ground truth as scored: with the step being edited as typed.
-    pub fn scored_lists(&self) -> (Vec<String>, Vec<String>) {
-        let mut gt = self.ground_truth.items.clone();
-        let mut plan = self.plan.items.clone();
-        if let Editing::Step {
-            list,
-            index,
-            editor,
-            ..
-        } = &self.editing
-        {
-            let target = match list {
-                StepList::Plan => &mut plan,
-                StepList::GroundTruth => &mut gt,
-            };
-            if let Some(step) = target.get_mut(*index) {
-                *step = editor.lines().join(" ");
-            }
-        }
-        gt.retain(|s| !s.trim().is_empty());
-        plan.retain(|s| !s.trim().is_empty());
-        (gt, plan)
-    }
-
-    /// Opens the step editor on `list` (see [`Steps::open_edit`]).
-    pub(crate) fn edit_step(&mut self, list: StepList, insert: Option<usize>) -> Vec<Cmd> {
-        let steps = self.steps_mut(list);
-        let (index, inserted) = steps.open_edit(insert);
-        let editor = single_line_editor(&steps.items[index]);
-        self.editing = Editing::Step {
-            list,
-            index,
-            editor,
-            inserted,
-        };
-        Vec::new()
-    }
-
-    /// A key of the Steps context on `list`.
-    pub(crate) fn step_command(&mut self, list: StepList, action: Action) -> Vec<Cmd> {
-        let steps = self.steps(list);
-        let (sel, len) = (steps.selected, steps.len());
-        match action {
-            Action::EditStep => self.edit_step(list, None),
-            Action::InsertAfter => self.edit_step(list, Some(sel + usize::from(len > 0))),
-            Action::InsertBefore => self.edit_step(list, Some(sel)),
-            _ if self.steps_mut(list).rearrange(action) => vec![self.rescore()],
-            _ => Vec::new(),
-        }
-    }
-}
-
 /// The latest scores and the KAS of step `index`, or the "scoring…" line.
 pub(crate) fn step_scores(
     app: &App,
@@ -234,9 +165,10 @@ pub(crate) fn step_scores(
     kas_label: impl Fn(f64) -> String,
 ) -> Result<(&ScoreOutcome, String), Line<'static>> {
     let scores = app
+        .work
         .scores
         .as_ref()
-        .ok_or_else(|| Line::from(Span::styled("    scoring…", app.theme.muted)))?;
+        .ok_or_else(|| Line::from(Span::styled("    scoring…", app.looks.theme.muted)))?;
     let kas = scores
         .kas
         .step_scores
@@ -248,7 +180,7 @@ pub(crate) fn step_scores(
 
 /// The mark under a plan step: which ground-truth step it matched, or why none.
 pub(crate) fn plan_mark(app: &App, index: usize) -> Line<'static> {
-    let t = &app.theme;
+    let t = &app.looks.theme;
     let (scores, kas) =
         match step_scores(app, index, |k| format!(" · KAS {k:.2} vs GT {}", index + 1)) {
             Ok(found) => found,
@@ -302,7 +234,7 @@ pub(crate) fn unmatched_plan_reason(report: &Pg2sReport, index: usize) -> String
 
 /// The mark under a ground-truth step: the plan step that matched it, or why none.
 pub(crate) fn ground_truth_mark(app: &App, index: usize) -> Line<'static> {
-    let t = &app.theme;
+    let t = &app.looks.theme;
     let (scores, kas) = match step_scores(app, index, |k| format!(" · KAS {k:.2}")) {
         Ok(found) => found,
         Err(line) => return line,
@@ -341,17 +273,17 @@ pub(crate) fn ground_truth_mark(app: &App, index: usize) -> Line<'static> {
 }
 
 pub(crate) fn draw(frame: &mut Frame, app: &App, list: StepList, area: Rect) {
-    let t = &app.theme;
+    let t = &app.looks.theme;
     let (pane, selected) = match list {
-        StepList::Plan => (Pane::Plan, app.plan.selected),
-        StepList::GroundTruth => (Pane::GroundTruth, app.ground_truth.selected),
+        StepList::Plan => (Pane::Plan, app.panes.plan.selected),
+        StepList::GroundTruth => (Pane::GroundTruth, app.panes.ground_truth.selected),
     };
     let extra = match list {
         StepList::Plan => {
-            let shown = match &app.plan_source {
+            let shown = match &app.work.plan_source {
                 PlanSource::None => None,
-                PlanSource::Run { run } => {
-                    Some(match app.runs.agents.get(&app.approach.planning_role()) {
+                PlanSource::Run { run } => Some(
+                    match app.runs.agents.get(&app.work.approach.planning_role()) {
                         Some(v) if v.status == AgentStatus::Running => {
                             Span::styled(format!("run {run} · streaming…"), t.warn)
                         }
@@ -362,8 +294,8 @@ pub(crate) fn draw(frame: &mut Frame, app: &App, list: StepList, area: Rect) {
                             ),
                             _ => Span::styled(format!("run {run}"), t.muted),
                         },
-                    })
-                }
+                    },
+                ),
                 PlanSource::Published { approach, .. } => Some(Span::styled(
                     format!("published {}", approach.name()),
                     t.muted,
@@ -381,7 +313,7 @@ pub(crate) fn draw(frame: &mut Frame, app: &App, list: StepList, area: Rect) {
             }
         }
         StepList::GroundTruth => Some(Span::styled(
-            match &app.ground_truth_source {
+            match &app.work.ground_truth_source {
                 crate::workbench::session::GroundTruthSource::Demo { index } => {
                     format!("demo annotator {}", if *index == 1 { 'B' } else { 'A' })
                 }
@@ -397,7 +329,7 @@ pub(crate) fn draw(frame: &mut Frame, app: &App, list: StepList, area: Rect) {
     let block = pane_block(app, pane, extra);
     let inner = block.inner(area);
     frame.render_widget(block, area);
-    let items = &app.steps(list).items;
+    let items = &app.panes.steps(list).items;
     if items.is_empty() {
         let hint = match list {
             StepList::Plan => {
@@ -428,7 +360,7 @@ pub(crate) fn draw(frame: &mut Frame, app: &App, list: StepList, area: Rect) {
                 t.base
             };
             let mut spans = vec![number];
-            spans.extend(highlighted(step, &app.search, base, t.highlight));
+            spans.extend(highlighted(step, &app.panes.search, base, t.highlight));
             lines.push(Line::from(spans));
         }
         lines.push(match list {

@@ -1,0 +1,33 @@
+//! What every part of the workbench shares and that depends on no other
+//! part of it: how important a status message is, the clock, the one-line
+//! editor. A leaf module, so that sharing these never makes an import
+//! circle.
+
+use ratatui_textarea::TextArea;
+
+/// How important a status message is.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub enum Severity {
+    /// For information.
+    Info,
+    /// Something needs the user.
+    Warn,
+    /// Something failed.
+    Error,
+}
+
+/// A one-line editor holding `text`, the cursor at its end: what every
+/// field of a form, the search and the step editor start from.
+pub fn single_line_editor(text: &str) -> TextArea<'static> {
+    let mut editor = TextArea::new(vec![text.to_string()]);
+    editor.move_cursor(ratatui_textarea::CursorMove::End);
+    editor
+}
+
+/// The seconds since the Unix epoch (0 on a clock set before it): when a
+/// run or a corruption happened, as the session keeps it.
+pub fn unix_now() -> u64 {
+    std::time::SystemTime::now()
+        .duration_since(std::time::UNIX_EPOCH)
+        .map_or(0, |d| d.as_secs())
+}
