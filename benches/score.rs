@@ -47,7 +47,7 @@ fn scorer(models: &Models) -> Pg2sScorer {
     let encoder = MpnetEncoder::load(&models.dir.join(MPNET)).unwrap_or_else(|e| panic!("{e}"));
     Pg2sScorer::new(
         Arc::new(encoder),
-        Ok(models.goal.clone()),
+        Some(models.goal.clone()),
         Pg2sSettings::default(),
     )
 }
@@ -67,7 +67,7 @@ fn stored_scorer(
     );
     Pg2sScorer::new(
         Arc::new(encoder),
-        Ok(models.goal.clone()),
+        Some(models.goal.clone()),
         Pg2sSettings::default(),
     )
 }

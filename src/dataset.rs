@@ -152,19 +152,36 @@ struct RawTask {
 /// (`ID.APPROACH.json`), and a file name has at most 255 bytes.
 pub const MAX_ID_BYTES: usize = 200;
 
-/// Why `id` cannot be a task's or an item's id (empty, blank or longer than
-/// [`MAX_ID_BYTES`]), checked before any request is made for it.
-pub fn check_id(id: &str) -> Result<(), String> {
+/// Refuses an id that cannot be a task's or an item's (empty, blank or
+/// longer than [`MAX_ID_BYTES`]), checked before any request is made for it.
+pub fn check_id(id: &str) -> Result<(), IdError> {
     if id.trim().is_empty() {
-        return Err("the id is empty: give every task an id of its own".into());
+        return Err(IdError::Empty);
     }
     if id.len() > MAX_ID_BYTES {
-        return Err(format!(
-            "the id is {} bytes long, past the limit of {MAX_ID_BYTES} bytes: give a shorter id",
-            id.len()
-        ));
+        return Err(IdError::TooLong(id.len()));
     }
     Ok(())
+}
+
+/// Why an id is refused: ids name result files and join results to tasks,
+/// so each must be a usable file name and unique in its file.
+#[derive(Debug, Clone, PartialEq, Eq, thiserror::Error)]
+pub enum IdError {
+    /// Empty or blank.
+    #[error("the id is empty: give every task an id of its own")]
+    Empty,
+    /// Longer than [`MAX_ID_BYTES`] (the length in bytes).
+    #[error("the id is {0} bytes long, past the limit of {MAX_ID_BYTES} bytes: give a shorter id")]
+    TooLong(usize),
+    /// Already the id of an earlier line.
+    #[error("the id `{}` is also the id of line {first}: ids must be unique", crate::sanitize::for_terminal(.id))]
+    Repeated {
+        /// The id.
+        id: String,
+        /// The line that has it first.
+        first: usize,
+    },
 }
 
 /// The one rule every reader of tasks and items holds ids to: each valid
@@ -176,13 +193,13 @@ pub struct IdRule {
 
 impl IdRule {
     /// Takes the id on line `line`, or says why it cannot be used.
-    pub fn admit(&mut self, id: &str, line: usize) -> Result<(), String> {
+    pub fn admit(&mut self, id: &str, line: usize) -> Result<(), IdError> {
         check_id(id)?;
-        if let Some(first) = self.seen.get(id) {
-            return Err(format!(
-                "the id `{}` is also the id of line {first}: ids must be unique",
-                crate::sanitize::for_terminal(id)
-            ));
+        if let Some(&first) = self.seen.get(id) {
+            return Err(IdError::Repeated {
+                id: id.to_string(),
+                first,
+            });
         }
         self.seen.insert(id.to_string(), line);
         Ok(())
@@ -228,17 +245,19 @@ pub fn legacy_file_stem(id: &str) -> String {
 /// (`images/../images/1.jpg` is fine, `../x.jpg` is not). Symlinks inside
 /// the dataset are followed when the file is opened, since clusters link
 /// `images/` to shared storage. With `allow_outside` any path is taken.
-pub fn resolve_inside(root: &Path, path: &str, allow_outside: bool) -> Result<PathBuf, String> {
+pub fn resolve_inside(
+    root: &Path,
+    path: &str,
+    allow_outside: bool,
+) -> Result<PathBuf, OutsidePath> {
     use std::path::Component;
     let written = Path::new(path);
     if allow_outside {
         return Ok(root.join(written));
     }
-    let refuse = |why: &str| {
-        format!(
-            "`{}` {why}: files a task names must be inside the dataset folder; give --allow-outside-paths to use it anyway",
-            crate::sanitize::for_terminal(path)
-        )
+    let refuse = |why| OutsidePath {
+        path: path.to_string(),
+        why,
     };
     let mut inside = PathBuf::new();
     for part in written.components() {
@@ -259,6 +278,17 @@ pub fn resolve_inside(root: &Path, path: &str, allow_outside: bool) -> Result<Pa
         return Err(refuse("names no file"));
     }
     Ok(root.join(inside))
+}
+
+/// A path a task names that [`resolve_inside`] refuses: a task file from
+/// elsewhere must not make the tool read (and send) files outside its folder.
+#[derive(Debug, Clone, PartialEq, Eq, thiserror::Error)]
+#[error("`{}` {why}: files a task names must be inside the dataset folder; give --allow-outside-paths to use it anyway", crate::sanitize::for_terminal(.path))]
+pub struct OutsidePath {
+    /// The path as the task writes it.
+    pub path: String,
+    /// What is wrong with it ("is an absolute path", …).
+    pub why: &'static str,
 }
 
 impl Dataset {
@@ -318,9 +348,11 @@ impl Dataset {
                 ..error(message)
             };
             match serde_json::from_str::<RawTask>(&line) {
-                Ok(raw) => match Task::from_raw(raw, &root, allow_outside_paths)
-                    .and_then(|task| ids.admit(&task.id, n).map(|()| task))
-                {
+                Ok(raw) => match Task::from_raw(raw, &root, allow_outside_paths).and_then(|task| {
+                    ids.admit(&task.id, n)
+                        .map(|()| task)
+                        .map_err(|err| err.to_string())
+                }) {
                     Ok(task) => tasks.push(task),
                     Err(message) => errors.push(with_id(message)),
                 },
@@ -566,7 +598,7 @@ impl Iterator for PairsReader {
                 .map_err(|e| error(n, format!("not a pair {{\"id\", \"gt\", \"pred\"}}: {e}")))
                 .and_then(|pair| match self.ids.admit(&pair.id, n) {
                     Ok(()) => Ok(pair),
-                    Err(why) => Err(error(n, why)),
+                    Err(why) => Err(error(n, why.to_string())),
                 });
             return Some(pair);
         }

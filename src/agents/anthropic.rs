@@ -4,8 +4,8 @@ use serde_json::{json, Value};
 use tokio_util::sync::CancellationToken;
 
 use super::provider::{
-    cut_reason, is_json, Assembler, BoxFuture, ChatRequest, Completion, HttpEndpoint, HttpSettings,
-    Provider, SseEvent, StreamStep, TokenSink,
+    cut_reason, is_json, AnswerError, Assembler, BoxFuture, ChatRequest, Completion, HttpEndpoint,
+    HttpSettings, Provider, SseEvent, StreamStep, TokenSink,
 };
 use super::{AgentError, Secret, Usage};
 
@@ -63,7 +63,7 @@ impl Anthropic {
                 .endpoint
                 .read_events(response, cancel, |event| {
                     let step = apply_event(&event, &mut answer)
-                        .map_err(|message| self.endpoint.invalid(message))?;
+                        .map_err(|err| self.endpoint.invalid(err.to_string()))?;
                     Ok(step == StreamStep::Done)
                 })
                 .await?;
@@ -82,7 +82,7 @@ impl Anthropic {
             answer.cut = cut_reason(&value, "/stop_reason", "max_tokens");
             answer
                 .check_limit()
-                .map_err(|message| self.endpoint.invalid(message))?;
+                .map_err(|err| self.endpoint.invalid(err.to_string()))?;
         }
         answer.finish(NAME, &request.model)
     }
@@ -102,9 +102,11 @@ impl Provider for Anthropic {
 /// Adds one Messages stream event to `answer`: its text and usage. Says
 /// whether the answer goes on or is done (`message_stop`); an event that is
 /// not JSON or is an `error` event is the message to report.
-pub fn apply_event(event: &SseEvent, answer: &mut Assembler<'_>) -> Result<StreamStep, String> {
-    let value: Value = serde_json::from_str(&event.data)
-        .map_err(|err| format!("invalid JSON in stream event ({err})"))?;
+pub fn apply_event(
+    event: &SseEvent,
+    answer: &mut Assembler<'_>,
+) -> Result<StreamStep, AnswerError> {
+    let value: Value = serde_json::from_str(&event.data)?;
     match value.get("type").and_then(Value::as_str).unwrap_or("") {
         "message_start" => {
             let usage = value.pointer("/message/usage");
@@ -131,7 +133,7 @@ pub fn apply_event(event: &SseEvent, answer: &mut Assembler<'_>) -> Result<Strea
                 .pointer("/error/message")
                 .and_then(Value::as_str)
                 .unwrap_or("unknown error");
-            return Err(format!("error in stream: {message}"));
+            return Err(AnswerError::InStream(message.to_string()));
         }
         _ => {}
     }
@@ -168,7 +170,7 @@ pub fn request_body(request: &ChatRequest) -> Value {
         .map(|image| {
             json!({
                 "type": "image",
-                "source": {"type": "base64", "media_type": image.media_type, "data": image.data_base64}
+                "source": {"type": "base64", "media_type": image.media_type, "data": &*image.data_base64}
             })
         })
         .collect();

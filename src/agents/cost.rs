@@ -377,24 +377,49 @@ impl Estimate {
 
     /// Refuses the run when `max_cost` is given and the estimate exceeds it,
     /// or cannot be known because a model to be paid for has no price.
-    pub fn check(&self, max_cost: Option<f64>) -> Result<(), String> {
+    pub fn check(&self, max_cost: Option<f64>) -> Result<(), CostError> {
         let Some(limit) = max_cost else {
             return Ok(());
         };
         if self.requests > 0 && !self.unpriced.is_empty() {
-            return Err(format!(
-                "--max-cost {limit}: no price for {} in the config file, so the cost cannot be bounded; add [prices.PROVIDER.\"MODEL\"] with input_per_million and output_per_million; nothing was sent",
-                self.unpriced_names()
-            ));
+            return Err(CostError::Unpriced {
+                limit,
+                models: self.unpriced_names(),
+            });
         }
         if self.usd > limit {
-            return Err(format!(
-                "the estimate ~${:.4} exceeds --max-cost {limit}; nothing was sent (raise --max-cost, or run fewer tasks or approaches)",
-                self.usd
-            ));
+            return Err(CostError::Exceeds {
+                estimate: self.usd,
+                limit,
+            });
         }
         Ok(())
     }
+}
+
+/// Why a run is refused before anything is sent: `--max-cost` is not a
+/// price, or the run would cost more than it, or cannot be bounded.
+#[derive(Debug, Clone, PartialEq, thiserror::Error)]
+pub enum CostError {
+    /// `--max-cost` is negative or not a number.
+    #[error("--max-cost {0}: give a number of US dollars, 0 or more")]
+    BadLimit(f64),
+    /// A model to be paid for has no price.
+    #[error("--max-cost {limit}: no price for {models} in the config file, so the cost cannot be bounded; add [prices.PROVIDER.\"MODEL\"] with input_per_million and output_per_million; nothing was sent")]
+    Unpriced {
+        /// The limit given.
+        limit: f64,
+        /// The models without a price, as the estimate names them.
+        models: String,
+    },
+    /// The estimate is past the limit.
+    #[error("the estimate ~${estimate:.4} exceeds --max-cost {limit}; nothing was sent (raise --max-cost, or run fewer tasks or approaches)")]
+    Exceeds {
+        /// The estimated cost in US dollars.
+        estimate: f64,
+        /// The limit given.
+        limit: f64,
+    },
 }
 
 /// The estimate of making each of `plans` (approach, input, sample) with
@@ -431,11 +456,9 @@ pub fn estimate_plans<'a>(
 }
 
 /// Checks a `--max-cost` value: a number of dollars, 0 or more.
-pub fn check_max_cost(value: Option<f64>) -> Result<(), String> {
+pub fn check_max_cost(value: Option<f64>) -> Result<(), CostError> {
     match value {
-        Some(v) if !(v.is_finite() && v >= 0.0) => Err(format!(
-            "--max-cost {v}: give a number of US dollars, 0 or more"
-        )),
+        Some(v) if !(v.is_finite() && v >= 0.0) => Err(CostError::BadLimit(v)),
         _ => Ok(()),
     }
 }
@@ -519,7 +542,11 @@ mod tests {
         assert_eq!((estimate.requests, estimate.cached), (1, 1));
         assert!((estimate.usd - 1.0).abs() < 1e-12);
         assert!(estimate.check(Some(1.5)).is_ok());
-        assert!(estimate.check(Some(0.5)).unwrap_err().contains("exceeds"));
+        assert!(estimate
+            .check(Some(0.5))
+            .unwrap_err()
+            .to_string()
+            .contains("exceeds"));
         estimate.add(
             &prices,
             ProviderKind::Openai,
@@ -527,7 +554,7 @@ mod tests {
             usage,
             Billing::Batch,
         );
-        let err = estimate.check(Some(100.0)).unwrap_err();
+        let err = estimate.check(Some(100.0)).unwrap_err().to_string();
         assert!(err.contains("openai/mystery"), "{err}");
         assert!(estimate.line().starts_with("estimate (rough"));
         assert!(check_max_cost(Some(-1.0)).is_err());

@@ -69,7 +69,9 @@ pub fn prepare_image(path: &Path, max_edge: u32) -> Result<ImageInput, AgentErro
         path: path.to_path_buf(),
         media_type: format.to_mime_type().to_string(),
         sha256: sha256_hex(&bytes),
-        data_base64: base64::engine::general_purpose::STANDARD.encode(&bytes),
+        data_base64: base64::engine::general_purpose::STANDARD
+            .encode(&bytes)
+            .into(),
     })
 }
 
@@ -113,7 +115,7 @@ mod tests {
         let sent = prepare_image(&big, 100).unwrap();
         assert_eq!(sent.media_type, "image/jpeg");
         let bytes = base64::engine::general_purpose::STANDARD
-            .decode(&sent.data_base64)
+            .decode(sent.data_base64.as_bytes())
             .unwrap();
         let back = image::load_from_memory(&bytes).unwrap();
         assert_eq!((back.width(), back.height()), (100, 50));

@@ -6,8 +6,8 @@ use serde_json::{json, Value};
 use tokio_util::sync::CancellationToken;
 
 use super::provider::{
-    cut_reason, is_json, Assembler, BoxFuture, ChatRequest, Completion, HttpEndpoint, HttpSettings,
-    Provider, SseEvent, StreamStep, TokenSink,
+    cut_reason, is_json, AnswerError, Assembler, BoxFuture, ChatRequest, Completion, HttpEndpoint,
+    HttpSettings, Provider, SseEvent, StreamStep, TokenSink,
 };
 use super::{AgentError, Secret, Usage};
 
@@ -80,7 +80,7 @@ impl OpenAi {
                 .endpoint
                 .read_events(response, cancel, |event| {
                     let step = apply_event(&event, &mut answer)
-                        .map_err(|message| self.endpoint.invalid(message))?;
+                        .map_err(|err| self.endpoint.invalid(err.to_string()))?;
                     finished |= step == StreamStep::Finished;
                     Ok(step == StreamStep::Done)
                 })
@@ -102,7 +102,7 @@ impl OpenAi {
             answer.cut = cut_reason(&value, "/choices/0/finish_reason", "length");
             answer
                 .check_limit()
-                .map_err(|message| self.endpoint.invalid(message))?;
+                .map_err(|err| self.endpoint.invalid(err.to_string()))?;
         }
         answer.finish(NAME, &request.model)
     }
@@ -123,14 +123,16 @@ impl Provider for OpenAi {
 /// usage. Says whether the answer goes on, was finished (a finish reason;
 /// the usage may still follow) or is done (`[DONE]`); an event that is not
 /// JSON or carries an error is the message to report.
-pub fn apply_event(event: &SseEvent, answer: &mut Assembler<'_>) -> Result<StreamStep, String> {
+pub fn apply_event(
+    event: &SseEvent,
+    answer: &mut Assembler<'_>,
+) -> Result<StreamStep, AnswerError> {
     if event.data.trim() == "[DONE]" {
         return Ok(StreamStep::Done);
     }
-    let value: Value = serde_json::from_str(&event.data)
-        .map_err(|err| format!("invalid JSON in stream event ({err})"))?;
+    let value: Value = serde_json::from_str(&event.data)?;
     if let Some(message) = value.pointer("/error/message").and_then(Value::as_str) {
-        return Err(format!("error in stream: {message}"));
+        return Err(AnswerError::InStream(message.to_string()));
     }
     if let Some(piece) = value
         .pointer("/choices/0/delta/content")

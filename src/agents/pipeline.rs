@@ -719,22 +719,16 @@ impl Runner {
         })
     }
 
-    /// The live provider of an agent (answers from a recording are served
-    /// before one is asked for, in `run_agent`).
+    /// The live provider of an agent: answers from a recording, and every
+    /// answer of a [`Source::Replay`] run, are served before one is asked
+    /// for, in `run_agent`.
     fn provider(&self, settings: &AgentSettings) -> Result<SharedProvider, AgentError> {
         let http = self.settings.http.clone();
         let key = settings.api_key.clone();
-        Ok(match (&self.source, settings.provider) {
-            (Source::Replay(recording, pace), kind) => {
-                Arc::new(ReplayProvider::new(recording.clone(), kind, *pace))
-            }
-            (Source::Live, ProviderKind::Openai) => {
-                Arc::new(OpenAi::new(&settings.base_url, key, http)?)
-            }
-            (Source::Live, ProviderKind::Anthropic) => {
-                Arc::new(Anthropic::new(&settings.base_url, key, http)?)
-            }
-            (Source::Live, ProviderKind::Replay) => {
+        Ok(match settings.provider {
+            ProviderKind::Openai => Arc::new(OpenAi::new(&settings.base_url, key, http)?),
+            ProviderKind::Anthropic => Arc::new(Anthropic::new(&settings.base_url, key, http)?),
+            ProviderKind::Replay => {
                 let recording = self.answers.as_ref().map_or_else(
                     || Arc::new(Recording::new("no recording")),
                     |(recording, _)| recording.clone(),

@@ -27,8 +27,9 @@ pub struct ImageInput {
     pub path: PathBuf,
     /// Its MIME type (`image/jpeg`, `image/png`…).
     pub media_type: String,
-    /// The bytes sent, base64-encoded.
-    pub data_base64: String,
+    /// The bytes sent, base64-encoded; shared, since every request and
+    /// sample of a run sends the same image (megabytes each).
+    pub data_base64: Arc<str>,
     /// SHA-256 of the bytes sent: the image's part of the cache key.
     pub sha256: String,
 }
@@ -520,25 +521,22 @@ impl<'a> Assembler<'a> {
         self
     }
 
-    /// The message for an answer past its token limit, if it is: what a
-    /// decoder reports, so that reading stops there and memory stays bounded.
-    pub fn check_limit(&self) -> Result<(), String> {
+    /// Refuses an answer past its token limit: what a decoder reports, so
+    /// that reading stops there and memory stays bounded.
+    pub fn check_limit(&self) -> Result<(), AnswerError> {
         let Some(max_tokens) = self.max_tokens else {
             return Ok(());
         };
         let bytes = self.text.len() + self.held.len();
         let limit = crate::limits::answer_bytes(max_tokens);
         if bytes > limit {
-            return Err(format!(
-                "an answer longer than the limit of {limit} bytes ({} bytes a token of max_tokens {max_tokens}): the server does not hold to the token limit; check the base URL",
-                crate::limits::ANSWER_BYTES_PER_TOKEN
-            ));
+            return Err(AnswerError::PastByteLimit { limit, max_tokens });
         }
         if self.usage.output_tokens > u64::from(max_tokens) {
-            return Err(format!(
-                "the server reports {} output tokens, past max_tokens {max_tokens}: it does not hold to the token limit",
-                self.usage.output_tokens
-            ));
+            return Err(AnswerError::PastTokenLimit {
+                reported: self.usage.output_tokens,
+                max_tokens,
+            });
         }
         Ok(())
     }
@@ -697,9 +695,37 @@ pub enum StreamStep {
 }
 
 /// A provider's stream decoder: adds one event to the answer and says where
-/// the stream stands, or gives the message of an event it cannot take
+/// the stream stands, or why it cannot take the event
 /// (`openai::apply_event`, `anthropic::apply_event`).
-pub type EventDecoder = fn(&SseEvent, &mut Assembler<'_>) -> Result<StreamStep, String>;
+pub type EventDecoder = fn(&SseEvent, &mut Assembler<'_>) -> Result<StreamStep, AnswerError>;
+
+/// Why an answer cannot be taken as it arrives; the provider reports it as
+/// an [`AgentError::InvalidResponse`] with the key removed.
+#[derive(Debug, thiserror::Error)]
+pub enum AnswerError {
+    /// An event's data is not JSON.
+    #[error("invalid JSON in stream event ({0})")]
+    Json(#[from] serde_json::Error),
+    /// The server put an error into the stream.
+    #[error("error in stream: {0}")]
+    InStream(String),
+    /// More text than the token limit allows: the server ignores it.
+    #[error("an answer longer than the limit of {limit} bytes ({} bytes a token of max_tokens {max_tokens}): the server does not hold to the token limit; check the base URL", crate::limits::ANSWER_BYTES_PER_TOKEN)]
+    PastByteLimit {
+        /// The bytes allowed.
+        limit: usize,
+        /// The request's limit.
+        max_tokens: u32,
+    },
+    /// The server's own count is past the token limit.
+    #[error("the server reports {reported} output tokens, past max_tokens {max_tokens}: it does not hold to the token limit")]
+    PastTokenLimit {
+        /// The output tokens reported.
+        reported: u64,
+        /// The request's limit.
+        max_tokens: u32,
+    },
+}
 
 /// One server-sent event.
 #[derive(Debug, Clone, PartialEq, Eq)]

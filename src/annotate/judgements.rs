@@ -178,27 +178,46 @@ struct Line {
     guidelines: Option<String>,
 }
 
-impl TryFrom<Line> for Judgement {
-    type Error = String;
+/// Why a line of an annotations file is not a judgement.
+#[derive(Debug, thiserror::Error)]
+pub enum JudgementError {
+    /// Not JSON of a judgement's shape.
+    #[error("not a judgement: {0}")]
+    Json(#[from] serde_json::Error),
+    /// Both subjects given.
+    #[error("has both `item` and `pair`; keep one")]
+    TwoSubjects,
+    /// No subject given.
+    #[error("names no `item` or `pair`")]
+    NoSubject,
+    /// A preference judges a pair.
+    #[error("a `preference` needs a `pair`, not an `item`")]
+    PreferenceOfItem,
+    /// A rating judges one item.
+    #[error("a `rating` needs an `item`, not a `pair`")]
+    RatingOfPair,
+    /// A rating outside the scale.
+    #[error("rating {0} is not a whole number from 1 to 5")]
+    Rating(serde_json::Number),
+}
 
-    fn try_from(line: Line) -> Result<Self, String> {
+impl TryFrom<Line> for Judgement {
+    type Error = JudgementError;
+
+    fn try_from(line: Line) -> Result<Self, JudgementError> {
         let subject = match (line.item, line.pair) {
             (Some(item), None) => Subject::Item(item),
             (None, Some([left, right])) => Subject::Pair(left, right),
-            (Some(_), Some(_)) => return Err("has both `item` and `pair`; keep one".into()),
-            (None, None) => return Err("names no `item` or `pair`".into()),
+            (Some(_), Some(_)) => return Err(JudgementError::TwoSubjects),
+            (None, None) => return Err(JudgementError::NoSubject),
         };
         let verdict = if line.withdrawn == Some(true) {
             None
         } else {
             let rating = line.rating.map(|n| rating_of(&n)).transpose()?;
             match (&subject, rating, line.preference) {
-                (Subject::Item(_), _, Some(_)) => {
-                    return Err("a `preference` needs a `pair`, not an `item`".into())
-                }
-                (Subject::Pair(..), Some(_), _) => {
-                    return Err("a `rating` needs an `item`, not a `pair`".into())
-                }
+                (Subject::Item(_), _, Some(_)) => return Err(JudgementError::PreferenceOfItem),
+                (Subject::Pair(..), Some(_), _) => return Err(JudgementError::RatingOfPair),
                 _ => {}
             }
             Some(Verdict {
@@ -220,11 +239,11 @@ impl TryFrom<Line> for Judgement {
 }
 
 /// A rating must be a whole number from 1 to 5.
-fn rating_of(n: &serde_json::Number) -> Result<u8, String> {
+fn rating_of(n: &serde_json::Number) -> Result<u8, JudgementError> {
     n.as_u64()
         .filter(|r| (1..=5).contains(r))
         .and_then(|r| u8::try_from(r).ok())
-        .ok_or_else(|| format!("rating {n} is not a whole number from 1 to 5"))
+        .ok_or_else(|| JudgementError::Rating(n.clone()))
 }
 
 impl From<&Judgement> for Line {
@@ -263,9 +282,8 @@ impl Judgement {
     }
 
     /// Reads one line of an annotations file.
-    pub fn from_line(text: &str) -> Result<Judgement, String> {
-        let line: Line = serde_json::from_str(text).map_err(|e| format!("not a judgement: {e}"))?;
-        Judgement::try_from(line)
+    pub fn from_line(text: &str) -> Result<Judgement, JudgementError> {
+        Judgement::try_from(serde_json::from_str::<Line>(text)?)
     }
 
     /// The key that a later line must share to supersede this one.
@@ -304,10 +322,10 @@ impl Annotations {
             }
             match Judgement::from_line(line) {
                 Ok(j) => out.lines.push((n + 1, j)),
-                Err(message) => out.errors.push(LineError {
+                Err(err) => out.errors.push(LineError {
                     path: path.to_path_buf(),
                     line: n + 1,
-                    message,
+                    message: err.to_string(),
                     id: None,
                 }),
             }

@@ -1,6 +1,7 @@
 //! `mapvlm cache stats|prune|clear`: the on-disk caches under
 //! `$XDG_CACHE_HOME/mapvlm` (sentence embeddings and agents' responses).
 
+use std::io::Write;
 use std::process::ExitCode;
 
 use anyhow::Context;
@@ -89,11 +90,16 @@ pub fn run(args: &CacheArgs) -> anyhow::Result<ExitCode> {
                         json!({ "dir": store.dir(), "entries": stats.entries, "bytes": stats.bytes }),
                     );
                 } else {
-                    println!("{name:<11} {}  {}", describe(stats), store.dir().display());
+                    writeln!(
+                        std::io::stdout(),
+                        "{name:<11} {}  {}",
+                        describe(stats),
+                        store.dir().display()
+                    )?;
                 }
             }
             if *json {
-                println!("{}", serde_json::Value::Object(report));
+                writeln!(std::io::stdout(), "{}", serde_json::Value::Object(report))?;
             }
         }
         CacheAction::Prune { max_mb } => {
@@ -101,13 +107,13 @@ pub fn run(args: &CacheArgs) -> anyhow::Result<ExitCode> {
             let removed = store
                 .prune(max_mb << 20)
                 .with_context(|| in_cache(name, store))?;
-            println!("{name}: removed {}", describe(removed));
+            writeln!(std::io::stdout(), "{name}: removed {}", describe(removed))?;
         }
         CacheAction::Clear { which } => {
             for (name, store) in &caches {
                 if which.includes(name) {
                     let removed = store.clear().with_context(|| in_cache(name, store))?;
-                    println!("{name}: removed {}", describe(removed));
+                    writeln!(std::io::stdout(), "{name}: removed {}", describe(removed))?;
                 }
             }
         }

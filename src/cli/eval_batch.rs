@@ -102,7 +102,7 @@ pub fn prefetch(
     cancel: &CancellationToken,
 ) -> anyhow::Result<Prefetched> {
     let poll = match args.poll_interval.or(agents.config_file()?.batch_poll_secs) {
-        Some(seconds) => poll_interval(seconds).map_err(anyhow::Error::msg)?,
+        Some(seconds) => poll_interval(seconds)?,
         None => DEFAULT_POLL,
     };
     let options = BatchOptions {

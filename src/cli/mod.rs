@@ -305,7 +305,7 @@ fn load_models(
         vectors: vectors.clone(),
         parser: parser.clone(),
     };
-    let scorer = Pg2sScorer::new(Arc::new(args.encoder(&dir, report)), Ok(goal), settings);
+    let scorer = Pg2sScorer::new(Arc::new(args.encoder(&dir, report)), Some(goal), settings);
     Ok((scorer, parser, vectors))
 }
 

@@ -1,5 +1,6 @@
 //! `mapvlm models fetch|verify|list`: the default model pack.
 
+use std::io::Write;
 use std::path::{Path, PathBuf};
 use std::process::ExitCode;
 use std::time::Instant;
@@ -169,10 +170,13 @@ fn fetch(dir: &Path, args: &FetchArgs) -> anyhow::Result<ExitCode> {
             .with_context(|| format!("fetching {}", spec.folder))?;
         let seconds = started.elapsed().as_secs_f64();
         match outcome {
-            FetchOutcome::AlreadyVerified => {
-                println!("{}: already verified, skipped", spec.folder)
-            }
-            FetchOutcome::Linked { from, downloaded } => println!(
+            FetchOutcome::AlreadyVerified => writeln!(
+                std::io::stdout(),
+                "{}: already verified, skipped",
+                spec.folder
+            )?,
+            FetchOutcome::Linked { from, downloaded } => writeln!(
+                std::io::stdout(),
                 "{}: {}verified and linked from {} ({seconds:.1} s, nothing copied)",
                 spec.folder,
                 if downloaded {
@@ -181,13 +185,14 @@ fn fetch(dir: &Path, args: &FetchArgs) -> anyhow::Result<ExitCode> {
                     ""
                 },
                 from.path.display()
-            ),
-            FetchOutcome::Installed { replaced } => println!(
+            )?,
+            FetchOutcome::Installed { replaced } => writeln!(
+                std::io::stdout(),
                 "{}: {} and verified in {} ({seconds:.1} s)",
                 spec.folder,
                 if replaced { "replaced" } else { "installed" },
                 dir.join(&spec.folder).display()
-            ),
+            )?,
         }
     }
     Ok(ExitCode::SUCCESS)
@@ -205,9 +210,9 @@ fn verify(dir: &Path, json: bool) -> anyhow::Result<ExitCode> {
             Status::Corrupt(problems) => ("corrupt", problems),
         };
         if !json {
-            println!("{}: {name}", spec.folder);
+            writeln!(std::io::stdout(), "{}: {name}", spec.folder)?;
             for problem in &problems {
-                println!("  {}", describe(problem));
+                writeln!(std::io::stdout(), "  {}", describe(problem))?;
             }
         }
         reports.push(json!({
@@ -219,7 +224,11 @@ fn verify(dir: &Path, json: bool) -> anyhow::Result<ExitCode> {
     }
     if json {
         let report = json!({ "models_dir": dir, "ok": all_ok, "models": reports });
-        println!("{}", serde_json::to_string_pretty(&report)?);
+        writeln!(
+            std::io::stdout(),
+            "{}",
+            serde_json::to_string_pretty(&report)?
+        )?;
     }
     if all_ok {
         Ok(ExitCode::SUCCESS)
@@ -262,9 +271,13 @@ fn list(dir: &Path, json: bool) -> anyhow::Result<ExitCode> {
             })
             .collect();
         let report = json!({ "models_dir": dir, "models": models });
-        println!("{}", serde_json::to_string_pretty(&report)?);
+        writeln!(
+            std::io::stdout(),
+            "{}",
+            serde_json::to_string_pretty(&report)?
+        )?;
     } else {
-        println!("models in {}", dir.display());
+        writeln!(std::io::stdout(), "models in {}", dir.display())?;
         for (name, path, bytes, status) in &rows {
             let status = match status {
                 QuickStatus::Verified => "verified",
@@ -272,7 +285,11 @@ fn list(dir: &Path, json: bool) -> anyhow::Result<ExitCode> {
                 QuickStatus::Missing => "missing (run `mapvlm models fetch`)",
             };
             let size = format!("{:.1} MB", *bytes as f64 / 1e6);
-            println!("{name:22} {size:>9}  {status}  {}", path.display());
+            writeln!(
+                std::io::stdout(),
+                "{name:22} {size:>9}  {status}  {}",
+                path.display()
+            )?;
         }
     }
     Ok(ExitCode::SUCCESS)

@@ -178,7 +178,7 @@ impl AgentArgs {
     /// An empty cost ledger with the config file's prices; `--max-cost`
     /// checked.
     pub fn ledger(&self) -> anyhow::Result<Ledger> {
-        check_max_cost(self.max_cost).map_err(anyhow::Error::msg)?;
+        check_max_cost(self.max_cost)?;
         let prices = PriceTable::from_config(&self.config_file()?.prices)?;
         Ok(Ledger::new(prices))
     }
@@ -190,7 +190,7 @@ impl AgentArgs {
         if estimate.requests + estimate.cached > 0 {
             eprintln!("mapvlm: {}", sanitize::for_terminal(&estimate.line()));
         }
-        estimate.check(self.max_cost).map_err(anyhow::Error::msg)
+        Ok(estimate.check(self.max_cost)?)
     }
 
     /// Writes the recording, if one was asked for, through the run's

@@ -15,6 +15,7 @@ use crate::agree::MetricValues;
 use crate::dataset::{open_pairs, LineError, Pair};
 use crate::metrics::kas::{kas, KasReport};
 use crate::metrics::pg2s::{Pg2sReport, Pg2sScorer, Pg2sSettings};
+use crate::metrics::shown;
 use crate::plan::{bound_steps, parse_steps};
 
 /// A metric `score` can compute.
@@ -305,10 +306,6 @@ fn to_json(s: &Scored) -> Value {
     obj
 }
 
-fn fmt_score(value: Option<f64>) -> String {
-    value.map_or_else(|| "n/a".to_string(), |v| format!("{v:.4}"))
-}
-
 /// The explanation of one pair for a person.
 fn explain(s: &Scored) -> String {
     let mut out = String::new();
@@ -318,13 +315,13 @@ fn explain(s: &Scored) -> String {
         let _ = writeln!(
             out,
             "  PG2S {}   S_plan {}   S_goal {}",
-            fmt_score(p.pg2s()),
-            fmt_score(Some(p.s_plan)),
-            fmt_score(p.s_goal())
+            shown(p.pg2s()),
+            shown(Some(p.s_plan)),
+            shown(p.s_goal())
         );
     }
     if let Some(k) = &s.kas {
-        let _ = write!(out, "  KAS  {}", fmt_score(k.kas));
+        let _ = write!(out, "  KAS  {}", shown(k.kas));
         match &k.reason {
             Some(r) => {
                 let _ = writeln!(out, "   ({r})");

@@ -6,6 +6,13 @@ pub mod pg2s;
 
 use crate::nlp::Token;
 
+/// A score as every view writes it for a person (the workbench, `score
+/// --explain`): three decimals, `n/a` when it could not be computed, so the
+/// same number reads the same everywhere.
+pub fn shown(score: Option<f64>) -> String {
+    score.map_or_else(|| "n/a".to_string(), |v| format!("{v:.3}"))
+}
+
 /// The error a model behind one of the metric traits may report.
 pub type ModelError = Box<dyn std::error::Error + Send + Sync>;
 

@@ -351,21 +351,24 @@ pub struct GoalModels {
 /// so memory stays bounded however many pairs one scorer scores.
 const FRAMES_KEPT: usize = 16_384;
 
+/// Why a scorer without goal-wise models reports no S_goal or PG2S.
+const NO_GOAL_MODELS: &str = "no framing parser or word vectors loaded";
+
 /// Scores plan pairs with PG2S, keeping the framed actions of the steps seen
 /// lately (up to [`FRAMES_KEPT`]) so an unchanged step is not parsed twice.
 pub struct Pg2sScorer {
     encoder: Arc<dyn SentenceEncoder>,
-    goal: Result<GoalModels, String>,
+    goal: Option<GoalModels>,
     settings: Pg2sSettings,
     frames: Mutex<HashMap<String, Arc<Vec<Vec<String>>>>>,
 }
 
 impl Pg2sScorer {
-    /// A scorer; `goal` is the goal-wise models, or the reason they are not
-    /// available (then S_goal and PG2S are reported as missing with it).
+    /// A scorer; `goal` is the goal-wise models, if any (without them S_goal
+    /// and PG2S are reported as missing, saying why).
     pub fn new(
         encoder: Arc<dyn SentenceEncoder>,
-        goal: Result<GoalModels, String>,
+        goal: Option<GoalModels>,
         settings: Pg2sSettings,
     ) -> Self {
         Self {
@@ -385,7 +388,7 @@ impl Pg2sScorer {
     /// encoder can sort them by length and later scoring hits its caches.
     pub fn warm_up(&self, steps: &[&str]) -> Result<(), ModelError> {
         self.encoder.encode(steps)?;
-        if let Ok(models) = &self.goal {
+        if let Some(models) = &self.goal {
             for step in steps {
                 self.frame_step(models.parser.as_ref(), step)?;
             }
@@ -405,8 +408,8 @@ impl Pg2sScorer {
         let sentence_matches = match_sentences(&cos, pred.len(), self.settings.sentence_threshold);
         let s_plan = share_matched(&sentence_matches, |m| m.pred.is_some());
         let goal = match &self.goal {
-            Ok(models) => Ok(self.goal_report(models, gt, pred)?),
-            Err(reason) => Err(reason.clone()),
+            Some(models) => Ok(self.goal_report(models, gt, pred)?),
+            None => Err(NO_GOAL_MODELS.to_string()),
         };
         Ok(Pg2sReport {
             s_plan,

@@ -130,7 +130,7 @@ fn real_models() -> ModelSlot {
     };
     ModelSlot::Ready(Arc::new(Pg2sScorer::new(
         Arc::new(encoder),
-        Ok(goal),
+        Some(goal),
         Pg2sSettings::default(),
     )))
 }
@@ -138,7 +138,7 @@ fn real_models() -> ModelSlot {
 fn bag_of_words() -> ModelSlot {
     ModelSlot::Ready(Arc::new(Pg2sScorer::new(
         Arc::new(BagOfWords),
-        Err("no framing parser in this test".into()),
+        None,
         Pg2sSettings::default(),
     )))
 }
@@ -222,7 +222,7 @@ fn plan_steps_show_their_matches_and_cosines() {
     let mut h = Harness::new((200, 60), None, false, bag_of_words());
     let screen = h.screen();
     assert!(screen.contains("✓ GT 1 · cos"), "{screen}");
-    assert!(screen.contains("S_goal unavailable: no framing parser in this test"));
+    assert!(screen.contains("S_goal unavailable: no framing parser or word vectors loaded"));
     insta::assert_snapshot!("plan_with_matches", screen);
 }
 

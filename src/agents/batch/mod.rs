@@ -477,19 +477,19 @@ fn request_count(value: &Value, field: &str) -> u64 {
 }
 
 /// Checks a poll interval in seconds against [`POLL_BOUNDS`].
-pub fn poll_interval(seconds: f64) -> Result<Duration, String> {
+pub fn poll_interval(seconds: f64) -> Result<Duration, PollIntervalError> {
     let (low, high) = POLL_BOUNDS;
     Duration::try_from_secs_f64(seconds)
         .ok()
         .filter(|wait| (low..=high).contains(wait))
-        .ok_or_else(|| {
-            format!(
-                "poll interval {seconds} s: give between {} and {} seconds",
-                low.as_secs_f64(),
-                high.as_secs_f64()
-            )
-        })
+        .ok_or(PollIntervalError(seconds))
 }
+
+/// A poll interval outside [`POLL_BOUNDS`]: polling faster spends the
+/// provider's rate limit, slower leaves finished results waiting.
+#[derive(Debug, Clone, Copy, PartialEq, thiserror::Error)]
+#[error("poll interval {0} s: give between {low} and {high} seconds", low = POLL_BOUNDS.0.as_secs_f64(), high = POLL_BOUNDS.1.as_secs_f64())]
+pub struct PollIntervalError(pub f64);
 
 #[cfg(test)]
 mod tests {

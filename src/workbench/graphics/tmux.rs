@@ -36,23 +36,23 @@ pub fn wrap(sequence: &str) -> String {
 /// order, when `bytes` is nothing but well-formed wrappers (each opened by
 /// `ESC P tmux;`, every ESC inside doubled, one terminator); otherwise says
 /// where it is not.
-pub fn unwrap_all(bytes: &str) -> Result<Vec<String>, String> {
+pub fn unwrap_all(bytes: &str) -> Result<Vec<String>, WrapperError> {
     let mut rest = bytes;
     let mut inner = Vec::new();
     while !rest.is_empty() {
         let Some(body) = rest.strip_prefix(START) else {
             let at = bytes.len() - rest.len();
-            return Err(format!("byte {at}: not a tmux pass-through wrapper"));
+            return Err(WrapperError::NotAWrapper(at));
         };
         let mut seq = String::new();
         let mut chars = body.char_indices();
         let end = loop {
             match chars.next() {
-                None => return Err("a wrapper is not closed".to_string()),
+                None => return Err(WrapperError::NotClosed),
                 Some((_, '\x1b')) => match chars.next() {
                     Some((_, '\x1b')) => seq.push('\x1b'),
                     Some((i, '\\')) => break i + 1,
-                    _ => return Err("an ESC inside a wrapper is not doubled".to_string()),
+                    _ => return Err(WrapperError::SingleEsc),
                 },
                 Some((_, c)) => seq.push(c),
             }
@@ -61,6 +61,21 @@ pub fn unwrap_all(bytes: &str) -> Result<Vec<String>, String> {
         rest = &body[end..];
     }
     Ok(inner)
+}
+
+/// Where bytes are not well-formed tmux pass-through wrappers: what the
+/// tests that check every image the workbench sends inside tmux report.
+#[derive(Debug, Clone, PartialEq, Eq, thiserror::Error)]
+pub enum WrapperError {
+    /// Bytes outside any wrapper, at this offset.
+    #[error("byte {0}: not a tmux pass-through wrapper")]
+    NotAWrapper(usize),
+    /// A wrapper without its terminator.
+    #[error("a wrapper is not closed")]
+    NotClosed,
+    /// An ESC inside a wrapper that is not doubled.
+    #[error("an ESC inside a wrapper is not doubled")]
+    SingleEsc,
 }
 
 /// Whether this process runs inside tmux (tmux sets `TMUX` in its panes).

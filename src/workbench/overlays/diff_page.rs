@@ -7,7 +7,7 @@ use ratatui::style::{Modifier, Style};
 use ratatui::text::{Line, Span};
 use unicode_width::UnicodeWidthChar;
 
-use crate::workbench::overlays::fmt_score;
+use crate::metrics::shown;
 use crate::workbench::run_diff::{
     changed_lines, cost_text, AgentSide, DiffLine, Judgement, Piece, RunDiff, StepChange, StepRow,
     StepSide, Verdict,
@@ -22,7 +22,7 @@ const CONTEXT_LINES: usize = 1;
 
 /// A change in a metric as the diff shows it: `+0.079`, or `–`.
 fn signed(change: Option<f64>) -> String {
-    change.map_or("–".to_string(), |c| format!("{c:+.3}"))
+    change.map_or("n/a".to_string(), |c| format!("{c:+.3}"))
 }
 
 /// The verdict's one line: the metric, the means, the change, and whether
@@ -48,9 +48,9 @@ fn verdict_line(v: &Verdict, t: &Theme) -> Line<'static> {
         Span::styled(format!("{:<7}", v.metric), t.accent),
         Span::styled(
             format!(
-                "{} → {} {:>7}  ",
-                fmt_score(v.before),
-                fmt_score(v.after),
+                "{:>5} → {:>5} {:>7}  ",
+                shown(v.before),
+                shown(v.after),
                 signed(v.change())
             ),
             t.base,

@@ -208,7 +208,3 @@ pub(crate) fn render_overlay(frame: &mut Frame, app: &App, area: Rect) {
         Overlay::CorruptPicker(picker) => picker.draw(frame, area, t),
     }
 }
-
-pub(crate) fn fmt_score(v: Option<f64>) -> String {
-    v.map_or("–".to_string(), |v| format!("{v:.3}"))
-}

@@ -12,13 +12,14 @@ use ratatui::widgets::{Clear, Paragraph, Sparkline};
 use ratatui::Frame;
 
 use crate::agents::cost::PriceTable;
+use crate::metrics::shown;
 use crate::stats::summary::Spread;
 use crate::workbench::app::App;
 use crate::workbench::component::Component;
 use crate::workbench::keymap::{Action, Context};
 use crate::workbench::message::Cmd;
 use crate::workbench::overlays::diff_page::{diff_lines, wrap};
-use crate::workbench::overlays::{centred, fmt_score, moved, themed_box, Overlay};
+use crate::workbench::overlays::{centred, moved, themed_box, Overlay};
 use crate::workbench::panes::list_window;
 use crate::workbench::run_diff::{agent_side, cost_text, run_cost, ReadMetric, RunDiff, METRICS};
 use crate::workbench::runs::{mean_score, sample_scores};
@@ -194,10 +195,10 @@ impl RunsOverlay {
                     "{mark}  #{:<3} {:<12} {:<6} {:<6} {:<6} {:<6} {:>6} {:>7} {:>5} {:>9} {:>7} {}",
                     r.id,
                     r.approach.name(),
-                    fmt_score(mean(|s| s.pg2s)),
-                    fmt_score(mean(|s| s.s_plan)),
-                    fmt_score(mean(|s| s.s_goal)),
-                    fmt_score(mean(|s| s.kas)),
+                    shown(mean(|s| s.pg2s)),
+                    shown(mean(|s| s.s_plan)),
+                    shown(mean(|s| s.s_goal)),
+                    shown(mean(|s| s.kas)),
                     r.total_ms(),
                     r.total_tokens(),
                     r.plan.len(),

@@ -79,11 +79,6 @@ impl Steps {
         self.selected = index.min(self.len().saturating_sub(1));
     }
 
-    /// Moves the selection by `delta` steps, stopping at either end.
-    pub fn move_by(&mut self, delta: isize) {
-        self.select(self.selected.saturating_add_signed(delta));
-    }
-
     /// Where an edit opens: a new empty step at `insert`, or the selected
     /// step (a new one at the end when there is none). Returns the step's
     /// index and whether it was inserted for the edit.
