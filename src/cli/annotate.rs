@@ -116,21 +116,19 @@ pub fn run(args: AnnotateArgs) -> anyhow::Result<ExitCode> {
     for error in &skip_errors {
         warn(format!("{error} (the line is left as it is)"));
     }
-    let writer = AnnotationWriter::open(&annotations)?;
-    let skips = AnnotationWriter::open(&skips_file)?;
     let (themes, problems) = theme::load_themes(theme::user_theme_dir().as_deref());
     problems.iter().for_each(warn);
-    let theme = if theme::no_color_requested() {
-        theme::Theme::no_color()
-    } else {
-        let wanted = args.theme.as_deref().unwrap_or("dark");
-        themes
-            .iter()
-            .find(|t| t.name == wanted)
-            .or(themes.first())
-            .cloned()
-            .unwrap_or_else(theme::Theme::no_color)
+    let chosen = match &args.theme {
+        Some(name) => Some(theme::named(&themes, name)?),
+        None => themes.iter().find(|t| t.name == "dark").or(themes.first()),
     };
+    let theme = match chosen {
+        Some(theme) if !theme::no_color_requested() => theme.clone(),
+        _ => theme::Theme::no_color(),
+    };
+    super::require_terminal("annotate")?;
+    let writer = AnnotationWriter::open(&annotations)?;
+    let skips = AnnotationWriter::open(&skips_file)?;
     let items_dir = items_path
         .parent()
         .map_or_else(PathBuf::new, Path::to_path_buf);

@@ -22,6 +22,7 @@ use std::path::{Path, PathBuf};
 use std::process::ExitCode;
 use std::sync::Arc;
 
+use anyhow::bail;
 use clap::{Args, Parser, Subcommand};
 
 use crate::metrics::pg2s::{GoalModels, Pg2sScorer, Pg2sSettings};
@@ -364,4 +365,23 @@ pub fn run() -> anyhow::Result<ExitCode> {
         Some(Command::Man) => completions::man(),
         None => tui::run(cli.tui),
     }
+}
+
+/// Refuses to open a full-screen view (`what`) where it cannot work: standard
+/// input or output not a terminal (`mapvlm < /dev/null > out` would draw the
+/// screen into the file and wait for keys that never come), or `TERM=dumb`
+/// (no cursor movement). Called after the arguments are checked, so their
+/// errors come first, and before the terminal is touched.
+fn require_terminal(what: &str) -> anyhow::Result<()> {
+    use std::io::IsTerminal;
+    let why = if std::env::var("TERM").is_ok_and(|term| term == "dumb") {
+        "TERM is dumb"
+    } else if !std::io::stdin().is_terminal() {
+        "standard input is not a terminal"
+    } else if !std::io::stdout().is_terminal() {
+        "standard output is not a terminal"
+    } else {
+        return Ok(());
+    };
+    bail!("{what} needs a terminal, and {why}; run it in one (the commands plan, eval, score and agree work without)")
 }

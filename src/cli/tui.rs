@@ -1,11 +1,11 @@
 //! `mapvlm` with no subcommand, or `mapvlm tui`: the terminal workbench.
 
-use std::path::PathBuf;
+use std::path::{Path, PathBuf};
 use std::process::ExitCode;
 use std::sync::Arc;
 use std::time::Duration;
 
-use anyhow::Context;
+use anyhow::{bail, Context};
 use clap::Args;
 
 use crate::agents::cache::ResponseCache;
@@ -15,10 +15,12 @@ use crate::agents::pipeline::MAX_SAMPLES;
 use crate::agents::prompts::PromptSet;
 use crate::agents::replay::Pace;
 use crate::corrupt::{user_vocabulary_dir, Vocabulary};
+use crate::dataset::Dataset;
+use crate::lock::{Lock, LockError};
 use crate::workbench::agents::{prompt_texts, AgentsPipeline, ProviderConfig};
 use crate::workbench::corrupting::{CorruptError, CorruptionModels};
 use crate::workbench::scoring::{LoadError, Loaded};
-use crate::workbench::{self, Options};
+use crate::workbench::{self, session, theme, Options};
 
 /// Arguments of the workbench.
 #[derive(Debug, Args)]
@@ -90,9 +92,20 @@ pub fn run(args: TuiArgs) -> anyhow::Result<ExitCode> {
     .context("the workbench cannot start")?;
     let models = args.models;
     let settings = args.pg2s.settings()?;
+    if let Some(name) = &args.theme {
+        let (themes, _) = theme::load_themes(theme::user_theme_dir().as_deref());
+        theme::named(&themes, name)?;
+    }
+    let dataset = match &args.dataset {
+        Some(path) => Some(Dataset::load(path).context("--dataset")?),
+        None => None,
+    };
+    let session = args.session.clone().or_else(session::default_path);
+    let _lock = session.as_deref().map(lock_session).transpose()?;
+    super::require_terminal("the workbench")?;
     let options = Options {
         samples: args.samples,
-        dataset: args.dataset,
+        dataset,
         session: args.session,
         theme: args.theme,
         scorer: Box::new(move |progress: &dyn Fn(String)| {
@@ -129,4 +142,46 @@ pub fn run(args: TuiArgs) -> anyhow::Result<ExitCode> {
     };
     workbench::run(options)?;
     Ok(ExitCode::SUCCESS)
+}
+
+/// Takes the session file's lock for the workbench's whole life, after
+/// checking the file can be read and written: two workbenches on one
+/// session would each save over the other's edits, so the second is refused,
+/// naming the first; the kernel frees the lock however the holder ends.
+fn lock_session(path: &Path) -> anyhow::Result<Lock> {
+    let shown = || crate::sanitize::for_terminal(&path.display().to_string());
+    if path.is_dir() {
+        bail!(
+            "the session file {} is a folder; give --session FILE",
+            shown()
+        );
+    }
+    if path.exists() {
+        std::fs::OpenOptions::new()
+            .read(true)
+            .write(true)
+            .open(path)
+            .with_context(|| {
+                format!(
+                    "the session file {} cannot be read and written; fix its permissions or give --session FILE",
+                    shown()
+                )
+            })?;
+    }
+    let mut lock_path = path.as_os_str().to_owned();
+    lock_path.push(".lock");
+    match Lock::acquire(Path::new(&lock_path), "mapvlm workbench") {
+        Ok(lock) => Ok(lock),
+        Err(LockError::Held { holder, .. }) => bail!(
+            "the session {} is open in another workbench ({}); close that one, or open a second workbench on its own session with --session FILE",
+            shown(),
+            crate::sanitize::for_terminal(&holder)
+        ),
+        Err(err) => Err(err).with_context(|| {
+            format!(
+                "the session file {} cannot be written; fix its folder's permissions or give --session FILE",
+                shown()
+            )
+        }),
+    }
 }

@@ -63,8 +63,12 @@ pub struct AppInit {
     pub dataset: Option<Dataset>,
     /// The themes available (at least one).
     pub themes: Vec<Theme>,
-    /// The theme to start with, by name.
+    /// The theme to start with, by name (`--theme`): it wins over the
+    /// session's for this start, which the session keeps.
     pub theme: Option<String>,
+    /// How many samples `r` asks for (`--samples`): wins over the session's
+    /// for this start, which the session keeps.
+    pub samples: Option<u32>,
     /// Whether `NO_COLOR` is in force.
     pub no_color: bool,
     /// The session to restore.
@@ -96,6 +100,7 @@ impl AppInit {
             dataset: None,
             themes: super::theme::load_themes(None).0,
             theme: None,
+            samples: None,
             no_color: false,
             session: None,
             notice: None,
@@ -197,6 +202,21 @@ pub struct Saving {
     pub persist: Persist,
     /// The session file's state, for the status bar.
     pub saved: Option<Result<(), SessionError>>,
+    /// The session's own settings that a start-up flag (or `NO_COLOR`)
+    /// overrides for this start: saved in their place, so the next start
+    /// without the flag gets them back, until the user changes the setting
+    /// here.
+    pub kept: Kept,
+}
+
+/// The session's values of the settings overridden at start-up (see
+/// [`Saving::kept`]); `None` where nothing overrides the setting.
+#[derive(Debug, Clone, Default, PartialEq, Eq)]
+pub struct Kept {
+    /// The session's theme, by name.
+    pub theme: Option<String>,
+    /// The session's number of samples.
+    pub samples: Option<u32>,
 }
 
 pub(crate) fn demo_task() -> TaskView {
@@ -277,10 +297,23 @@ impl App {
                 session_dirty: false,
                 persist: Persist::default(),
                 saved: None,
+                kept: Kept::default(),
             },
             quit: false,
         };
         let mut cmds = Vec::new();
+        let flagged_theme = init
+            .theme
+            .as_deref()
+            .and_then(|name| app.looks.themes.iter().find(|t| t.name == name).cloned());
+        if let Some(session) = &init.session {
+            if flagged_theme.is_some() || app.looks.no_color {
+                app.saving.kept.theme = Some(session.theme.clone());
+            }
+            if init.samples.is_some() {
+                app.saving.kept.samples = Some(session.samples);
+            }
+        }
         match init.session {
             Some(session) => cmds.extend(app.restore(session)),
             None => match app
@@ -293,6 +326,12 @@ impl App {
                 Some(task) => cmds.extend(app.switch_task(&task)),
                 None => cmds.extend(app.start_run(false)),
             },
+        }
+        if let Some(theme) = flagged_theme.filter(|_| !app.looks.no_color) {
+            app.looks.theme = theme;
+        }
+        if let Some(samples) = init.samples {
+            app.work.samples = samples;
         }
         app.panes.prompt.load_editor(app.work.approach);
         cmds.push(app.rescore());

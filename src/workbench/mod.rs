@@ -49,6 +49,7 @@ use std::time::Duration;
 use crate::agents::config::{AgentSettings, ConfigError};
 use crate::agents::cost::PriceTable;
 use crate::agents::AgentRole;
+use crate::dataset::{Dataset, LineError};
 use agents::Pipeline;
 use scoring::ScorerLoader;
 
@@ -62,8 +63,10 @@ pub const SAVE_EVERY: Duration = Duration::from_millis(300);
 
 /// What the workbench is started with.
 pub struct Options {
-    /// A dataset folder or `tasks.jsonl` to choose tasks from.
-    pub dataset: Option<PathBuf>,
+    /// The dataset to choose tasks from (`--dataset`), loaded before the
+    /// screen opens so that one that cannot be read is refused, with its
+    /// lines that could not be used (said once at the start).
+    pub dataset: Option<(Dataset, Vec<LineError>)>,
     /// The session file (default: [`session::default_path`]).
     pub session: Option<PathBuf>,
     /// The theme to start with, by name.

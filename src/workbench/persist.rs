@@ -120,7 +120,12 @@ impl App {
                 .iter()
                 .filter_map(|(a, v)| v.ran_with.clone().map(|r| (*a, r)))
                 .collect(),
-            theme: self.looks.theme.name.clone(),
+            theme: self
+                .saving
+                .kept
+                .theme
+                .clone()
+                .unwrap_or_else(|| self.looks.theme.name.clone()),
             image: self.panes.scene.enabled,
             runs: self
                 .runs
@@ -134,7 +139,7 @@ impl App {
                         .map(|active| self.run_record(active, RunState::Running)),
                 )
                 .collect(),
-            samples: self.work.samples,
+            samples: self.saving.kept.samples.unwrap_or(self.work.samples),
             draft,
         }
     }

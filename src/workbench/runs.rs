@@ -527,6 +527,7 @@ impl App {
             .copied()
             .unwrap_or(SAMPLE_STEPS[0]);
         self.work.samples = next;
+        self.saving.kept.samples = None;
         self.saving.session_dirty = true;
         self.set_status(
             format!("samples per run: {next} (r asks each agent {next} times)"),

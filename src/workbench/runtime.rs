@@ -25,7 +25,7 @@ use super::agents::{Pipeline, RunError, RunRequest};
 use super::app::{App, AppInit};
 use super::scoring::{ModelSlot, ScorerLoader, SharedModels};
 use super::session::{Restored, Session};
-use super::shared::Severity;
+use super::shared::{spawn_signal_watch, Severity};
 use crate::agents::pipeline::AgentEvent;
 use crate::dataset::Dataset;
 
@@ -208,20 +208,6 @@ fn read_events(msgs: &mpsc::UnboundedSender<Msg>) {
     }
 }
 
-fn spawn_signal_watch(msgs: mpsc::UnboundedSender<Msg>) {
-    use tokio::signal::unix::{signal, SignalKind};
-    for kind in [SignalKind::terminate(), SignalKind::hangup()] {
-        let msgs = msgs.clone();
-        if let Ok(mut stream) = signal(kind) {
-            tokio::spawn(async move {
-                if stream.recv().await.is_some() {
-                    let _ = msgs.send(Msg::Quit);
-                }
-            });
-        }
-    }
-}
-
 /// Starts the workbench and runs it until the user quits. The terminal is
 /// restored on every way out, a panic included.
 pub fn run(options: Options) -> Result<(), TuiError> {
@@ -237,7 +223,7 @@ pub fn run(options: Options) -> Result<(), TuiError> {
 }
 
 fn load_start(
-    options: &Options,
+    options: &mut Options,
 ) -> (
     Option<Dataset>,
     Option<Session>,
@@ -245,24 +231,15 @@ fn load_start(
     Option<PathBuf>,
 ) {
     let mut notices = Vec::new();
-    let dataset = options
-        .dataset
-        .as_ref()
-        .and_then(|path| match Dataset::load(path) {
-            Ok((dataset, errors)) => {
-                if let Some(first) = errors.first() {
-                    notices.push(format!(
-                        "{} bad lines in the dataset, first: {first}",
-                        errors.len()
-                    ));
-                }
-                Some(dataset)
-            }
-            Err(e) => {
-                notices.push(format!("dataset not loaded: {e}"));
-                None
-            }
-        });
+    let dataset = options.dataset.take().map(|(dataset, errors)| {
+        if let Some(first) = errors.first() {
+            notices.push(format!(
+                "{} bad lines in the dataset, first: {first}",
+                errors.len()
+            ));
+        }
+        dataset
+    });
     let path = options.session.clone().or_else(session::default_path);
     let restored = match &path {
         Some(p) => match session::restore(p) {
@@ -311,8 +288,8 @@ fn load_start(
     (dataset, restored, notices, path)
 }
 
-async fn run_async(options: Options) -> Result<(), TuiError> {
-    let (dataset, restored, notices, session_path) = load_start(&options);
+async fn run_async(mut options: Options) -> Result<(), TuiError> {
+    let (dataset, restored, notices, session_path) = load_start(&mut options);
     let (themes, theme_problems) = theme::load_themes(theme::user_theme_dir().as_deref());
     let notice = notices
         .into_iter()
@@ -325,6 +302,7 @@ async fn run_async(options: Options) -> Result<(), TuiError> {
         dataset,
         themes,
         theme: options.theme.clone(),
+        samples: options.samples,
         no_color: theme::no_color_requested(),
         session: restored,
         notice,
@@ -340,9 +318,6 @@ async fn run_async(options: Options) -> Result<(), TuiError> {
         prompt_sets: options.prompt_sets.clone(),
     });
     app.work.prices = options.prices.as_ref().ok().cloned().unwrap_or_default();
-    if let Some(samples) = options.samples {
-        app.work.samples = samples;
-    }
     terminal.draw(|f| render::render(f, &app))?;
 
     let (msg_tx, mut msg_rx) = mpsc::unbounded_channel::<Msg>();
@@ -372,7 +347,10 @@ async fn run_async(options: Options) -> Result<(), TuiError> {
     let corruption: SharedCorruptionModels = Arc::new(RwLock::new(Err(CorruptError::StillLoading)));
 
     spawn_input_thread(msg_tx.clone(), probe.late);
-    spawn_signal_watch(msg_tx.clone());
+    let quit = msg_tx.clone();
+    spawn_signal_watch(move || {
+        let _ = quit.send(Msg::Quit);
+    });
     {
         let msgs = msg_tx.clone();
         tokio::spawn(async move {

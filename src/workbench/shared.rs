@@ -24,6 +24,30 @@ pub fn single_line_editor(text: &str) -> TextArea<'static> {
     editor
 }
 
+/// Calls `stop` when the process gets SIGINT, SIGQUIT, SIGTERM or SIGHUP
+/// (`kill`, a closed SSH session; in raw mode Ctrl-C is a key, not a
+/// signal): each screen then quits through its own loop, so the terminal is
+/// restored and the work saved, where the default would leave it raw on the
+/// alternate screen. Needs a Tokio runtime.
+pub fn spawn_signal_watch(stop: impl Fn() + Clone + Send + 'static) {
+    use tokio::signal::unix::{signal, SignalKind};
+    for kind in [
+        SignalKind::interrupt(),
+        SignalKind::quit(),
+        SignalKind::terminate(),
+        SignalKind::hangup(),
+    ] {
+        let stop = stop.clone();
+        if let Ok(mut stream) = signal(kind) {
+            tokio::spawn(async move {
+                if stream.recv().await.is_some() {
+                    stop();
+                }
+            });
+        }
+    }
+}
+
 /// The seconds since the Unix epoch (0 on a clock set before it): when a
 /// run or a corruption happened, as the session keeps it.
 pub fn unix_now() -> u64 {

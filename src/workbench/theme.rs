@@ -178,6 +178,33 @@ pub fn load_themes(user_dir: Option<&Path>) -> (Vec<Theme>, Vec<String>) {
     (themes, problems)
 }
 
+/// The theme called `name` among `themes`: `--theme` names one of them, and
+/// a name that is none (a typo) is refused before the screen opens rather
+/// than silently started in another.
+pub fn named<'a>(themes: &'a [Theme], name: &str) -> Result<&'a Theme, UnknownTheme> {
+    themes
+        .iter()
+        .find(|t| t.name == name)
+        .ok_or_else(|| UnknownTheme {
+            name: name.to_string(),
+            known: themes
+                .iter()
+                .map(|t| t.name.as_str())
+                .collect::<Vec<_>>()
+                .join(", "),
+        })
+}
+
+/// A `--theme` that names no theme.
+#[derive(Debug, Clone, PartialEq, Eq, thiserror::Error)]
+#[error("--theme {}: there is no such theme; give one of {known} (or add NAME.toml to the theme folder)", crate::sanitize::for_terminal(.name))]
+pub struct UnknownTheme {
+    /// The name given.
+    pub name: String,
+    /// The themes there are, comma-separated.
+    pub known: String,
+}
+
 /// The user's theme folder, `$XDG_CONFIG_HOME/mapvlm/themes` or
 /// `$HOME/.config/mapvlm/themes`.
 pub fn user_theme_dir() -> Option<std::path::PathBuf> {

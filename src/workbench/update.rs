@@ -231,6 +231,7 @@ impl App {
                         .position(|t| t.name == self.looks.theme.name)
                         .map_or(0, |i| (i + 1) % self.looks.themes.len());
                     self.looks.theme = self.looks.themes[i].clone();
+                    self.saving.kept.theme = None;
                     self.saving.session_dirty = true;
                     self.set_status(format!("theme: {}", self.looks.theme.name), Severity::Info);
                 } else if self.looks.no_color {

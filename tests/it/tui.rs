@@ -1141,3 +1141,52 @@ fn a_partial_sampled_run_is_scored_over_its_complete_samples() {
     );
     assert!(screen.contains("PG2S 0.450 ±0.071"), "{screen}");
 }
+
+#[test]
+fn a_start_up_flag_wins_over_the_session_which_keeps_its_own_value() {
+    use mapvlm::workbench::session::Session;
+    let start = |session: Option<Session>, theme: Option<&str>, samples: Option<u32>| {
+        App::new(AppInit {
+            session,
+            theme: theme.map(str::to_string),
+            samples,
+            ..AppInit::demo((120, 40), "no models in this test")
+        })
+        .0
+    };
+    let mut saved = start(None, None, None).to_session();
+    saved.theme = "light".into();
+    saved.samples = 3;
+    // Each flag with a session counterpart: what it shows with the flag, and
+    // what the session it saves gives the next start without it.
+    type Shown = fn(&App) -> String;
+    let cases: [(Option<&str>, Option<u32>, Shown, &str); 2] = [
+        (
+            Some("high-contrast"),
+            None,
+            |app| app.looks.theme.name.clone(),
+            "high-contrast",
+        ),
+        (None, Some(10), |app| app.work.samples.to_string(), "10"),
+    ];
+    for (theme, samples, shown, flagged) in cases {
+        let with_flag = start(Some(saved.clone()), theme, samples);
+        assert_eq!(shown(&with_flag), flagged, "the flag wins");
+        let kept = with_flag.to_session();
+        assert_eq!(
+            (kept.theme.as_str(), kept.samples),
+            ("light", 3),
+            "the session keeps its own"
+        );
+        let next = start(Some(kept), None, None);
+        assert_eq!(next.looks.theme.name, "light");
+        assert_eq!(next.work.samples, 3);
+    }
+    // Changed in the workbench, the setting is the session's again.
+    let mut changed = start(Some(saved.clone()), None, Some(10));
+    changed.update(Msg::Key(KeyEvent::new(
+        KeyCode::Char('S'),
+        KeyModifiers::NONE,
+    )));
+    assert_eq!(changed.to_session().samples, changed.work.samples);
+}

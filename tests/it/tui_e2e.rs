@@ -40,15 +40,21 @@ fn start(name: &str, dir: &Path, session: &Path) -> Tmux {
 /// and its exit status written to `dir/status` when it ends.
 fn start_with(name: &str, dir: &Path, session: &Path, flags: &str) -> Tmux {
     let tmux = Tmux::new(name);
-    let command = format!(
+    tmux.open(E2E, 200, 60, &workbench_command(dir, session, flags));
+    tmux
+}
+
+/// The shell command that runs mapvlm with `flags` as a user would
+/// (TERM=xterm-256color, its home and caches in `dir`) and writes its exit
+/// status to `dir/status` when it ends.
+fn workbench_command(dir: &Path, session: &Path, flags: &str) -> String {
+    format!(
         "env -u NO_COLOR TERM=xterm-256color HOME={home} XDG_CACHE_HOME={home}/.cache MAPVLM_MODELS={} {} {flags} --replay-delay 1 --session {}; echo $? > {home}/status",
         common::pack_dir().display(),
         env!("CARGO_BIN_EXE_mapvlm"),
         session.display(),
         home = dir.display(),
-    );
-    tmux.open(E2E, 200, 60, &command);
-    tmux
+    )
 }
 
 /// Waits for the exit status `start_with` writes, and returns it.
@@ -336,4 +342,173 @@ fn the_workbench_weighs_pg2s_with_the_alpha_flag() {
     );
     tmux.keys(E2E, &["q"]);
     assert_eq!(exit_status(dir.path()), "0");
+}
+
+/// The holder line of the session's lock (`PID N on HOST (mapvlm
+/// workbench)`) once the workbench has taken it, and the PID in it.
+fn session_holder(session: &Path) -> (String, u32) {
+    let lock = session.with_file_name("session.json.lock");
+    common::tmux::wait("the workbench to take the session's lock", || {
+        let line = std::fs::read_to_string(&lock).map_err(|e| e.to_string())?;
+        let pid = line
+            .strip_prefix("PID ")
+            .and_then(|rest| rest.split_whitespace().next())
+            .and_then(|pid| pid.parse().ok())
+            .ok_or(format!("lock file: {line:?}"))?;
+        Ok((line.trim().to_string(), pid))
+    })
+}
+
+#[test]
+fn a_second_workbench_on_one_session_is_refused_naming_the_first_until_it_is_killed() {
+    let dir = tempfile::tempdir().unwrap();
+    let session = dir.path().join("session.json");
+    let first = start("lock-first", dir.path(), &session);
+    first.wait_for(E2E, "the first frame", first_frame);
+    let (holder, pid) = session_holder(&session);
+    let comm = std::fs::read_to_string(format!("/proc/{pid}/comm")).unwrap();
+    assert_eq!(comm.trim(), "mapvlm", "the lock names the workbench's PID");
+
+    let second = common::mapvlm_command()
+        .args(["--session", session.to_str().unwrap()])
+        .env("HOME", dir.path())
+        .output()
+        .unwrap();
+    common::assert_one_line_failure(&second, "open in another workbench");
+    let said = common::stderr(&second);
+    assert!(said.contains(&holder), "names the holder: {said}");
+    assert!(
+        said.contains("--session"),
+        "says how to open a second: {said}"
+    );
+    assert_eq!(
+        session_holder(&session).0,
+        holder,
+        "the refused one wrote nothing"
+    );
+
+    let killed = Command::new("kill")
+        .args(["-KILL", &pid.to_string()])
+        .status()
+        .unwrap();
+    assert!(killed.success());
+    assert_eq!(exit_status(dir.path()), "137");
+    std::fs::remove_file(dir.path().join("status")).unwrap();
+    let again = start("lock-again", dir.path(), &session);
+    again.wait_for(E2E, "a new workbench on the same session", first_frame);
+    let (_, new_pid) = session_holder(&session);
+    assert_ne!(new_pid, pid);
+    again.keys(E2E, &["q"]);
+    assert_eq!(exit_status(dir.path()), "0");
+}
+
+#[test]
+fn every_signal_that_stops_the_workbench_restores_the_terminal_and_saves() {
+    for signal in ["INT", "QUIT", "TERM", "HUP"] {
+        let dir = tempfile::tempdir().unwrap();
+        let home = dir.path();
+        let session = home.join("session.json");
+        let tmux = Tmux::new(&format!("signal-{signal}"));
+        // The pane's shell records the terminal's settings around the run
+        // and stays, so that tmux can still be asked about the pane.
+        let command = format!(
+            "stty -g > {home}/before; {}; stty -g > {home}/after; sleep 600",
+            workbench_command(home, &session, "--halfblocks"),
+            home = home.display(),
+        );
+        tmux.open(E2E, 160, 50, &command);
+        tmux.wait_for(E2E, "the demo's plan", |s| s.contains("run 1 finished"));
+        // S: a change the session must hold after the signal.
+        tmux.keys(E2E, &["S"]);
+        tmux.wait_for(E2E, "samples set to 3", |s| {
+            s.contains("samples per run: 3")
+        });
+        let (_, pid) = session_holder(&session);
+        let sent = Command::new("kill")
+            .args([&format!("-{signal}"), &pid.to_string()])
+            .status()
+            .unwrap();
+        assert!(sent.success());
+        exit_status(home);
+        let after = common::tmux::wait("the settings after the run", || {
+            std::fs::read_to_string(home.join("after"))
+                .ok()
+                .filter(|text| text.ends_with('\n'))
+                .ok_or_else(|| "not yet".to_string())
+        });
+        let before = std::fs::read_to_string(home.join("before")).unwrap();
+        assert_eq!(after, before, "SIG{signal}: stty -g after equals before");
+        let modes = tmux.cmd(&[
+            "display-message",
+            "-p",
+            "-t",
+            E2E,
+            "#{alternate_on} #{mouse_any_flag}",
+        ]);
+        assert_eq!(
+            modes.trim(),
+            "0 0",
+            "SIG{signal}: alternate screen and mouse off"
+        );
+        let saved: serde_json::Value =
+            serde_json::from_str(&std::fs::read_to_string(&session).unwrap()).unwrap();
+        assert_eq!(saved["samples"], 3, "SIG{signal}: the session was saved");
+    }
+}
+
+#[test]
+fn a_start_that_cannot_work_is_one_line_and_opens_no_screen() {
+    let dir = tempfile::tempdir().unwrap();
+    let session = dir.path().join("session.json");
+    let folder = dir.path().to_str().unwrap().to_string();
+    let items = dir.path().join("items.jsonl");
+    std::fs::write(
+        &items,
+        "{\"id\": \"a\", \"gt\": [\"A.\"], \"pred\": [\"B.\"]}\n",
+    )
+    .unwrap();
+    let items = items.to_str().unwrap();
+    // The arguments, the environment added, and what the one line names.
+    type Case<'a> = (&'a [&'a str], &'a [(&'a str, &'a str)], &'a str);
+    let cases: [Case; 7] = [
+        (
+            &["--dataset", "/nonexistent/alfred"],
+            &[],
+            "/nonexistent/alfred",
+        ),
+        (
+            &["--theme", "neon"],
+            &[],
+            "--theme neon: there is no such theme",
+        ),
+        (&["--session", &folder], &[], "is a folder"),
+        (
+            &["annotate", items, "--annotator", "ana", "--theme", "neon"],
+            &[],
+            "--theme neon",
+        ),
+        (
+            &["annotate", items, "--annotator", "ana"],
+            &[],
+            "annotate needs a terminal",
+        ),
+        // No terminal on either side: `mapvlm < /dev/null > out`.
+        (&[], &[], "standard input is not a terminal"),
+        (&[], &[("TERM", "dumb")], "TERM is dumb"),
+    ];
+    for (args, env, needle) in cases {
+        let mut command = common::mapvlm_command();
+        let default_session = ["--session", session.to_str().unwrap()];
+        command.args(args).env("HOME", dir.path());
+        if !args.contains(&"--session") && !args.contains(&"annotate") {
+            command.args(default_session);
+        }
+        for (name, value) in env {
+            command.env(name, value);
+        }
+        let out = command.output().unwrap();
+        common::assert_one_line_failure(&out, needle);
+        assert!(out.stdout.is_empty(), "{args:?}: drew nothing");
+        assert!(!session.exists(), "{args:?}: wrote no session");
+    }
 }

@@ -28,6 +28,7 @@ use crate::workbench::component::Component;
 use crate::workbench::graphics::{Graphics, Request};
 use crate::workbench::scene_image;
 use crate::workbench::scroll::WHEEL_LINES;
+use crate::workbench::shared::{spawn_signal_watch, unix_now};
 use crate::workbench::terminal_query;
 use crate::workbench::theme::Theme;
 use crate::workbench::TuiError;
@@ -58,12 +59,6 @@ pub struct Outcome {
     pub total: usize,
     /// Lines that could not be written (already shown on screen).
     pub failures: Vec<String>,
-}
-
-fn unix_now() -> u64 {
-    std::time::SystemTime::now()
-        .duration_since(std::time::UNIX_EPOCH)
-        .map_or(0, |d| d.as_secs())
 }
 
 /// A line for the writer thread.
@@ -156,21 +151,6 @@ fn read_events(msgs: &mpsc::UnboundedSender<Msg>, resized: &mpsc::UnboundedSende
     }
 }
 
-fn spawn_signal_watch(quit: mpsc::UnboundedSender<(u16, u16)>) {
-    use tokio::signal::unix::{signal, SignalKind};
-    for kind in [SignalKind::terminate(), SignalKind::hangup()] {
-        let quit = quit.clone();
-        if let Ok(mut stream) = signal(kind) {
-            tokio::spawn(async move {
-                if stream.recv().await.is_some() {
-                    // A zero size is the loop's sign to stop.
-                    let _ = quit.send((0, 0));
-                }
-            });
-        }
-    }
-}
-
 /// Asks for the scene image to be encoded for the area the screen shows it
 /// in, once per image and area, on a blocking task (resizing and encoding
 /// are slow; the loop keeps reading keys): the result comes back as a
@@ -247,7 +227,11 @@ async fn run_async(options: Options) -> Result<Outcome, TuiError> {
     }
     let graphics = probe.graphics;
     spawn_input(msg_tx.clone(), size_tx.clone(), probe.late);
-    spawn_signal_watch(size_tx);
+    let quit = size_tx.clone();
+    // A zero size is the loop's sign to stop.
+    spawn_signal_watch(move || {
+        let _ = quit.send((0, 0));
+    });
     let size = terminal.size()?;
     screen.update(Msg::Resize(size.width, size.height));
     let (writer, writer_thread) = spawn_writer(options.writer, options.skips, msg_tx.clone());

@@ -30,16 +30,7 @@ pub struct Clock {
     pub unix: u64,
 }
 
-/// How bad a status line is.
-#[derive(Debug, Clone, Copy, PartialEq, Eq)]
-pub enum Severity {
-    /// For information.
-    Info,
-    /// Something needs the user.
-    Warn,
-    /// Something failed; the user must act.
-    Error,
-}
+pub use crate::workbench::shared::Severity;
 
 /// What comes in.
 pub enum Msg {
