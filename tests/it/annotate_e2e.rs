@@ -361,3 +361,47 @@ fn labels_after_a_rating_undo_a_formula_note_and_a_skip_are_kept_as_meant() {
     );
     assert!(rows.contains(",1:wrong object,"), "{rows}");
 }
+
+#[test]
+fn every_signal_that_stops_annotate_restores_the_terminal_and_keeps_the_judgements() {
+    for signal in ["INT", "QUIT", "TERM", "HUP"] {
+        let dir = tempfile::tempdir().unwrap();
+        let home = dir.path();
+        let items_path = write_items(home, "");
+        let ann = home.join("items.annotations.jsonl");
+        let tmux = Tmux::new(&format!("annotate-{signal}"));
+        let command = Tmux::bracketed(
+            home,
+            &format!(
+                "env -u NO_COLOR TERM=xterm-256color HOME={home} XDG_CACHE_HOME={home}/.cache {} annotate {} --annotator ana",
+                env!("CARGO_BIN_EXE_mapvlm"),
+                items_path.display(),
+                home = home.display(),
+            ),
+        );
+        tmux.open("sig", 160, 40, &command);
+        tmux.wait_for("sig", "the first item", |s| s.contains("Item 1 of 4"));
+        tmux.keys("sig", &["4"]);
+        wait("the rating on disk", || {
+            (lines_of(&ann) == 1)
+                .then_some(())
+                .ok_or(tmux.screen("sig"))
+        });
+        let shell = tmux.cmd(&["display-message", "-p", "-t", "sig", "#{pane_pid}"]);
+        let shell = shell.trim();
+        let pid = wait("annotate's PID", || {
+            std::fs::read_to_string(format!("/proc/{shell}/task/{shell}/children"))
+                .ok()
+                .and_then(|c| c.split_whitespace().next().map(str::to_string))
+                .ok_or_else(|| "no child yet".to_string())
+        });
+        let sent = Command::new("kill")
+            .args([&format!("-{signal}"), &pid])
+            .status()
+            .unwrap();
+        assert!(sent.success());
+        tmux.assert_restored("sig", home, &format!("SIG{signal}"));
+        let current = Annotations::load(&ann).unwrap().current();
+        assert_eq!(current.ratings().count(), 1, "SIG{signal}: the rating kept");
+    }
+}

@@ -409,13 +409,7 @@ fn every_signal_that_stops_the_workbench_restores_the_terminal_and_saves() {
         let home = dir.path();
         let session = home.join("session.json");
         let tmux = Tmux::new(&format!("signal-{signal}"));
-        // The pane's shell records the terminal's settings around the run
-        // and stays, so that tmux can still be asked about the pane.
-        let command = format!(
-            "stty -g > {home}/before; {}; stty -g > {home}/after; sleep 600",
-            workbench_command(home, &session, "--halfblocks"),
-            home = home.display(),
-        );
+        let command = Tmux::bracketed(home, &workbench_command(home, &session, "--halfblocks"));
         tmux.open(E2E, 160, 50, &command);
         tmux.wait_for(E2E, "the demo's plan", |s| s.contains("run 1 finished"));
         // S: a change the session must hold after the signal.
@@ -430,26 +424,7 @@ fn every_signal_that_stops_the_workbench_restores_the_terminal_and_saves() {
             .unwrap();
         assert!(sent.success());
         exit_status(home);
-        let after = common::tmux::wait("the settings after the run", || {
-            std::fs::read_to_string(home.join("after"))
-                .ok()
-                .filter(|text| text.ends_with('\n'))
-                .ok_or_else(|| "not yet".to_string())
-        });
-        let before = std::fs::read_to_string(home.join("before")).unwrap();
-        assert_eq!(after, before, "SIG{signal}: stty -g after equals before");
-        let modes = tmux.cmd(&[
-            "display-message",
-            "-p",
-            "-t",
-            E2E,
-            "#{alternate_on} #{mouse_any_flag}",
-        ]);
-        assert_eq!(
-            modes.trim(),
-            "0 0",
-            "SIG{signal}: alternate screen and mouse off"
-        );
+        tmux.assert_restored(E2E, home, &format!("SIG{signal}"));
         let saved: serde_json::Value =
             serde_json::from_str(&std::fs::read_to_string(&session).unwrap()).unwrap();
         assert_eq!(saved["samples"], 3, "SIG{signal}: the session was saved");

@@ -2,6 +2,7 @@
 //! its own, driven with keys and read from the screen as a person would.
 //! Each driver has its own `-L` socket, so parallel runs never collide.
 
+use std::path::Path;
 use std::process::Command;
 use std::sync::atomic::{AtomicUsize, Ordering};
 use std::time::{Duration, Instant};
@@ -76,6 +77,42 @@ impl Tmux {
         let mut args = vec!["send-keys", "-t", name];
         args.extend(keys);
         self.cmd(&args);
+    }
+
+    /// Wraps shell `command` so that the pane records the terminal's
+    /// settings before and after it (`DIR/before`, `DIR/after`) and stays
+    /// open, for [`Tmux::assert_restored`].
+    pub fn bracketed(dir: &Path, command: &str) -> String {
+        format!(
+            "stty -g > {dir}/before; {command}; stty -g > {dir}/after; sleep 600",
+            dir = dir.display()
+        )
+    }
+
+    /// Asserts that the program run [`Tmux::bracketed`] in session `name`
+    /// ended leaving the terminal as it found it: the same `stty -g`, the
+    /// alternate screen and mouse reporting off. `what` names the case.
+    pub fn assert_restored(&self, name: &str, dir: &Path, what: &str) {
+        let after = wait("the terminal's settings after the run", || {
+            std::fs::read_to_string(dir.join("after"))
+                .ok()
+                .filter(|text| text.ends_with('\n'))
+                .ok_or_else(|| self.screen(name))
+        });
+        let before = std::fs::read_to_string(dir.join("before")).unwrap();
+        assert_eq!(after, before, "{what}: stty -g after equals before");
+        let modes = self.cmd(&[
+            "display-message",
+            "-p",
+            "-t",
+            name,
+            "#{alternate_on} #{mouse_any_flag}",
+        ]);
+        assert_eq!(
+            modes.trim(),
+            "0 0",
+            "{what}: alternate screen and mouse off"
+        );
     }
 
     /// Waits until session `name`'s screen satisfies `ok` and returns it.
