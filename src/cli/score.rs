@@ -295,8 +295,8 @@ fn to_json(s: &Scored) -> Value {
                     .collect();
             }
             Err(reason) => {
-                reasons.insert("s_goal".into(), json!(reason));
-                reasons.insert("pg2s".into(), json!(reason));
+                reasons.insert("s_goal".into(), json!(reason.to_string()));
+                reasons.insert("pg2s".into(), json!(reason.to_string()));
             }
         }
     }

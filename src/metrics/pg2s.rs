@@ -181,7 +181,7 @@ pub struct Pg2sReport {
     /// One entry per ground-truth step.
     pub sentence_matches: Vec<SentenceMatch>,
     /// The goal-wise half, or why it could not be computed.
-    pub goal: Result<GoalReport, String>,
+    pub goal: Result<GoalReport, NoGoalModels>,
     /// The settings the scores were computed with.
     pub settings: Pg2sSettings,
 }
@@ -351,8 +351,18 @@ pub struct GoalModels {
 /// so memory stays bounded however many pairs one scorer scores.
 const FRAMES_KEPT: usize = 16_384;
 
-/// Why a scorer without goal-wise models reports no S_goal or PG2S.
-const NO_GOAL_MODELS: &str = "no framing parser or word vectors loaded";
+/// Why a report has no S_goal or PG2S: its scorer was made without the
+/// goal-wise models ([`Pg2sScorer::new`] with `None`).
+#[derive(Debug, Clone, Copy, PartialEq, Eq, thiserror::Error)]
+#[error("no framing parser or word vectors loaded")]
+pub struct NoGoalModels;
+
+/// Written as its message, as reports have always carried the reason.
+impl Serialize for NoGoalModels {
+    fn serialize<S: serde::Serializer>(&self, serializer: S) -> Result<S::Ok, S::Error> {
+        serializer.collect_str(self)
+    }
+}
 
 /// Scores plan pairs with PG2S, keeping the framed actions of the steps seen
 /// lately (up to [`FRAMES_KEPT`]) so an unchanged step is not parsed twice.
@@ -409,7 +419,7 @@ impl Pg2sScorer {
         let s_plan = share_matched(&sentence_matches, |m| m.pred.is_some());
         let goal = match &self.goal {
             Some(models) => Ok(self.goal_report(models, gt, pred)?),
-            None => Err(NO_GOAL_MODELS.to_string()),
+            None => Err(NoGoalModels),
         };
         Ok(Pg2sReport {
             s_plan,
