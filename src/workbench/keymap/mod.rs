@@ -241,10 +241,14 @@ pub struct Key {
 }
 
 impl Key {
-    /// Whether `event` is this key. A key without Ctrl matches whatever
-    /// the modifiers are, as the handlers always did.
+    /// Whether `event` is this key: Ctrl held exactly when the table says,
+    /// and no Alt. Ctrl-D is never `d` (delete) nor Ctrl-Z `z` (zoom), so a
+    /// chord meant for another program or a slip of the finger does nothing;
+    /// Shift is part of the character.
     pub fn matches(self, event: &KeyEvent) -> bool {
-        event.code == self.code && (!self.ctrl || event.modifiers.contains(KeyModifiers::CONTROL))
+        event.code == self.code
+            && self.ctrl == event.modifiers.contains(KeyModifiers::CONTROL)
+            && !event.modifiers.contains(KeyModifiers::ALT)
     }
 }
 
@@ -416,5 +420,25 @@ mod tests {
         );
         let plain_r = KeyEvent::new(KeyCode::Char('r'), KeyModifiers::NONE);
         assert_eq!(action(&[Context::PromptEditor], &plain_r), None);
+    }
+
+    #[test]
+    fn ctrl_or_alt_with_a_letter_is_never_the_plain_letter() {
+        let with = |c, modifiers| KeyEvent::new(KeyCode::Char(c), modifiers);
+        let steps = [Context::Steps, Context::Panes];
+        assert_eq!(
+            action(&steps, &with('d', KeyModifiers::NONE)),
+            Some(Action::DeleteStep)
+        );
+        assert_eq!(
+            action(&steps, &with('z', KeyModifiers::NONE)),
+            Some(Action::Zoom)
+        );
+        for modifiers in [KeyModifiers::CONTROL, KeyModifiers::ALT] {
+            assert_eq!(action(&steps, &with('d', modifiers)), None, "{modifiers:?}");
+            assert_eq!(action(&steps, &with('z', modifiers)), None, "{modifiers:?}");
+        }
+        let capital = with('O', KeyModifiers::SHIFT);
+        assert_eq!(action(&steps, &capital), Some(Action::InsertBefore));
     }
 }
