@@ -20,7 +20,9 @@ use super::graph::{parse_triples, triples_schema, KnowledgeGraph, ParsedTriples}
 use super::images::prepare_image;
 use super::openai::OpenAi;
 use super::prompts::{render_table, PromptSet};
-use super::provider::{elapsed_ms, ChatRequest, Completion, ImageInput, SharedProvider};
+use super::provider::{
+    elapsed_ms, ChatRequest, Completion, ImageInput, Notifier, RetryNotice, SharedProvider,
+};
 use super::replay::{Pace, Recording, ReplayProvider};
 use super::{AgentError, AgentRole, Approach, ProviderKind, Usage};
 use crate::plan::{bounded_steps, not_a_plan};
@@ -58,6 +60,13 @@ pub enum AgentEvent {
         elapsed_ms: u64,
         /// Whether it came from the cache.
         cached: bool,
+    },
+    /// The agent's provider waits before retrying a 429 or 5xx answer.
+    Retrying {
+        /// Which agent.
+        role: AgentRole,
+        /// The wait, its reason and which retry it is before.
+        notice: RetryNotice,
     },
     /// The agent ended with an error.
     Failed {
@@ -589,7 +598,7 @@ impl Runner {
                         .replay(&key, prepared.sample, &request, &sink, cancel)
                         .await
                 }
-                None => match self.provider(settings) {
+                None => match self.provider(settings, role, events) {
                     Ok(provider) => provider.complete(&request, &sink, cancel).await,
                     Err(err) => Err(err),
                 },
@@ -722,8 +731,25 @@ impl Runner {
     /// The live provider of an agent: answers from a recording, and every
     /// answer of a [`Source::Replay`] run, are served before one is asked
     /// for, in `run_agent`.
-    fn provider(&self, settings: &AgentSettings) -> Result<SharedProvider, AgentError> {
-        let http = self.settings.http.clone();
+    /// Its waits before retries are told to the notifier of the settings,
+    /// if any, and sent as [`AgentEvent::Retrying`] events.
+    fn provider(
+        &self,
+        settings: &AgentSettings,
+        role: AgentRole,
+        events: &EventSender,
+    ) -> Result<SharedProvider, AgentError> {
+        let mut http = self.settings.http.clone();
+        let (earlier, events) = (http.notify.take(), events.clone());
+        http.notify = Some(Notifier(Arc::new(move |notice| {
+            if let Some(earlier) = &earlier {
+                (earlier.0)(notice);
+            }
+            let _ = events.send(AgentEvent::Retrying {
+                role,
+                notice: notice.clone(),
+            });
+        })));
         let key = settings.api_key.clone();
         Ok(match settings.provider {
             ProviderKind::Openai => Arc::new(OpenAi::new(&settings.base_url, key, http)?),

@@ -132,9 +132,43 @@ pub struct HttpSettings {
 }
 
 /// Tells the user what the HTTP layer waits for (a retry after a 429 or
-/// 5xx): the command line prints it on stderr, a test collects it.
+/// 5xx): the command line prints it on stderr, the workbench shows it in
+/// the agent's pane, a test collects it.
 #[derive(Clone)]
-pub struct Notifier(pub Arc<dyn Fn(&str) + Send + Sync>);
+pub struct Notifier(pub Arc<dyn Fn(&RetryNotice) + Send + Sync>);
+
+/// A wait before a retry, as the user is told of it: without it, retries
+/// and a long `Retry-After` look like a hang.
+#[derive(Debug, Clone, PartialEq, Eq, Serialize, Deserialize)]
+pub struct RetryNotice {
+    /// The provider's name.
+    pub provider: String,
+    /// The HTTP status that is retried.
+    pub status: u16,
+    /// How long it waits, in milliseconds.
+    pub wait_ms: u64,
+    /// Whether the server asked for the wait (`Retry-After`).
+    pub asked: bool,
+    /// The retry this wait is before (1-based).
+    pub retry: u32,
+    /// The retries allowed.
+    pub of: u32,
+}
+
+impl std::fmt::Display for RetryNotice {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        write!(
+            f,
+            "{} answered HTTP {}; waiting {:.1} s{} before retry {} of {}",
+            self.provider,
+            self.status,
+            Duration::from_millis(self.wait_ms).as_secs_f64(),
+            if self.asked { " (Retry-After)" } else { "" },
+            self.retry,
+            self.of
+        )
+    }
+}
 
 impl std::fmt::Debug for Notifier {
     fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
@@ -316,14 +350,14 @@ impl HttpEndpoint {
                 "retrying"
             );
             if let Some(notify) = &self.settings.notify {
-                (notify.0)(&format!(
-                    "{} answered HTTP {}; waiting {:.1} s before retry {} of {}",
-                    self.provider,
-                    status.as_u16(),
-                    wait.as_secs_f64(),
-                    attempt + 1,
-                    self.settings.max_retries
-                ));
+                (notify.0)(&RetryNotice {
+                    provider: self.provider.to_string(),
+                    status: status.as_u16(),
+                    wait_ms: u64::try_from(wait.as_millis()).unwrap_or(u64::MAX),
+                    asked: asked.is_some(),
+                    retry: attempt + 1,
+                    of: self.settings.max_retries,
+                });
             }
             cancellable(cancel, tokio::time::sleep(wait)).await?;
             attempt += 1;

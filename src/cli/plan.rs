@@ -131,8 +131,8 @@ impl AgentArgs {
             flags.set_agent(spec)?;
         }
         let mut settings = Settings::resolve(&file, &env, &flags)?;
-        settings.http.notify = Some(Notifier(Arc::new(|line| {
-            eprintln!("mapvlm: {}", sanitize::for_terminal(line))
+        settings.http.notify = Some(Notifier(Arc::new(|notice| {
+            eprintln!("mapvlm: {}", sanitize::for_terminal(&notice.to_string()))
         })));
         let prompts = self.prompt_set()?;
         let source = match &self.replay {
@@ -388,7 +388,8 @@ fn sample_label(sample: u32, samples: u32) -> String {
 fn print_event(label: String, event: &AgentEvent) {
     match event {
         AgentEvent::Started { role } => eprintln!("{role}{label}: started"),
-        AgentEvent::Token { .. } | AgentEvent::Sampled { .. } => {}
+        // A retry's wait is printed by the notifier of the settings.
+        AgentEvent::Token { .. } | AgentEvent::Sampled { .. } | AgentEvent::Retrying { .. } => {}
         AgentEvent::Finished {
             role,
             usage,

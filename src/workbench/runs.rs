@@ -2,10 +2,12 @@
 //! cancelling, and keeping each run's scores in its record.
 
 use std::collections::BTreeMap;
+use std::time::{Duration, Instant};
 
 use crate::agents::config::AgentSettings;
 use crate::agents::pipeline::{AgentEvent, AgentRecord, PlanRecord};
 use crate::agents::prompts::{prompt_hash, template_name};
+use crate::agents::provider::RetryNotice;
 use crate::agents::{AgentRole, Approach, ProviderKind, Usage};
 use crate::plan::bounded_steps;
 use crate::workbench::agents::{self, RunError, RunRequest};
@@ -140,6 +142,9 @@ pub struct AgentView {
     pub duration_ms: u64,
     /// Whether its latest answer came from the cache or the recording.
     pub cached: bool,
+    /// The wait before a retry it is in, and when the wait ends: shown in
+    /// its pane's title, counting down, until the answer starts.
+    pub retry: Option<(RetryNotice, Instant)>,
 }
 
 /// The run in flight.
@@ -206,6 +211,7 @@ impl AgentView {
     /// Starts a new call: no output, tokens, time or cache use yet, so
     /// nothing of the call before is counted for this one.
     fn begin_call(&mut self) {
+        self.retry = None;
         self.output.clear();
         self.usage = Usage::default();
         self.duration_ms = 0;
@@ -227,6 +233,7 @@ fn fresh_agents() -> BTreeMap<AgentRole, AgentView> {
                     usage: Usage::default(),
                     duration_ms: 0,
                     cached: false,
+                    retry: None,
                 },
             )
         })
@@ -619,8 +626,20 @@ impl App {
                 }
                 Vec::new()
             }
+            AgentEvent::Retrying {
+                role: agent,
+                notice,
+            } => {
+                self.set_status(format!("{agent}: {notice}"), Severity::Warn);
+                if let Some(v) = self.runs.agents.get_mut(&agent) {
+                    let until = Instant::now() + Duration::from_millis(notice.wait_ms);
+                    v.retry = Some((notice, until));
+                }
+                Vec::new()
+            }
             AgentEvent::Token { role: agent, text } => {
                 if let Some(v) = self.runs.agents.get_mut(&agent) {
+                    v.retry = None;
                     v.output.push_str(&text);
                 }
                 match agent {
@@ -645,6 +664,7 @@ impl App {
                 let prompt = self.prompt_of(agent);
                 if let Some(v) = self.runs.agents.get_mut(&agent) {
                     v.status = AgentStatus::Done;
+                    v.retry = None;
                     v.usage = usage;
                     v.cached = cached;
                     v.duration_ms = duration_ms;
@@ -682,6 +702,7 @@ impl App {
             } => {
                 if let Some(v) = self.runs.agents.get_mut(&agent) {
                     v.status = AgentStatus::Failed(error);
+                    v.retry = None;
                     v.duration_ms = elapsed_ms;
                 }
                 let mut cmds = vec![Cmd::CancelRun(run)];
@@ -689,6 +710,18 @@ impl App {
                 cmds
             }
         }
+    }
+
+    /// When the screen must be drawn again for a retry's countdown to
+    /// move (a quarter second on, or the wait's end), if one is shown.
+    pub fn countdown_wake(&self, now: Instant) -> Option<Instant> {
+        self.runs
+            .agents
+            .values()
+            .filter_map(|v| v.retry.as_ref().map(|(_, until)| *until))
+            .filter(|until| *until > now)
+            .map(|until| until.min(now + Duration::from_millis(250)))
+            .min()
     }
 
     pub(crate) fn cancel_run(&mut self) -> Vec<Cmd> {

@@ -437,7 +437,10 @@ async fn run_async(mut options: Options) -> Result<(), TuiError> {
         if let Some(session) = copy {
             save_tx.send_replace(Some((app.saving.persist.taken(), session)));
         }
-        wake = next;
+        wake = match (next, app.countdown_wake(Instant::now())) {
+            (Some(a), Some(b)) => Some(a.min(b)),
+            (a, b) => a.or(b),
+        };
         if app.quit {
             break;
         }

@@ -602,7 +602,7 @@ async fn a_retry_after_past_the_timeout_ends_at_once_and_short_waits_are_announc
     let err = err_of(&out);
     assert!(out.status.success(), "{err}");
     assert!(
-        err.contains("answered HTTP 503; waiting 0.2 s before retry 1 of 4"),
+        err.contains("answered HTTP 503; waiting 0.2 s (Retry-After) before retry 1 of 4"),
         "{err}"
     );
 }

@@ -211,3 +211,37 @@ fn a_sampled_runs_tokens_cost_and_time_in_the_history_are_sums_over_every_reques
         .sum();
     assert_eq!(tokens, input + output);
 }
+
+#[test]
+fn retries_and_a_retry_after_are_counted_down_in_the_planners_pane() {
+    let server = LocalServer::start();
+    let home = UserHome::new();
+    home.write_config(&format!(
+        "max_retries = 4\n[defaults]\nprovider = \"openai\"\nbase_url = \"{}\"\nmodel = \"{LOCAL_MODEL}\"\n",
+        server.base_url()
+    ));
+    server.fail_planner_next(&[
+        Failure::Status(500),
+        Failure::Status(500),
+        Failure::RetryAfter(503, 3),
+    ]);
+    let workbench = Workbench::start_on_alfred30("retry-after", &home);
+    workbench.keys(&["r"]);
+    let first = workbench.wait_for("the Retry-After counted down", |s| {
+        s.contains("HTTP 503 · retry 3 of 4 in 3 s (Retry-After)")
+    });
+    assert!(first.contains("Planner"), "{first}");
+    workbench.wait_for("the countdown moving", |s| {
+        s.contains("HTTP 503 · retry 3 of 4 in 2 s (Retry-After)")
+    });
+    workbench.wait_for("the run finished after the retries", |s| {
+        s.contains("run 1 finished") && s.contains(GOOD_STEP)
+    });
+    let planner = server
+        .requests()
+        .iter()
+        .filter(|r| r.role == AgentRole::Planner)
+        .count();
+    assert_eq!(planner, 4, "three refusals, then the answer");
+    assert_eq!(workbench.quit(), "0");
+}

@@ -22,7 +22,7 @@ use crate::workbench::panes::graph::GraphPane;
 use crate::workbench::panes::prompt::PromptPane;
 use crate::workbench::panes::scene::ScenePane;
 use crate::workbench::panes::steps::{StepList, Steps};
-use crate::workbench::runs::AgentStatus;
+use crate::workbench::runs::{AgentStatus, AgentView};
 
 /// The panes' own state: each pane's content and view.
 pub struct Panes {
@@ -136,6 +136,21 @@ pub(crate) fn render_pane(frame: &mut Frame, app: &App, pane: Pane, area: Rect) 
     }
 }
 
+/// The wait before a retry an agent is in, counting down (`HTTP 503 ·
+/// retry 3 of 4 in 2 s (Retry-After)`), for its pane's title.
+pub(crate) fn retry_text(v: &AgentView) -> Option<String> {
+    let (notice, until) = v.retry.as_ref()?;
+    let left = until.saturating_duration_since(std::time::Instant::now());
+    Some(format!(
+        "HTTP {} · retry {} of {} in {} s{}",
+        notice.status,
+        notice.retry,
+        notice.of,
+        left.as_secs_f64().ceil(),
+        if notice.asked { " (Retry-After)" } else { "" }
+    ))
+}
+
 /// A short word for an agent's state, with its style.
 pub(crate) fn agent_badge<'a>(app: &App, agent: AgentRole) -> Span<'a> {
     let t = &app.looks.theme;
@@ -145,7 +160,10 @@ pub(crate) fn agent_badge<'a>(app: &App, agent: AgentRole) -> Span<'a> {
     match &v.status {
         AgentStatus::Idle => Span::styled("idle", t.muted),
         AgentStatus::Waiting => Span::styled("waiting", t.warn),
-        AgentStatus::Running => Span::styled("writing…", t.warn),
+        AgentStatus::Running => Span::styled(
+            retry_text(v).unwrap_or_else(|| "writing…".to_string()),
+            t.warn,
+        ),
         AgentStatus::Done => Span::styled(
             format!(
                 "{} ms · {} tok",

@@ -279,9 +279,13 @@ pub(crate) fn draw(frame: &mut Frame, app: &App, list: StepList, area: Rect) {
                 PlanSource::None => None,
                 PlanSource::Run { run } => Some(
                     match app.runs.agents.get(&app.work.approach.planning_role()) {
-                        Some(v) if v.status == AgentStatus::Running => {
-                            Span::styled(format!("run {run} · streaming…"), t.warn)
-                        }
+                        Some(v) if v.status == AgentStatus::Running => Span::styled(
+                            format!(
+                                "run {run} · {}",
+                                super::retry_text(v).unwrap_or_else(|| "streaming…".to_string())
+                            ),
+                            t.warn,
+                        ),
                         _ => match app.shown_run() {
                             Some(r) if !r.state.is_scored() => Span::styled(
                                 format!("run {run} · {}, partial plan, not scored", r.state.word()),

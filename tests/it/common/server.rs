@@ -53,6 +53,9 @@ struct Answers {
     delay: Duration,
     plans: Vec<(String, String)>,
     planner_fails: Option<Failure>,
+    /// Failures for the next planner requests, one each, before
+    /// `planner_fails` applies.
+    planner_next: std::collections::VecDeque<Failure>,
 }
 
 /// How the server fails the planner's requests, when told to.
@@ -60,6 +63,8 @@ struct Answers {
 pub enum Failure {
     /// An HTTP error with this status and a JSON error body.
     Status(u16),
+    /// The same with a `Retry-After` of this many seconds.
+    RetryAfter(u16, u64),
     /// A streamed answer that stops after this many pieces, with no end
     /// of answer and no `[DONE]`: a connection dropped mid-stream.
     DropAfter(usize),
@@ -86,7 +91,15 @@ impl Respond for Responder {
         } else {
             AgentRole::Planner
         };
-        let answers = self.0.answers.lock().unwrap().clone();
+        let (answers, next) = {
+            let mut answers = self.0.answers.lock().unwrap();
+            let next = if role == AgentRole::Planner {
+                answers.planner_next.pop_front()
+            } else {
+                None
+            };
+            (answers.clone(), next)
+        };
         let answer = match role {
             AgentRole::Skm => SKM_ANSWER.to_string(),
             AgentRole::Gkm => GKM_ANSWER.to_string(),
@@ -98,11 +111,17 @@ impl Respond for Responder {
         };
         let stream = body["stream"].as_bool().unwrap_or(false);
         self.0.log.lock().unwrap().push(Received { role, body, at });
-        let failure = answers.planner_fails.filter(|_| role == AgentRole::Planner);
-        match failure {
-            Some(Failure::Status(status)) => ResponseTemplate::new(status).set_body_json(
+        let failure = next.or(answers.planner_fails.filter(|_| role == AgentRole::Planner));
+        let refusal = |status| {
+            ResponseTemplate::new(status).set_body_json(
                 json!({"error": {"message": "the server was told to fail", "type": "server_error"}}),
-            ),
+            )
+        };
+        match failure {
+            Some(Failure::Status(status)) => refusal(status),
+            Some(Failure::RetryAfter(status, seconds)) => {
+                refusal(status).insert_header("retry-after", seconds.to_string().as_str())
+            }
             Some(Failure::DropAfter(pieces)) => {
                 let mut events = String::new();
                 for piece in answer.split_inclusive(' ').take(pieces) {
@@ -167,6 +186,7 @@ impl LocalServer {
                 delay: Duration::ZERO,
                 plans: Vec::new(),
                 planner_fails: None,
+                planner_next: Default::default(),
             }),
             log: Mutex::new(Vec::new()),
         });
@@ -208,6 +228,18 @@ impl LocalServer {
     /// answers again).
     pub fn fail_planner(&self, failure: Option<Failure>) -> &Self {
         self.shared.answers.lock().unwrap().planner_fails = failure;
+        self
+    }
+
+    /// Fails the next planner requests as `failures` say, one each, then
+    /// answers again.
+    pub fn fail_planner_next(&self, failures: &[Failure]) -> &Self {
+        self.shared
+            .answers
+            .lock()
+            .unwrap()
+            .planner_next
+            .extend(failures.iter().copied());
         self
     }
 
