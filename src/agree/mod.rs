@@ -17,9 +17,11 @@ use std::collections::{BTreeMap, BTreeSet, HashMap};
 use crate::dataset::Pair;
 use crate::stats::bootstrap::{percentile, percentile_interval, Bootstrap};
 use crate::stats::correlation::{Correlations, Paired};
+use crate::stats::holm::holm;
 use crate::stats::krippendorff::{alpha, alpha_weighted, Level};
 use crate::stats::permutation::{tau_b_difference, PermutationTest};
 use crate::stats::pvalue::PValues;
+use crate::stats::williams::{williams_columns, Williams};
 use crate::stats::{Estimate, Undefined};
 
 /// The metrics compared with people, in the order of every table.
@@ -107,6 +109,9 @@ pub struct HumanAgreement {
     pub metrics: Vec<MetricAgreement>,
     /// The paired permutation test of PG2S against KAS on tau-b.
     pub pg2s_vs_kas: KasTest,
+    /// Williams' test of every pair of metrics on Pearson's r, in the order
+    /// of [`METRICS`] (pg2s–s_plan, pg2s–s_goal, …, s_goal–kas).
+    pub williams: Vec<MetricPairTest>,
     /// Agreement between annotators.
     pub inter_annotator: InterAnnotator,
     /// Agreement with pairwise preferences, in the order of [`METRICS`].
@@ -142,6 +147,63 @@ pub struct KasTest {
     pub test: Result<PermutationTest, Undefined>,
     /// The permutations asked for (`--permutations`).
     pub asked: usize,
+}
+
+/// Williams' test of one pair of metrics: is the human score correlated
+/// more with one than with the other (Pearson's r, over the rated items that
+/// have both), with its p-value corrected by Holm over the pairs tested.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct MetricPairTest {
+    /// The two metrics (of [`METRICS`]); t > 0 when the first agrees more.
+    pub metrics: [&'static str; 2],
+    /// The rated items that have both metrics.
+    pub n: usize,
+    /// The test, or why there is none.
+    pub test: Result<Williams, Undefined>,
+    /// Its p-value adjusted by Holm's step-down correction over the family
+    /// of the pairs that have a test.
+    pub p_holm: Estimate,
+}
+
+/// Williams' test of every pair of metrics, with Holm's correction over
+/// the pairs whose test is defined.
+fn williams_tests(
+    rated: &[&str],
+    human: &BTreeMap<String, f64>,
+    value: impl Fn(&str, usize) -> Option<f64>,
+) -> Vec<MetricPairTest> {
+    let mut pairs = Vec::new();
+    for (a, first_name) in METRICS.iter().enumerate() {
+        for (b, second_name) in METRICS.iter().enumerate().skip(a + 1) {
+            let (mut h, mut first, mut second) = (Vec::new(), Vec::new(), Vec::new());
+            for &item in rated {
+                if let (Some(x), Some(y)) = (value(item, a), value(item, b)) {
+                    h.push(human[item]);
+                    first.push(x);
+                    second.push(y);
+                }
+            }
+            pairs.push((
+                [*first_name, *second_name],
+                h.len(),
+                williams_columns(&h, &first, &second),
+            ));
+        }
+    }
+    let p: Vec<Estimate> = pairs
+        .iter()
+        .map(|(_, _, test)| test.map(|w| w.p_value))
+        .collect();
+    pairs
+        .into_iter()
+        .zip(holm(&p))
+        .map(|((metrics, n, test), p_holm)| MetricPairTest {
+            metrics,
+            n,
+            test,
+            p_holm,
+        })
+        .collect()
 }
 
 impl KasTest {
@@ -516,6 +578,7 @@ fn human_agreement(
         ),
         asked: settings.permutations,
     };
+    let williams = williams_tests(&rated, human, value);
     let mut inter_annotator = inter_annotator(&matrix, &annotators);
     inter_annotator.ci95 = alpha_ci;
     inter_annotator.ci95_resamples = alpha_used;
@@ -530,6 +593,7 @@ fn human_agreement(
         annotators,
         metrics,
         pg2s_vs_kas,
+        williams,
         pairwise: pairwise(judged, scores),
     }
 }
@@ -566,6 +630,14 @@ fn warnings(h: &HumanAgreement, settings: Settings) -> Vec<String> {
             t.permutations_used(),
             t.asked
         ));
+    }
+    for w in &h.williams {
+        if few(w.n) {
+            out.push(format!(
+                "Williams' test of {} against {} over {} items",
+                w.metrics[0], w.metrics[1], w.n
+            ));
+        }
     }
     let ia = &h.inter_annotator;
     if few(ia.shared_items) {
@@ -789,11 +861,27 @@ mod tests {
             warnings.contains(&"PG2S against KAS over 2 items".into()),
             "{warnings:?}"
         );
+        // Williams' test needs four items: every pair is there, null, with why.
+        let williams = &doc["williams"];
+        assert_eq!(williams["holm_family"], 0);
+        let pairs = williams["pairs"].as_object().cloned().unwrap_or_default();
+        assert_eq!(pairs.len(), 6, "{pairs:?}");
+        let pg2s_kas = &pairs["pg2s_vs_kas"];
+        assert_eq!(
+            (&pg2s_kas["n"], &pg2s_kas["first"]),
+            (&2.into(), &"pg2s".into())
+        );
+        for key in ["r_first", "t", "df", "p_value", "p_holm"] {
+            assert!(pg2s_kas[key].is_null(), "{key}");
+            assert_eq!(pg2s_kas["reasons"][key], "fewer than four items");
+        }
+        assert_eq!(pairs["pg2s_vs_s_plan"]["n"], 0);
         let without = json::to_json(&analyse(&[], &scores, None, settings(20, 50)));
         for key in [
             "items",
             "metrics",
             "pg2s_vs_kas",
+            "williams",
             "inter_annotator",
             "pairwise",
         ] {
@@ -1004,6 +1092,82 @@ mod tests {
         assert_eq!((z["a"], z["b"]), (-1.0, 1.0));
         assert_eq!(warnings.len(), 1, "{warnings:?}");
         assert!(warnings[0].contains("q gave every item the same rating"));
+    }
+
+    #[test]
+    fn williams_tests_every_pair_and_holm_corrects_over_those_tested() {
+        // Six items with PG2S, S_goal and KAS; S_plan on three only, so its
+        // pairs have no test and the family is the other three pairs.
+        let rows: Vec<(String, MetricValues)> = (0..6)
+            .map(|i| {
+                let v = f64::from(i);
+                let s_plan = (i < 3).then_some(v / 10.0);
+                let values = [
+                    Some(v / 6.0),
+                    s_plan,
+                    Some(((v * 7.0) % 5.0) / 5.0),
+                    Some(((v * 3.0) % 4.0) / 4.0),
+                ];
+                (format!("i{i}"), values)
+            })
+            .collect();
+        let scores: HashMap<String, MetricValues> = rows.into_iter().collect();
+        let judged = ratings(&[
+            ("i0", "x", 1.0),
+            ("i1", "x", 3.0),
+            ("i2", "x", 2.0),
+            ("i3", "x", 5.0),
+            ("i4", "x", 3.0),
+            ("i5", "x", 4.0),
+        ]);
+        let h = analyse(&[], &scores, Some(&judged), settings(10, 10))
+            .human
+            .unwrap_or_else(|| panic!("no human part"));
+        let names: Vec<[&str; 2]> = h.williams.iter().map(|w| w.metrics).collect();
+        assert_eq!(
+            names,
+            [
+                ["pg2s", "s_plan"],
+                ["pg2s", "s_goal"],
+                ["pg2s", "kas"],
+                ["s_plan", "s_goal"],
+                ["s_plan", "kas"],
+                ["s_goal", "kas"]
+            ]
+        );
+        let human: Vec<f64> = judged.ratings.iter().map(|r| r.2).collect();
+        let column =
+            |m: usize| -> Vec<f64> { (0..6).filter_map(|i| scores[&format!("i{i}")][m]).collect() };
+        let mut raw = Vec::new();
+        for w in &h.williams {
+            let [a, b] = w
+                .metrics
+                .map(|m| METRICS.iter().position(|&n| n == m).unwrap_or(9));
+            if a == 1 || b == 1 {
+                assert_eq!((w.n, w.test), (3, Err(Undefined::FewerThanFourItems)));
+                assert_eq!(w.p_holm, Err(Undefined::FewerThanFourItems));
+                continue;
+            }
+            assert_eq!(w.n, 6);
+            let want = crate::stats::williams::williams_columns(&human, &column(a), &column(b));
+            assert_eq!(w.test, want);
+            raw.push(want.map(|t| t.p_value).unwrap_or(f64::NAN));
+        }
+        // Holm by hand over the three defined p-values.
+        let mut sorted = raw.clone();
+        sorted.sort_by(f64::total_cmp);
+        let step = [
+            3.0 * sorted[0],
+            (3.0 * sorted[0]).max(2.0 * sorted[1]),
+            (3.0 * sorted[0]).max(2.0 * sorted[1]).max(sorted[2]),
+        ]
+        .map(|v| v.min(1.0));
+        let defined: Vec<f64> = h.williams.iter().filter_map(|w| w.p_holm.ok()).collect();
+        for (p, adjusted) in raw.iter().zip(&defined) {
+            let rank = sorted.iter().position(|s| s == p).unwrap_or(9);
+            assert_eq!(*adjusted, step[rank]);
+        }
+        assert_eq!(defined.len(), 3);
     }
 
     #[test]

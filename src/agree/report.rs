@@ -160,6 +160,7 @@ fn human_section(h: &HumanAgreement, agreement: &Agreement, out: &mut String) {
             );
         }
     }
+    williams_section(h, out);
     let ia = &h.inter_annotator;
     let _ = writeln!(
         out,
@@ -191,6 +192,26 @@ fn human_section(h: &HumanAgreement, agreement: &Agreement, out: &mut String) {
         );
     }
     out.push('\n');
+}
+
+/// Williams' test of each pair of metrics, beside the permutation test.
+fn williams_section(h: &HumanAgreement, out: &mut String) {
+    let family = h.williams.iter().filter(|w| w.test.is_ok()).count();
+    let _ = writeln!(
+        out,
+        "Williams' test of each pair of metrics on Pearson r (the human score shared), p Holm-adjusted over the {family} pairs tested:"
+    );
+    for w in &h.williams {
+        let pair = format!("{:<8} {:<8} n {:<6}", w.metrics[0], w.metrics[1], w.n);
+        let line = match (w.test, w.p_holm) {
+            (Ok(t), Ok(holm)) => format!(
+                "{pair} r {:.3} against {:.3} (between {:.3})  t {:+.3} df {}  p {:.3e}  Holm {:.3e}",
+                t.r_first, t.r_second, t.r_between, t.t, t.dof, t.p_value, holm
+            ),
+            (Err(why), _) | (_, Err(why)) => format!("{pair} no test ({why})"),
+        };
+        let _ = writeln!(out, "  {}", line.trim_end());
+    }
 }
 
 fn corruption_section(agreement: &Agreement, out: &mut String) {

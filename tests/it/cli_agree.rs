@@ -115,30 +115,68 @@ fn the_golden_set_gives_the_expected_document_and_nothing_else_on_stdout() {
     );
 }
 
-#[test]
-fn p_values_of_the_golden_set_equal_scipy_to_1e_9_relative() {
+/// `agree --json` of the golden set, and the values the definitional Python
+/// gives for it: the fixture written by `scripts/agree_cases.py PYTHON
+/// --golden-fixture` with the scipy pinned there.
+fn golden_and_fixture() -> (Value, Value) {
     let out = agree_golden(&["--json"]);
     assert!(out.status.success(), "{}", text(&out.stderr));
     let doc: Value = serde_json::from_slice(&out.stdout).unwrap_or_else(|e| panic!("{e}"));
-    // Written by `scripts/agree_cases.py PYTHON --golden-fixture` with the
-    // scipy pinned there.
     let path =
         Path::new(env!("CARGO_MANIFEST_DIR")).join("tests/fixtures/agree.golden.p_values.json");
     let fixture: Value = serde_json::from_str(&std::fs::read_to_string(&path).unwrap_or_default())
         .unwrap_or_else(|e| panic!("{}: {e}", path.display()));
+    (doc, fixture)
+}
+
+/// `got` equals the number `want` to 1e-9 relative.
+fn assert_close_relative(got: &Value, want: &Value, what: &str) {
+    let want = want.as_f64().unwrap_or(f64::NAN);
+    let got = got
+        .as_f64()
+        .unwrap_or_else(|| panic!("{what}: {got} is not a number"));
+    assert!(
+        (got - want).abs() <= 1e-9 * want.abs(),
+        "{what}: {got:e} != {want:e}"
+    );
+}
+
+#[test]
+fn p_values_of_the_golden_set_equal_scipy_to_1e_9_relative() {
+    let (doc, fixture) = golden_and_fixture();
     let metrics = fixture["metrics"]
         .as_object()
         .unwrap_or_else(|| panic!("{fixture}"));
     assert_eq!(metrics.len(), 4);
     for (metric, row) in metrics {
         for statistic in ["kendall_tau_b", "spearman", "pearson"] {
-            let want = row[statistic].as_f64().unwrap_or(f64::NAN);
-            let got = doc["metrics"][metric]["p_values"][statistic]
-                .as_f64()
-                .unwrap_or_else(|| panic!("{metric} {statistic}: {}", doc["metrics"][metric]));
-            assert!(
-                (got - want).abs() <= 1e-9 * want.abs(),
-                "{metric} {statistic}: {got:e} != {want:e}"
+            assert_close_relative(
+                &doc["metrics"][metric]["p_values"][statistic],
+                &row[statistic],
+                &format!("{metric} {statistic}"),
+            );
+        }
+    }
+}
+
+#[test]
+fn williams_and_holm_of_the_golden_set_equal_the_definitional_python() {
+    // Williams' t and p by the formula with scipy's pearsonr and t.sf, Holm
+    // by its definition.
+    let (doc, fixture) = golden_and_fixture();
+    let (want, got) = (&fixture["williams"], &doc["williams"]);
+    assert_eq!(got["holm_family"], want["holm_family"]);
+    let pairs = want["pairs"]
+        .as_object()
+        .unwrap_or_else(|| panic!("{fixture}"));
+    assert_eq!(pairs.len(), 6);
+    for (pair, row) in pairs {
+        assert_eq!(got["pairs"][pair]["n"], row["n"], "{pair}");
+        for key in ["t", "p_value", "p_holm"] {
+            assert_close_relative(
+                &got["pairs"][pair][key],
+                &row[key],
+                &format!("{pair} {key}"),
             );
         }
     }
