@@ -11,6 +11,7 @@ pub mod json;
 pub mod plot;
 pub mod report;
 pub mod scores;
+pub mod table;
 
 use std::collections::{BTreeMap, BTreeSet, HashMap};
 
@@ -65,6 +66,16 @@ impl Aggregate {
             Aggregate::Mean => "mean",
             Aggregate::Median => "median",
             Aggregate::Z => "z",
+        }
+    }
+
+    /// How an item's human score is made, in words, for every report and
+    /// table that shows one (the human column of the corruption table too).
+    pub fn describe(self) -> &'static str {
+        match self {
+            Aggregate::Mean => "the mean of an item's ratings",
+            Aggregate::Median => "the median of an item's ratings",
+            Aggregate::Z => "the mean of an item's ratings as per-annotator z-scores",
         }
     }
 }

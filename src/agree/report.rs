@@ -46,12 +46,9 @@ fn human_section(h: &HumanAgreement, agreement: &Agreement, out: &mut String) {
     );
     let _ = writeln!(
         out,
-        "Human score: the {} of an item's ratings; 95% intervals: percentile bootstrap, {} resamples, seed {}\n",
-        match s.aggregate {
-            super::Aggregate::Mean => "mean",
-            super::Aggregate::Median => "median",
-            super::Aggregate::Z => "mean z-score (per annotator)",
-        },
+        "Human score: {} (--aggregate {}); 95% intervals: percentile bootstrap, {} resamples, seed {}\n",
+        s.aggregate.describe(),
+        s.aggregate.as_str(),
         s.bootstrap.resamples,
         s.bootstrap.seed
     );

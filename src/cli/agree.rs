@@ -10,6 +10,7 @@ use anyhow::bail;
 use clap::Args;
 
 use crate::agree::scores::load_scores;
+use crate::agree::table::{self, TableFormat};
 use crate::agree::{analyse, json, plot, report, Aggregate, Judged, Settings};
 use crate::annotate::{Annotations, Current, Preference};
 use crate::dataset::{open_pairs, Pair};
@@ -41,6 +42,10 @@ pub struct AgreeArgs {
     /// Print one JSON document instead of the report.
     #[arg(long)]
     pub json: bool,
+    /// Print the correlation and corruption tables as a paper takes them
+    /// instead of the report: LaTeX (booktabs), CSV (RFC 4180) or Markdown.
+    #[arg(long, value_enum, value_name = "FORMAT", conflicts_with = "json")]
+    pub table: Option<TableFormat>,
     /// Also draw the figure, one panel per metric against the human score,
     /// into this file (.svg or .png).
     #[arg(long, value_name = "FILE.svg|FILE.png")]
@@ -144,15 +149,15 @@ pub fn run(args: &AgreeArgs) -> anyhow::Result<ExitCode> {
             None => bail!("--plot needs --annotations: the figure plots metrics against people"),
         }
     }
-    if args.json {
+    if args.json || args.table.is_some() {
         for w in &agreement.warnings {
             eprintln!("mapvlm: warning: {w}");
         }
     }
-    let text = if args.json {
-        format!("{:#}\n", json::to_json(&agreement))
-    } else {
-        report::render(&agreement)
+    let text = match args.table {
+        Some(format) => table::render(&agreement, format),
+        None if args.json => format!("{:#}\n", json::to_json(&agreement)),
+        None => report::render(&agreement),
     };
     std::io::stdout().lock().write_all(text.as_bytes())?;
     Ok(if bad_lines == 0 {

@@ -477,3 +477,164 @@ fn the_pg2s_flags_score_the_items_as_score_does_and_other_settings_are_refused()
     let unrecorded = agree(&["--scores", &golden("scores.jsonl"), "--alpha", "0.4"]);
     common::assert_one_line_failure(&unrecorded, "do not record their PG2S settings");
 }
+
+/// The rows of each `tabular` of a LaTeX document, split into cells, after
+/// checking that it is well-formed booktabs: balanced environments and
+/// braces, and per table `\toprule`, one header row, `\midrule`, the body,
+/// `\bottomrule`, every row with as many cells as the column spec says.
+fn booktabs_tables(tex: &str) -> Vec<(Vec<String>, Vec<Vec<String>>)> {
+    for env in ["table", "tabular"] {
+        let begins = tex.matches(&format!("\\begin{{{env}}}")).count();
+        assert_eq!(
+            begins,
+            tex.matches(&format!("\\end{{{env}}}")).count(),
+            "{env}"
+        );
+    }
+    // Braces balance once the escaped ones (\{ \}) are left out.
+    let unescaped = tex.replace("\\{", "").replace("\\}", "");
+    let mut depth = 0i64;
+    for c in unescaped.chars() {
+        depth += i64::from(c == '{') - i64::from(c == '}');
+        assert!(depth >= 0, "a closing brace without its opening one");
+    }
+    assert_eq!(depth, 0, "unbalanced braces");
+    let mut tables = Vec::new();
+    for block in tex.split("\\begin{tabular}").skip(1) {
+        let (spec, rest) = block
+            .strip_prefix('{')
+            .and_then(|b| b.split_once("}\n"))
+            .unwrap_or_else(|| panic!("no column spec: {block}"));
+        let columns = spec.len();
+        let body = rest
+            .split_once("\\end{tabular}")
+            .unwrap_or_else(|| panic!("no \\end{{tabular}}"))
+            .0;
+        let lines: Vec<&str> = body.lines().collect();
+        assert_eq!(lines.first(), Some(&"\\toprule"), "{body}");
+        assert_eq!(lines.get(2), Some(&"\\midrule"), "{body}");
+        assert_eq!(lines.last(), Some(&"\\bottomrule"), "{body}");
+        let cells = |line: &str| -> Vec<String> {
+            let row = line
+                .strip_suffix(" \\\\")
+                .unwrap_or_else(|| panic!("a row ends in \\\\: {line}"));
+            let cells: Vec<String> = row.split(" & ").map(String::from).collect();
+            assert_eq!(cells.len(), columns, "{line}");
+            cells
+        };
+        let header = cells(lines[1]);
+        let rows = lines[3..lines.len() - 1].iter().map(|l| cells(l)).collect();
+        tables.push((header, rows));
+    }
+    tables
+}
+
+#[test]
+fn the_latex_table_of_the_golden_set_is_booktabs_with_the_numbers_of_the_json() {
+    let out = agree_golden(&["--table", "latex"]);
+    assert!(out.status.success(), "{}", text(&out.stderr));
+    let tex = text(&out.stdout);
+    let doc: Value =
+        serde_json::from_slice(&agree_golden(&["--json"]).stdout).unwrap_or_else(|e| panic!("{e}"));
+    let tables = booktabs_tables(&tex);
+    assert_eq!(tables.len(), 2, "{tex}");
+    let (header, rows) = &tables[0];
+    assert_eq!(header[0], "Metric");
+    let names: Vec<&str> = rows.iter().map(|r| r[0].as_str()).collect();
+    assert_eq!(names, ["PG2S", "S\\_plan", "S\\_goal", "KAS"]);
+    let three = |v: &Value| format!("{:.3}", v.as_f64().unwrap_or(f64::NAN));
+    for (row, metric) in rows.iter().zip(["pg2s", "s_plan", "s_goal", "kas"]) {
+        let m = &doc["metrics"][metric];
+        assert_eq!(row[1], m["n"].to_string(), "{metric}");
+        for (cell, key) in
+            row[2..]
+                .iter()
+                .zip(["kendall_tau_b", "spearman", "pearson", "pairwise_accuracy"])
+        {
+            let ci = &m["ci95"][key];
+            let want = format!("{} [{}, {}]", three(&m[key]), three(&ci[0]), three(&ci[1]));
+            assert_eq!(cell, &want, "{metric} {key}");
+        }
+    }
+    let (header, rows) = &tables[1];
+    assert_eq!(header.last().map(String::as_str), Some("Human"));
+    let kinds = doc["corruption"]
+        .as_object()
+        .unwrap_or_else(|| panic!("{doc}"));
+    assert_eq!(rows.len(), kinds.len());
+    for (row, (kind, cells)) in rows.iter().zip(kinds) {
+        assert_eq!(&row[0], kind);
+        for (cell, column) in row[1..]
+            .iter()
+            .zip(["pg2s", "s_plan", "s_goal", "kas", "human"])
+        {
+            let c = &cells[column];
+            let want = format!(
+                "{}/{}/{} of {}",
+                c["detected"], c["tied"], c["reversed"], c["n"]
+            );
+            assert_eq!(cell, &want, "{kind} {column}");
+        }
+    }
+    // The caption says how the human score and the human column are made.
+    let z = text(&agree_golden(&["--table", "latex", "--aggregate", "z"]).stdout);
+    assert!(
+        z.contains("(Human: the mean of an item's ratings as per-annotator z-scores)"),
+        "{z}"
+    );
+}
+
+#[test]
+fn the_csv_and_markdown_tables_carry_the_numbers_of_the_json() {
+    let doc: Value =
+        serde_json::from_slice(&agree_golden(&["--json"]).stdout).unwrap_or_else(|e| panic!("{e}"));
+    let out = agree_golden(&["--table", "csv"]);
+    assert!(out.status.success(), "{}", text(&out.stderr));
+    let csv = text(&out.stdout);
+    assert!(!csv.replace("\r\n", "").contains('\n'), "CRLF line ends");
+    let (correlations, corruption) = csv
+        .split_once("\r\n\r\n")
+        .unwrap_or_else(|| panic!("two tables: {csv}"));
+    let lines: Vec<Vec<&str>> = correlations
+        .lines()
+        .map(|l| l.split(',').collect())
+        .collect();
+    assert_eq!(lines[0][..3], ["Metric", "n", "kendall_tau_b"]);
+    assert_eq!(lines.len(), 5);
+    for (row, metric) in lines[1..].iter().zip(["pg2s", "s_plan", "s_goal", "kas"]) {
+        for (cell, name) in row.iter().zip(&lines[0]).skip(2) {
+            let (key, bound) = match name.rsplit_once('_') {
+                Some((key, "low")) => (key, Some(0)),
+                Some((key, "high")) => (key, Some(1)),
+                _ => (*name, None),
+            };
+            let m = &doc["metrics"][metric];
+            let want = match bound {
+                Some(b) => &m["ci95"][key][b],
+                None => &m[key],
+            };
+            let got: f64 = cell.parse().unwrap_or_else(|e| panic!("{cell}: {e}"));
+            assert_eq!(Some(got), want.as_f64(), "{metric} {name}: every digit");
+        }
+    }
+    assert!(corruption.starts_with("Kind,Column,n,detected,tied,reversed\r\n"));
+    assert!(corruption.contains("\r\nreorder,Human,"), "{corruption}");
+    let md = text(&agree_golden(&["--table", "md"]).stdout);
+    let rows: Vec<&str> = md.lines().filter(|l| l.starts_with("| ")).collect();
+    assert_eq!(
+        rows.len(),
+        2 + 4 + doc["corruption"].as_object().map_or(0, |c| c.len())
+    );
+    let pg2s = &doc["metrics"]["pg2s"];
+    assert!(
+        rows[1].starts_with(&format!(
+            "| PG2S | {} | {:.3} [",
+            pg2s["n"],
+            pg2s["kendall_tau_b"].as_f64().unwrap_or(f64::NAN)
+        )),
+        "{md}"
+    );
+    // --table and --json are one or the other.
+    let both = agree_golden(&["--table", "md", "--json"]);
+    assert!(!both.status.success());
+}
