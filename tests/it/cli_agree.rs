@@ -23,24 +23,29 @@ fn golden(part: &str) -> String {
         .into_owned()
 }
 
-/// `agree` on the golden items, scores and annotations, plus `extra`.
-fn agree_golden(extra: &[&str]) -> Output {
-    let (items, scores, annotations) = (
-        golden("items.jsonl"),
-        golden("scores.jsonl"),
-        golden("annotations.jsonl"),
-    );
+/// `agree` on these items, scores and annotations, plus `extra`.
+fn agree_on(items: &str, scores: &str, annotations: &str, extra: &[&str]) -> Output {
     let mut args = vec![
         "agree",
         "--items",
-        &items,
+        items,
         "--scores",
-        &scores,
+        scores,
         "--annotations",
-        &annotations,
+        annotations,
     ];
     args.extend_from_slice(extra);
     mapvlm(&args)
+}
+
+/// `agree` on the golden items, scores and annotations, plus `extra`.
+fn agree_golden(extra: &[&str]) -> Output {
+    agree_on(
+        &golden("items.jsonl"),
+        &golden("scores.jsonl"),
+        &golden("annotations.jsonl"),
+        extra,
+    )
 }
 
 fn text(bytes: &[u8]) -> String {
@@ -637,4 +642,83 @@ fn the_csv_and_markdown_tables_carry_the_numbers_of_the_json() {
     // --table and --json are one or the other.
     let both = agree_golden(&["--table", "md", "--json"]);
     assert!(!both.status.success());
+}
+
+#[test]
+fn judgements_under_several_guidelines_are_named_and_one_can_be_kept() {
+    let dir = tempfile::tempdir().unwrap_or_else(|e| panic!("{e}"));
+    let (mut items, mut scores) = (String::new(), String::new());
+    for (i, id) in ["a", "b", "c", "d"].iter().enumerate() {
+        items += &format!("{{\"id\": \"{id}\", \"gt\": [\"A.\"], \"pred\": [\"B.\"]}}\n");
+        let v = i as f64 / 4.0;
+        scores += &format!(
+            "{{\"id\": \"{id}\", \"pg2s\": {v}, \"s_plan\": {v}, \"s_goal\": {v}, \"kas\": {v}}}\n"
+        );
+    }
+    let items = write(dir.path(), "items.jsonl", &items);
+    let scores = write(dir.path(), "scores.jsonl", &scores);
+    // ana judged under guidelines aaaa1111 (her line for d superseded under
+    // bbbb2222), bo under bbbb2222; bo's lines carry no `at`, as lines from
+    // another tool may not.
+    let annotations = write(
+        dir.path(),
+        "ann.jsonl",
+        concat!(
+            "{\"item\": \"a\", \"annotator\": \"ana\", \"rating\": 1, \"at\": 1, \"guidelines\": \"aaaa1111\"}\n",
+            "{\"item\": \"b\", \"annotator\": \"ana\", \"rating\": 2, \"at\": 2, \"guidelines\": \"aaaa1111\"}\n",
+            "{\"item\": \"c\", \"annotator\": \"ana\", \"rating\": 4, \"at\": 3, \"guidelines\": \"aaaa1111\"}\n",
+            "{\"item\": \"d\", \"annotator\": \"ana\", \"rating\": 5, \"at\": 4, \"guidelines\": \"aaaa1111\"}\n",
+            "{\"item\": \"d\", \"annotator\": \"ana\", \"rating\": 4, \"at\": 5, \"guidelines\": \"bbbb2222\"}\n",
+            "{\"item\": \"b\", \"annotator\": \"bo\", \"rating\": 3, \"guidelines\": \"bbbb2222\"}\n",
+            "{\"item\": \"c\", \"annotator\": \"bo\", \"rating\": 5, \"guidelines\": \"bbbb2222\"}\n",
+        ),
+    );
+    let run = |extra: &[&str]| {
+        let mut args = vec!["--json", "--bootstrap", "20", "--permutations", "20"];
+        args.extend_from_slice(extra);
+        agree_on(
+            &items.to_string_lossy(),
+            &scores.to_string_lossy(),
+            &annotations.to_string_lossy(),
+            &args,
+        )
+    };
+    // Pooled: one warning naming both hashes, with the current judgements
+    // made under each, and how to keep one; the lines without `at` count.
+    let out = run(&[]);
+    let err = text(&out.stderr);
+    assert!(out.status.success(), "{err}");
+    let warning = "judgements made under 2 guidelines are pooled, by hash: aaaa1111 (3), bbbb2222 (3); keep one with --guidelines-hash HASH";
+    assert_eq!(err.matches(warning).count(), 1, "{err}");
+    let doc: Value = serde_json::from_slice(&out.stdout).unwrap_or_else(|e| panic!("{e}"));
+    assert_eq!(doc["items"], 4);
+    assert_eq!(doc["annotators"], serde_json::json!(["ana", "bo"]));
+    assert!(doc["warnings"]
+        .as_array()
+        .is_some_and(|w| w.contains(&warning.into())));
+    // One hash kept: only its current judgements (ana's superseded line for
+    // d stays superseded), and no warning.
+    let out = run(&["--guidelines-hash", "aaaa1111"]);
+    let err = text(&out.stderr);
+    assert!(out.status.success(), "{err}");
+    assert!(!err.contains("pooled"), "{err}");
+    let doc: Value = serde_json::from_slice(&out.stdout).unwrap_or_else(|e| panic!("{e}"));
+    assert_eq!(
+        (&doc["items"], &doc["annotators"]),
+        (&3.into(), &serde_json::json!(["ana"]))
+    );
+    let doc: Value = serde_json::from_slice(&run(&["--guidelines-hash", "bbbb2222"]).stdout)
+        .unwrap_or_else(|e| panic!("{e}"));
+    assert_eq!(doc["items"], 3);
+    assert_eq!(doc["annotators"], serde_json::json!(["ana", "bo"]));
+    // A hash nobody judged under: one line saying which there are.
+    let out = run(&["--guidelines-hash", "cccc3333"]);
+    let err = text(&out.stderr);
+    assert!(!out.status.success());
+    assert_eq!(err.trim().lines().count(), 1, "{err}");
+    assert!(
+        err.contains("--guidelines-hash cccc3333: no current judgement was made under it; the hashes present are aaaa1111 (3), bbbb2222 (3)"),
+        "{err}"
+    );
+    assert!(out.stdout.is_empty());
 }
