@@ -139,7 +139,10 @@ pub struct HumanAgreement {
 pub struct Ceiling {
     /// (annotator, correlations), in the order of the annotators.
     pub by_annotator: Vec<(String, Correlations)>,
-    /// The mean over annotators of each defined correlation.
+    /// The mean over annotators of each defined correlation; its `n` is the
+    /// number of items the mean rests on, those rated by two or more
+    /// annotators (not the sum of the annotators' n, which counts an item
+    /// once per annotator who rated it).
     pub mean: Correlations,
 }
 
@@ -431,6 +434,7 @@ fn ratings_by_annotator<'a>(
 
 /// The human ceiling ([`Ceiling`]).
 fn ceiling(own: &[BTreeMap<&str, f64>], annotators: &[String]) -> Ceiling {
+    let mut shared: BTreeSet<&str> = BTreeSet::new();
     let by_annotator: Vec<(String, Correlations)> = annotators
         .iter()
         .enumerate()
@@ -442,6 +446,7 @@ fn ceiling(own: &[BTreeMap<&str, f64>], annotators: &[String]) -> Ceiling {
                     .filter_map(|b| own[b].get(item).copied())
                     .collect();
                 if !others.is_empty() {
+                    shared.insert(item);
                     x.push(rating);
                     y.push(others.iter().sum::<f64>() / others.len() as f64);
                 }
@@ -455,7 +460,7 @@ fn ceiling(own: &[BTreeMap<&str, f64>], annotators: &[String]) -> Ceiling {
     };
     Ceiling {
         mean: Correlations {
-            n: by_annotator.iter().map(|(_, c)| c.n).sum(),
+            n: shared.len() as u64,
             kendall_tau_b: mean(|c| c.kendall_tau_b),
             spearman: mean(|c| c.spearman),
             pearson: mean(|c| c.pearson),
@@ -957,16 +962,16 @@ mod tests {
         assert_eq!(ia.step_labels_shared, 3);
     }
 
+    /// Items that have PG2S only.
+    fn pg2s_only(rows: &[(&str, f64)]) -> HashMap<String, MetricValues> {
+        rows.iter()
+            .map(|&(id, v)| (id.to_string(), [Some(v), None, None, None]))
+            .collect()
+    }
+
     /// Three annotators over five items (`y` leaves `e` out).
     fn three_annotators() -> (HashMap<String, MetricValues>, Judged) {
-        let metric = |v: f64| [Some(v), None, None, None];
-        let scores = scores(&[
-            ("a", metric(0.1)),
-            ("b", metric(0.3)),
-            ("c", metric(0.2)),
-            ("d", metric(0.8)),
-            ("e", metric(0.7)),
-        ]);
+        let scores = pg2s_only(&[("a", 0.1), ("b", 0.3), ("c", 0.2), ("d", 0.8), ("e", 0.7)]);
         let mut rows = Vec::new();
         for (who, ratings) in [
             (
@@ -1053,6 +1058,35 @@ mod tests {
             near(c.spearman, rho);
             near(c.pearson, r);
         }
+    }
+
+    #[test]
+    fn the_ceilings_n_counts_the_items_it_rests_on_once() {
+        // x and y share b, y and z share c: the ceiling rests on b and c,
+        // though x's, y's and z's n are 1, 2 and 1.
+        let scores = pg2s_only(&[("a", 0.1), ("b", 0.2), ("c", 0.3), ("d", 0.4)]);
+        let judged = ratings(&[
+            ("a", "x", 1.0),
+            ("b", "x", 2.0),
+            ("b", "y", 3.0),
+            ("c", "y", 4.0),
+            ("c", "z", 5.0),
+            ("d", "z", 1.0),
+        ]);
+        let agreement = analyse(&[], &scores, Some(&judged), settings(10, 10));
+        let h = agreement
+            .human
+            .as_ref()
+            .unwrap_or_else(|| panic!("no human part"));
+        let each: Vec<u64> = h.ceiling.by_annotator.iter().map(|(_, c)| c.n).collect();
+        assert_eq!(each, [1, 2, 1]);
+        assert_eq!(h.ceiling.mean.n, 2);
+        assert_eq!(h.inter_annotator.shared_items, 2);
+        assert_eq!(json::to_json(&agreement)["human_ceiling"]["mean"]["n"], 2);
+        // Three annotators over five items, each rated by two or more.
+        let (scores, judged) = three_annotators();
+        let h = analyse(&[], &scores, Some(&judged), settings(10, 10)).human;
+        assert_eq!(h.map(|h| h.ceiling.mean.n), Some(5));
     }
 
     #[test]

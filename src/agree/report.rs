@@ -106,7 +106,12 @@ fn human_section(h: &HumanAgreement, agreement: &Agreement, out: &mut String) {
             three(c)
         );
     }
-    let _ = writeln!(out, "  ceiling  {:<10} {}", "mean", three(&h.ceiling.mean));
+    let _ = writeln!(
+        out,
+        "  ceiling  {:<10} {}: the items rated by two or more",
+        "mean",
+        three(&h.ceiling.mean)
+    );
     for m in &h.metrics {
         for (name, c) in &m.by_annotator {
             let _ = writeln!(
@@ -218,7 +223,9 @@ fn corruption_section(agreement: &Agreement, out: &mut String) {
     }
     let _ = writeln!(
         out,
-        "Corruption detection: source higher / tied / corruption higher (of n)"
+        "Corruption detection: source higher / tied / corruption higher (of n); human: {} (--aggregate {})",
+        agreement.settings.aggregate.describe(),
+        agreement.settings.aggregate.as_str()
     );
     let columns: Vec<&str> = METRICS.iter().copied().chain(["human"]).collect();
     let _ = write!(out, "{:<14}", "kind");

@@ -236,7 +236,7 @@ fn detection(d: &Detection) -> String {
 }
 
 /// `text` with LaTeX's special characters escaped.
-pub fn latex_escape(text: &str) -> String {
+fn latex_escape(text: &str) -> String {
     let mut out = String::with_capacity(text.len());
     for c in text.chars() {
         match c {

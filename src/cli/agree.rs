@@ -51,7 +51,8 @@ pub struct AgreeArgs {
     #[arg(long, value_name = "FILE.svg|FILE.png")]
     pub plot: Option<PathBuf>,
     /// How an item's ratings make its human score: their mean, their median,
-    /// or the mean of each annotator's z-scores.
+    /// or the mean of each annotator's z-scores. The human column of the
+    /// corruption table compares these scores too.
     #[arg(long, value_enum, default_value_t = Aggregate::Mean, value_name = "HOW")]
     pub aggregate: Aggregate,
     /// The figure's size in pixels (the PNG's; the SVG's drawing units).

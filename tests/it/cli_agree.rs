@@ -100,6 +100,11 @@ fn the_golden_set_gives_the_expected_document_and_nothing_else_on_stdout() {
     assert!(lo < tau && tau < hi, "{lo} < {tau} < {hi}");
     let p = doc["pg2s_vs_kas"]["p_value"].as_f64().unwrap_or(-1.0);
     assert!(p > 0.0 && p <= 1.0, "{p}");
+    // The ceiling's mean rests on the items two or more annotators rated.
+    assert_eq!(
+        doc["human_ceiling"]["mean"]["n"],
+        doc["inter_annotator"]["shared_items"]
+    );
     // No pairwise judgements in the golden set: null, with the reason.
     assert_eq!(doc["pairwise"]["pg2s"]["n"], 0);
     assert_eq!(doc["pairwise"]["pg2s"]["agreement"], Value::Null);
@@ -192,6 +197,13 @@ fn the_report_of_the_golden_set() {
     let out = agree_golden(&[]);
     assert!(out.status.success(), "{}", text(&out.stderr));
     insta::assert_snapshot!("agree_report_golden", text(&out.stdout));
+    // The human column of the corruption table says which human score it
+    // compares, as --aggregate makes it.
+    let median = text(&agree_golden(&["--aggregate", "median", "--bootstrap", "10"]).stdout);
+    assert!(
+        median.contains("Corruption detection: source higher / tied / corruption higher (of n); human: the median of an item's ratings (--aggregate median)"),
+        "{median}"
+    );
 }
 
 /// An SVG drawn by resvg with an empty font database, as a machine without
