@@ -12,12 +12,15 @@ install scipy krippendorff numpy`). MAPVLM defaults to target/release/mapvlm.
 The reference is read from ../shared/reference/agree_ref.py beside the
 repository. Point estimates must agree to 1e-9 and counts exactly; the
 p-values of tau-b, rho and r (`metrics.M.p_values`) must equal scipy's to
-1e-9 relative, with scipy pinned below; the bootstrap intervals and the
+1e-9 relative, with scipy pinned below, and so must Williams' test of each
+pair of metrics (`williams.pairs.A_vs_B`: t, p_value and the Holm-adjusted
+p_holm, by their definitions in scipy); the bootstrap intervals and the
 permutation p-value are not in the reference.
 
 usage: scripts/agree_cases.py PYTHON_WITH_SCIPY --golden-fixture OUT.json
 writes the p-values of the golden set (../shared/golden/agree.dev.*) as
-scipy gives them, the fixture tests/fixtures/agree.golden.p_values.json.
+scipy gives them, and Williams' test of each pair of metrics with Holm's
+correction, the fixture tests/fixtures/agree.golden.p_values.json.
 """
 import json, os, random, subprocess, sys, tempfile
 
@@ -55,12 +58,44 @@ for m in ref.METRICS:
     h = np.asarray([human[i] for i in ids], float)
     out[m] = {"kendall_tau_b": p(stats.kendalltau, x, h), "spearman": p(stats.spearmanr, x, h),
               "pearson": p(stats.pearsonr, x, h)}
-print(json.dumps(out, indent=1, sort_keys=True))
+# Williams' t-test of each pair of metrics (Williams 1959; Steiger 1980,
+# eq. 7) over the rated items that have both, by its definition.
+def williams(a, b):
+    ids = [i for i in rated if i in scores and scores[i].get(a) is not None
+           and scores[i].get(b) is not None]
+    n = len(ids)
+    h = np.asarray([human[i] for i in ids], float)
+    x = np.asarray([scores[i][a] for i in ids], float)
+    y = np.asarray([scores[i][b] for i in ids], float)
+    row = {"n": n, "t": None, "p_value": None}
+    if n < 4 or min(np.ptp(h), np.ptp(x), np.ptp(y)) == 0:
+        return row
+    r12, r13, r23 = (float(stats.pearsonr(u, v).statistic) for u, v in ((x, h), (y, h), (x, y)))
+    K = 1 - r12**2 - r13**2 - r23**2 + 2 * r12 * r13 * r23
+    if max(abs(r12), abs(r13), abs(r23)) >= 1 or K <= 0:
+        return row
+    t = (r12 - r13) * math.sqrt((n - 1) * (1 + r23)) / math.sqrt(
+        2 * K * (n - 1) / (n - 3) + ((r12 + r13) ** 2 / 4) * (1 - r23) ** 3)
+    row.update(t=t, p_value=float(2 * stats.t.sf(abs(t), n - 3)))
+    return row
+tests = {f"{a}_vs_{b}": williams(a, b) for k, a in enumerate(ref.METRICS) for b in ref.METRICS[k + 1:]}
+# Holm (1979): the sorted p-values times m, m - 1, ..., 1; each adjusted
+# value the largest of those up to it, at most 1.
+family = sorted((row["p_value"], name) for name, row in tests.items() if row["p_value"] is not None)
+largest = 0.0
+for k, (pv, name) in enumerate(family):
+    largest = max(largest, min(1.0, (len(family) - k) * pv))
+    tests[name]["p_holm"] = largest
+for row in tests.values():
+    row.setdefault("p_holm", None)
+print(json.dumps({"p_values": out, "williams": {"holm_family": len(family), "pairs": tests}},
+                 indent=1, sort_keys=True))
 """
 
 
 def reference_p_values(python, paths):
-    """scipy's p-values of each metric's column, as `agree` forms them."""
+    """scipy's p-values of each metric's column, as `agree` forms them, and
+    Williams' test of each pair of metrics: {p_values, williams}."""
     run = subprocess.run([python, "-c", P_VALUES, os.path.dirname(REFERENCE), SCIPY, *paths],
                          capture_output=True, text=True)
     if run.returncode != 0:
@@ -70,14 +105,29 @@ def reference_p_values(python, paths):
 
 def close_relative(ref, ours, path, problems):
     """p-values: null where scipy has none, else within 1e-9 relative."""
-    for m, row in ref.items():
+    for m, row in ref["p_values"].items():
         for k, v in row.items():
-            got = ours.get(m, {}).get("p_values", {}).get(k, "<missing>")
-            if v is None:
-                if got is not None:
-                    problems.append(f"{path}.{m}.p_values.{k}: {got!r}, scipy has none")
-            elif not isinstance(got, (int, float)) or abs(got - v) > 1e-9 * abs(v):
-                problems.append(f"{path}.{m}.p_values.{k}: {got!r} != {v!r}")
+            got = ours.get("metrics", {}).get(m, {}).get("p_values", {}).get(k, "<missing>")
+            relative(v, got, f"{path}.{m}.p_values.{k}", problems)
+    williams = ours.get("williams", {})
+    if williams.get("holm_family") != ref["williams"]["holm_family"]:
+        problems.append(f"{path}.williams.holm_family: {williams.get('holm_family')!r} "
+                        f"!= {ref['williams']['holm_family']!r}")
+    for pair, row in ref["williams"]["pairs"].items():
+        got = williams.get("pairs", {}).get(pair, {})
+        if got.get("n") != row["n"]:
+            problems.append(f"{path}.williams.{pair}.n: {got.get('n')!r} != {row['n']!r}")
+        for k in ("t", "p_value", "p_holm"):
+            relative(row[k], got.get(k, "<missing>"), f"{path}.williams.{pair}.{k}", problems)
+
+
+def relative(v, got, path, problems):
+    """One value: null where the reference has none, else within 1e-9 relative."""
+    if v is None:
+        if got is not None:
+            problems.append(f"{path}: {got!r}, the reference has none")
+    elif not isinstance(got, (int, float)) or abs(got - v) > 1e-9 * abs(v):
+        problems.append(f"{path}: {got!r} != {v!r}")
 METRICS = ["pg2s", "s_plan", "s_goal", "kas"]
 KINDS = ["drop", "reorder", "object-swap"]
 
@@ -151,7 +201,8 @@ def main():
     if len(sys.argv) > 3 and sys.argv[2] == "--golden-fixture":
         parts = [GOLDEN + p for p in ("items.jsonl", "scores.jsonl", "annotations.jsonl")]
         with open(sys.argv[3], "w") as f:
-            f.write(json.dumps({"scipy": SCIPY, "metrics": reference_p_values(python, parts)},
+            ref = reference_p_values(python, parts)
+            f.write(json.dumps({"scipy": SCIPY, "metrics": ref["p_values"], "williams": ref["williams"]},
                                indent=1, sort_keys=True) + "\n")
         return
     mapvlm = sys.argv[2] if len(sys.argv) > 2 and not sys.argv[2].startswith("--") else os.path.join(ROOT, "target", "release", "mapvlm")
@@ -196,7 +247,7 @@ def main():
                 doc = json.loads(ours.stdout)
                 close(json.loads(ref.stdout), doc, name, problems)
                 p_ref = reference_p_values(python, [paths["items"], paths["scores"], paths["annotations"]])
-                close_relative(p_ref, doc.get("metrics", {}), name, problems)
+                close_relative(p_ref, doc, name, problems)
             except json.JSONDecodeError:
                 problems.append(f"{name}: not JSON: {ours.stderr.strip()}")
             failed += bool(problems)

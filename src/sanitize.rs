@@ -23,6 +23,16 @@ pub fn for_terminal(s: &str) -> String {
     escape_unsafe(s, |cp| format!("\\u{{{cp:x}}}"))
 }
 
+/// One CSV field as RFC 4180 writes it: quoted, with its quotes doubled,
+/// when it holds a comma, a quote or a line break; as it is otherwise.
+pub fn csv_field(text: &str) -> String {
+    if text.contains([',', '"', '\n', '\r']) {
+        format!("\"{}\"", text.replace('"', "\"\""))
+    } else {
+        text.to_string()
+    }
+}
+
 /// `s` with every [`is_unsafe`] code point replaced by `escape` of its
 /// number: the one loop behind the terminal and the JSON escaping.
 fn escape_unsafe(s: &str, escape: impl Fn(u32) -> String) -> String {

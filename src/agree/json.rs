@@ -4,17 +4,18 @@
 
 use serde_json::{json, Map, Value};
 
-use super::{Agreement, Detection, HumanAgreement, InterAnnotator, Interval};
+use super::{Agreement, Detection, HumanAgreement, InterAnnotator, MetricPairTest};
 use crate::stats::correlation::Correlations;
-use crate::stats::Estimate;
+use crate::stats::Undefined;
 
 /// The keys that need human judgements, `null` without annotations.
-const HUMAN_KEYS: [&str; 7] = [
+const HUMAN_KEYS: [&str; 8] = [
     "items",
     "human_ceiling",
     "annotators",
     "metrics",
     "pg2s_vs_kas",
+    "williams",
     "inter_annotator",
     "pairwise",
 ];
@@ -70,10 +71,10 @@ fn human_json(h: &HumanAgreement, doc: &mut Map<String, Value>) {
             obj.estimate("pearson", c.pearson);
             obj.estimate("pairwise_accuracy", c.pairwise_accuracy);
             let mut ci = Fields::default();
-            ci.interval("kendall_tau_b", m.ci95.kendall_tau_b);
-            ci.interval("spearman", m.ci95.spearman);
-            ci.interval("pearson", m.ci95.pearson);
-            ci.interval("pairwise_accuracy", m.ci95.pairwise_accuracy);
+            ci.estimate("kendall_tau_b", m.ci95.kendall_tau_b);
+            ci.estimate("spearman", m.ci95.spearman);
+            ci.estimate("pearson", m.ci95.pearson);
+            ci.estimate("pairwise_accuracy", m.ci95.pairwise_accuracy);
             obj.map.insert("ci95".into(), ci.done());
             let [tau, rho, r, acc] = m.ci95_resamples;
             obj.map.insert(
@@ -107,6 +108,7 @@ fn human_json(h: &HumanAgreement, doc: &mut Map<String, Value>) {
         .insert("permutations".into(), json!(t.permutations_used()));
     test.map.insert("permutations_asked".into(), json!(t.asked));
     doc.insert("pg2s_vs_kas".into(), test.done());
+    doc.insert("williams".into(), williams(&h.williams));
     doc.insert(
         "inter_annotator".into(),
         inter_annotator(&h.inter_annotator),
@@ -122,6 +124,32 @@ fn human_json(h: &HumanAgreement, doc: &mut Map<String, Value>) {
         })
         .collect();
     doc.insert("pairwise".into(), Value::Object(pairwise));
+}
+
+/// `{holm_family, pairs: {FIRST_vs_SECOND: {first, second, n, r_first,
+/// r_second, r_between, t, df, p_value, p_holm}}}`: Williams' test of each
+/// pair of metrics, `holm_family` the number of pairs Holm corrects over.
+fn williams(tests: &[MetricPairTest]) -> Value {
+    let pairs: Map<String, Value> = tests
+        .iter()
+        .map(|w| {
+            let [first, second] = w.metrics;
+            let mut obj = Fields::default();
+            obj.map.insert("first".into(), json!(first));
+            obj.map.insert("second".into(), json!(second));
+            obj.map.insert("n".into(), json!(w.n));
+            obj.estimate("r_first", w.test.map(|t| t.r_first));
+            obj.estimate("r_second", w.test.map(|t| t.r_second));
+            obj.estimate("r_between", w.test.map(|t| t.r_between));
+            obj.estimate("t", w.test.map(|t| t.t));
+            obj.estimate("df", w.test.map(|t| t.dof));
+            obj.estimate("p_value", w.test.map(|t| t.p_value));
+            obj.estimate("p_holm", w.p_holm);
+            (format!("{first}_vs_{second}"), obj.done())
+        })
+        .collect();
+    let family = tests.iter().filter(|w| w.test.is_ok()).count();
+    json!({"holm_family": family, "pairs": pairs})
 }
 
 /// `{n, kendall_tau_b, spearman, pearson}` of one set of correlations.
@@ -150,8 +178,8 @@ fn inter_annotator(ia: &InterAnnotator) -> Value {
     obj.map
         .insert("shared_items".into(), json!(ia.shared_items));
     let mut ci = Fields::default();
-    ci.interval("krippendorff_alpha_ordinal", ia.ci95[0]);
-    ci.interval("krippendorff_alpha_interval", ia.ci95[1]);
+    ci.estimate("krippendorff_alpha_ordinal", ia.ci95[0]);
+    ci.estimate("krippendorff_alpha_interval", ia.ci95[1]);
     obj.map.insert("ci95".into(), ci.done());
     obj.map.insert(
         "ci95_resamples".into(),
@@ -181,20 +209,11 @@ struct Fields {
 }
 
 impl Fields {
-    fn estimate(&mut self, key: &str, value: Estimate) {
+    /// A value (an estimate, an interval, a count) at `key`, or `null` with
+    /// the reason in `reasons`.
+    fn estimate<T: serde::Serialize>(&mut self, key: &str, value: Result<T, Undefined>) {
         let v = match value {
             Ok(x) => json!(x),
-            Err(why) => {
-                self.reasons.insert(key.into(), json!(why.to_string()));
-                Value::Null
-            }
-        };
-        self.map.insert(key.into(), v);
-    }
-
-    fn interval(&mut self, key: &str, value: Interval) {
-        let v = match value {
-            Ok([lo, hi]) => json!([lo, hi]),
             Err(why) => {
                 self.reasons.insert(key.into(), json!(why.to_string()));
                 Value::Null

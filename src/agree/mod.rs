@@ -11,15 +11,18 @@ pub mod json;
 pub mod plot;
 pub mod report;
 pub mod scores;
+pub mod table;
 
 use std::collections::{BTreeMap, BTreeSet, HashMap};
 
 use crate::dataset::Pair;
 use crate::stats::bootstrap::{percentile, percentile_interval, Bootstrap};
 use crate::stats::correlation::{Correlations, Paired};
+use crate::stats::holm::holm;
 use crate::stats::krippendorff::{alpha, alpha_weighted, Level};
 use crate::stats::permutation::{tau_b_difference, PermutationTest};
 use crate::stats::pvalue::PValues;
+use crate::stats::williams::{williams_columns, Williams};
 use crate::stats::{Estimate, Undefined};
 
 /// The metrics compared with people, in the order of every table.
@@ -65,6 +68,16 @@ impl Aggregate {
             Aggregate::Z => "z",
         }
     }
+
+    /// How an item's human score is made, in words, for every report and
+    /// table that shows one (the human column of the corruption table too).
+    pub fn describe(self) -> &'static str {
+        match self {
+            Aggregate::Mean => "the mean of an item's ratings",
+            Aggregate::Median => "the median of an item's ratings",
+            Aggregate::Z => "the mean of an item's ratings as per-annotator z-scores",
+        }
+    }
 }
 
 /// How the resampling statistics are drawn, and how ratings are combined.
@@ -107,6 +120,9 @@ pub struct HumanAgreement {
     pub metrics: Vec<MetricAgreement>,
     /// The paired permutation test of PG2S against KAS on tau-b.
     pub pg2s_vs_kas: KasTest,
+    /// Williams' test of every pair of metrics on Pearson's r, in the order
+    /// of [`METRICS`] (pg2s–s_plan, pg2s–s_goal, …, s_goal–kas).
+    pub williams: Vec<MetricPairTest>,
     /// Agreement between annotators.
     pub inter_annotator: InterAnnotator,
     /// Agreement with pairwise preferences, in the order of [`METRICS`].
@@ -123,7 +139,10 @@ pub struct HumanAgreement {
 pub struct Ceiling {
     /// (annotator, correlations), in the order of the annotators.
     pub by_annotator: Vec<(String, Correlations)>,
-    /// The mean over annotators of each defined correlation.
+    /// The mean over annotators of each defined correlation; its `n` is the
+    /// number of items the mean rests on, those rated by two or more
+    /// annotators (not the sum of the annotators' n, which counts an item
+    /// once per annotator who rated it).
     pub mean: Correlations,
 }
 
@@ -142,6 +161,63 @@ pub struct KasTest {
     pub test: Result<PermutationTest, Undefined>,
     /// The permutations asked for (`--permutations`).
     pub asked: usize,
+}
+
+/// Williams' test of one pair of metrics: is the human score correlated
+/// more with one than with the other (Pearson's r, over the rated items that
+/// have both), with its p-value corrected by Holm over the pairs tested.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct MetricPairTest {
+    /// The two metrics (of [`METRICS`]); t > 0 when the first agrees more.
+    pub metrics: [&'static str; 2],
+    /// The rated items that have both metrics.
+    pub n: usize,
+    /// The test, or why there is none.
+    pub test: Result<Williams, Undefined>,
+    /// Its p-value adjusted by Holm's step-down correction over the family
+    /// of the pairs that have a test.
+    pub p_holm: Estimate,
+}
+
+/// Williams' test of every pair of metrics, with Holm's correction over
+/// the pairs whose test is defined.
+fn williams_tests(
+    rated: &[&str],
+    human: &BTreeMap<String, f64>,
+    value: impl Fn(&str, usize) -> Option<f64>,
+) -> Vec<MetricPairTest> {
+    let mut pairs = Vec::new();
+    for (a, first_name) in METRICS.iter().enumerate() {
+        for (b, second_name) in METRICS.iter().enumerate().skip(a + 1) {
+            let (mut h, mut first, mut second) = (Vec::new(), Vec::new(), Vec::new());
+            for &item in rated {
+                if let (Some(x), Some(y)) = (value(item, a), value(item, b)) {
+                    h.push(human[item]);
+                    first.push(x);
+                    second.push(y);
+                }
+            }
+            pairs.push((
+                [*first_name, *second_name],
+                h.len(),
+                williams_columns(&h, &first, &second),
+            ));
+        }
+    }
+    let p: Vec<Estimate> = pairs
+        .iter()
+        .map(|(_, _, test)| test.map(|w| w.p_value))
+        .collect();
+    pairs
+        .into_iter()
+        .zip(holm(&p))
+        .map(|((metrics, n, test), p_holm)| MetricPairTest {
+            metrics,
+            n,
+            test,
+            p_holm,
+        })
+        .collect()
 }
 
 impl KasTest {
@@ -358,6 +434,7 @@ fn ratings_by_annotator<'a>(
 
 /// The human ceiling ([`Ceiling`]).
 fn ceiling(own: &[BTreeMap<&str, f64>], annotators: &[String]) -> Ceiling {
+    let mut shared: BTreeSet<&str> = BTreeSet::new();
     let by_annotator: Vec<(String, Correlations)> = annotators
         .iter()
         .enumerate()
@@ -369,6 +446,7 @@ fn ceiling(own: &[BTreeMap<&str, f64>], annotators: &[String]) -> Ceiling {
                     .filter_map(|b| own[b].get(item).copied())
                     .collect();
                 if !others.is_empty() {
+                    shared.insert(item);
                     x.push(rating);
                     y.push(others.iter().sum::<f64>() / others.len() as f64);
                 }
@@ -382,7 +460,7 @@ fn ceiling(own: &[BTreeMap<&str, f64>], annotators: &[String]) -> Ceiling {
     };
     Ceiling {
         mean: Correlations {
-            n: by_annotator.iter().map(|(_, c)| c.n).sum(),
+            n: shared.len() as u64,
             kendall_tau_b: mean(|c| c.kendall_tau_b),
             spearman: mean(|c| c.spearman),
             pearson: mean(|c| c.pearson),
@@ -516,6 +594,7 @@ fn human_agreement(
         ),
         asked: settings.permutations,
     };
+    let williams = williams_tests(&rated, human, value);
     let mut inter_annotator = inter_annotator(&matrix, &annotators);
     inter_annotator.ci95 = alpha_ci;
     inter_annotator.ci95_resamples = alpha_used;
@@ -530,6 +609,7 @@ fn human_agreement(
         annotators,
         metrics,
         pg2s_vs_kas,
+        williams,
         pairwise: pairwise(judged, scores),
     }
 }
@@ -566,6 +646,14 @@ fn warnings(h: &HumanAgreement, settings: Settings) -> Vec<String> {
             t.permutations_used(),
             t.asked
         ));
+    }
+    for w in &h.williams {
+        if few(w.n) {
+            out.push(format!(
+                "Williams' test of {} against {} over {} items",
+                w.metrics[0], w.metrics[1], w.n
+            ));
+        }
     }
     let ia = &h.inter_annotator;
     if few(ia.shared_items) {
@@ -789,11 +877,27 @@ mod tests {
             warnings.contains(&"PG2S against KAS over 2 items".into()),
             "{warnings:?}"
         );
+        // Williams' test needs four items: every pair is there, null, with why.
+        let williams = &doc["williams"];
+        assert_eq!(williams["holm_family"], 0);
+        let pairs = williams["pairs"].as_object().cloned().unwrap_or_default();
+        assert_eq!(pairs.len(), 6, "{pairs:?}");
+        let pg2s_kas = &pairs["pg2s_vs_kas"];
+        assert_eq!(
+            (&pg2s_kas["n"], &pg2s_kas["first"]),
+            (&2.into(), &"pg2s".into())
+        );
+        for key in ["r_first", "t", "df", "p_value", "p_holm"] {
+            assert!(pg2s_kas[key].is_null(), "{key}");
+            assert_eq!(pg2s_kas["reasons"][key], "fewer than four items");
+        }
+        assert_eq!(pairs["pg2s_vs_s_plan"]["n"], 0);
         let without = json::to_json(&analyse(&[], &scores, None, settings(20, 50)));
         for key in [
             "items",
             "metrics",
             "pg2s_vs_kas",
+            "williams",
             "inter_annotator",
             "pairwise",
         ] {
@@ -858,16 +962,16 @@ mod tests {
         assert_eq!(ia.step_labels_shared, 3);
     }
 
+    /// Items that have PG2S only.
+    fn pg2s_only(rows: &[(&str, f64)]) -> HashMap<String, MetricValues> {
+        rows.iter()
+            .map(|&(id, v)| (id.to_string(), [Some(v), None, None, None]))
+            .collect()
+    }
+
     /// Three annotators over five items (`y` leaves `e` out).
     fn three_annotators() -> (HashMap<String, MetricValues>, Judged) {
-        let metric = |v: f64| [Some(v), None, None, None];
-        let scores = scores(&[
-            ("a", metric(0.1)),
-            ("b", metric(0.3)),
-            ("c", metric(0.2)),
-            ("d", metric(0.8)),
-            ("e", metric(0.7)),
-        ]);
+        let scores = pg2s_only(&[("a", 0.1), ("b", 0.3), ("c", 0.2), ("d", 0.8), ("e", 0.7)]);
         let mut rows = Vec::new();
         for (who, ratings) in [
             (
@@ -957,6 +1061,35 @@ mod tests {
     }
 
     #[test]
+    fn the_ceilings_n_counts_the_items_it_rests_on_once() {
+        // x and y share b, y and z share c: the ceiling rests on b and c,
+        // though x's, y's and z's n are 1, 2 and 1.
+        let scores = pg2s_only(&[("a", 0.1), ("b", 0.2), ("c", 0.3), ("d", 0.4)]);
+        let judged = ratings(&[
+            ("a", "x", 1.0),
+            ("b", "x", 2.0),
+            ("b", "y", 3.0),
+            ("c", "y", 4.0),
+            ("c", "z", 5.0),
+            ("d", "z", 1.0),
+        ]);
+        let agreement = analyse(&[], &scores, Some(&judged), settings(10, 10));
+        let h = agreement
+            .human
+            .as_ref()
+            .unwrap_or_else(|| panic!("no human part"));
+        let each: Vec<u64> = h.ceiling.by_annotator.iter().map(|(_, c)| c.n).collect();
+        assert_eq!(each, [1, 2, 1]);
+        assert_eq!(h.ceiling.mean.n, 2);
+        assert_eq!(h.inter_annotator.shared_items, 2);
+        assert_eq!(json::to_json(&agreement)["human_ceiling"]["mean"]["n"], 2);
+        // Three annotators over five items, each rated by two or more.
+        let (scores, judged) = three_annotators();
+        let h = analyse(&[], &scores, Some(&judged), settings(10, 10)).human;
+        assert_eq!(h.map(|h| h.ceiling.mean.n), Some(5));
+    }
+
+    #[test]
     fn z_scores_and_the_median_match_definitional_python() {
         let (scores, judged) = three_annotators();
         let with = |aggregate| {
@@ -1004,6 +1137,82 @@ mod tests {
         assert_eq!((z["a"], z["b"]), (-1.0, 1.0));
         assert_eq!(warnings.len(), 1, "{warnings:?}");
         assert!(warnings[0].contains("q gave every item the same rating"));
+    }
+
+    #[test]
+    fn williams_tests_every_pair_and_holm_corrects_over_those_tested() {
+        // Six items with PG2S, S_goal and KAS; S_plan on three only, so its
+        // pairs have no test and the family is the other three pairs.
+        let rows: Vec<(String, MetricValues)> = (0..6)
+            .map(|i| {
+                let v = f64::from(i);
+                let s_plan = (i < 3).then_some(v / 10.0);
+                let values = [
+                    Some(v / 6.0),
+                    s_plan,
+                    Some(((v * 7.0) % 5.0) / 5.0),
+                    Some(((v * 3.0) % 4.0) / 4.0),
+                ];
+                (format!("i{i}"), values)
+            })
+            .collect();
+        let scores: HashMap<String, MetricValues> = rows.into_iter().collect();
+        let judged = ratings(&[
+            ("i0", "x", 1.0),
+            ("i1", "x", 3.0),
+            ("i2", "x", 2.0),
+            ("i3", "x", 5.0),
+            ("i4", "x", 3.0),
+            ("i5", "x", 4.0),
+        ]);
+        let h = analyse(&[], &scores, Some(&judged), settings(10, 10))
+            .human
+            .unwrap_or_else(|| panic!("no human part"));
+        let names: Vec<[&str; 2]> = h.williams.iter().map(|w| w.metrics).collect();
+        assert_eq!(
+            names,
+            [
+                ["pg2s", "s_plan"],
+                ["pg2s", "s_goal"],
+                ["pg2s", "kas"],
+                ["s_plan", "s_goal"],
+                ["s_plan", "kas"],
+                ["s_goal", "kas"]
+            ]
+        );
+        let human: Vec<f64> = judged.ratings.iter().map(|r| r.2).collect();
+        let column =
+            |m: usize| -> Vec<f64> { (0..6).filter_map(|i| scores[&format!("i{i}")][m]).collect() };
+        let mut raw = Vec::new();
+        for w in &h.williams {
+            let [a, b] = w
+                .metrics
+                .map(|m| METRICS.iter().position(|&n| n == m).unwrap_or(9));
+            if a == 1 || b == 1 {
+                assert_eq!((w.n, w.test), (3, Err(Undefined::FewerThanFourItems)));
+                assert_eq!(w.p_holm, Err(Undefined::FewerThanFourItems));
+                continue;
+            }
+            assert_eq!(w.n, 6);
+            let want = crate::stats::williams::williams_columns(&human, &column(a), &column(b));
+            assert_eq!(w.test, want);
+            raw.push(want.map(|t| t.p_value).unwrap_or(f64::NAN));
+        }
+        // Holm by hand over the three defined p-values.
+        let mut sorted = raw.clone();
+        sorted.sort_by(f64::total_cmp);
+        let step = [
+            3.0 * sorted[0],
+            (3.0 * sorted[0]).max(2.0 * sorted[1]),
+            (3.0 * sorted[0]).max(2.0 * sorted[1]).max(sorted[2]),
+        ]
+        .map(|v| v.min(1.0));
+        let defined: Vec<f64> = h.williams.iter().filter_map(|w| w.p_holm.ok()).collect();
+        for (p, adjusted) in raw.iter().zip(&defined) {
+            let rank = sorted.iter().position(|s| s == p).unwrap_or(9);
+            assert_eq!(*adjusted, step[rank]);
+        }
+        assert_eq!(defined.len(), 3);
     }
 
     #[test]

@@ -46,12 +46,9 @@ fn human_section(h: &HumanAgreement, agreement: &Agreement, out: &mut String) {
     );
     let _ = writeln!(
         out,
-        "Human score: the {} of an item's ratings; 95% intervals: percentile bootstrap, {} resamples, seed {}\n",
-        match s.aggregate {
-            super::Aggregate::Mean => "mean",
-            super::Aggregate::Median => "median",
-            super::Aggregate::Z => "mean z-score (per annotator)",
-        },
+        "Human score: {} (--aggregate {}); 95% intervals: percentile bootstrap, {} resamples, seed {}\n",
+        s.aggregate.describe(),
+        s.aggregate.as_str(),
         s.bootstrap.resamples,
         s.bootstrap.seed
     );
@@ -109,7 +106,12 @@ fn human_section(h: &HumanAgreement, agreement: &Agreement, out: &mut String) {
             three(c)
         );
     }
-    let _ = writeln!(out, "  ceiling  {:<10} {}", "mean", three(&h.ceiling.mean));
+    let _ = writeln!(
+        out,
+        "  ceiling  {:<10} {}: the items rated by two or more",
+        "mean",
+        three(&h.ceiling.mean)
+    );
     for m in &h.metrics {
         for (name, c) in &m.by_annotator {
             let _ = writeln!(
@@ -160,6 +162,7 @@ fn human_section(h: &HumanAgreement, agreement: &Agreement, out: &mut String) {
             );
         }
     }
+    williams_section(h, out);
     let ia = &h.inter_annotator;
     let _ = writeln!(
         out,
@@ -193,6 +196,26 @@ fn human_section(h: &HumanAgreement, agreement: &Agreement, out: &mut String) {
     out.push('\n');
 }
 
+/// Williams' test of each pair of metrics, beside the permutation test.
+fn williams_section(h: &HumanAgreement, out: &mut String) {
+    let family = h.williams.iter().filter(|w| w.test.is_ok()).count();
+    let _ = writeln!(
+        out,
+        "Williams' test of each pair of metrics on Pearson r (the human score shared), p Holm-adjusted over the {family} pairs tested:"
+    );
+    for w in &h.williams {
+        let pair = format!("{:<8} {:<8} n {:<6}", w.metrics[0], w.metrics[1], w.n);
+        let line = match (w.test, w.p_holm) {
+            (Ok(t), Ok(holm)) => format!(
+                "{pair} r {:.3} against {:.3} (between {:.3})  t {:+.3} df {}  p {:.3e}  Holm {:.3e}",
+                t.r_first, t.r_second, t.r_between, t.t, t.dof, t.p_value, holm
+            ),
+            (Err(why), _) | (_, Err(why)) => format!("{pair} no test ({why})"),
+        };
+        let _ = writeln!(out, "  {}", line.trim_end());
+    }
+}
+
 fn corruption_section(agreement: &Agreement, out: &mut String) {
     if agreement.corruption.is_empty() {
         out.push_str("Corruption detection: no corrupted item whose source is scored.\n");
@@ -200,7 +223,9 @@ fn corruption_section(agreement: &Agreement, out: &mut String) {
     }
     let _ = writeln!(
         out,
-        "Corruption detection: source higher / tied / corruption higher (of n)"
+        "Corruption detection: source higher / tied / corruption higher (of n); human: {} (--aggregate {})",
+        agreement.settings.aggregate.describe(),
+        agreement.settings.aggregate.as_str()
     );
     let columns: Vec<&str> = METRICS.iter().copied().chain(["human"]).collect();
     let _ = write!(out, "{:<14}", "kind");

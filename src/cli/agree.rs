@@ -10,6 +10,7 @@ use anyhow::bail;
 use clap::Args;
 
 use crate::agree::scores::load_scores;
+use crate::agree::table::{self, TableFormat};
 use crate::agree::{analyse, json, plot, report, Aggregate, Judged, Settings};
 use crate::annotate::{Annotations, Current, Preference};
 use crate::dataset::{open_pairs, Pair};
@@ -41,12 +42,17 @@ pub struct AgreeArgs {
     /// Print one JSON document instead of the report.
     #[arg(long)]
     pub json: bool,
+    /// Print the correlation and corruption tables as a paper takes them
+    /// instead of the report: LaTeX (booktabs), CSV (RFC 4180) or Markdown.
+    #[arg(long, value_enum, value_name = "FORMAT", conflicts_with = "json")]
+    pub table: Option<TableFormat>,
     /// Also draw the figure, one panel per metric against the human score,
     /// into this file (.svg or .png).
     #[arg(long, value_name = "FILE.svg|FILE.png")]
     pub plot: Option<PathBuf>,
     /// How an item's ratings make its human score: their mean, their median,
-    /// or the mean of each annotator's z-scores.
+    /// or the mean of each annotator's z-scores. The human column of the
+    /// corruption table compares these scores too.
     #[arg(long, value_enum, default_value_t = Aggregate::Mean, value_name = "HOW")]
     pub aggregate: Aggregate,
     /// The figure's size in pixels (the PNG's; the SVG's drawing units).
@@ -56,6 +62,11 @@ pub struct AgreeArgs {
     /// and text, lines and points scale with DPI / 96.
     #[arg(long, value_name = "DPI", default_value_t = plot::DEFAULT_DPI)]
     pub dpi: u32,
+    /// Keep only the current judgements made under the guidelines with this
+    /// hash (the `guidelines` of each judgement line); by default all are
+    /// pooled, with a warning when there is more than one hash.
+    #[arg(long, value_name = "HASH")]
+    pub guidelines_hash: Option<String>,
     /// Bootstrap resamples for the 95% intervals.
     #[arg(
         long,
@@ -118,10 +129,16 @@ pub fn run(args: &AgreeArgs) -> anyhow::Result<ExitCode> {
         }
         None => super::score::metric_values(&mut items, &args.models, pg2s)?,
     };
+    let mut guidelines_warning = None;
     let judged = if args.annotations.is_empty() {
         None
     } else {
-        Some(read_judgements(args, &items, &mut bad_lines)?)
+        Some(read_judgements(
+            args,
+            &items,
+            &mut bad_lines,
+            &mut guidelines_warning,
+        )?)
     };
     let settings = Settings {
         aggregate: args.aggregate,
@@ -131,7 +148,10 @@ pub fn run(args: &AgreeArgs) -> anyhow::Result<ExitCode> {
         },
         permutations: args.permutations,
     };
-    let agreement = analyse(&items, &scores, judged.as_ref(), settings);
+    let mut agreement = analyse(&items, &scores, judged.as_ref(), settings);
+    if let Some(w) = guidelines_warning {
+        agreement.warnings.insert(0, w);
+    }
     if let Some(path) = &args.plot {
         match &agreement.human {
             Some(human) => {
@@ -144,15 +164,15 @@ pub fn run(args: &AgreeArgs) -> anyhow::Result<ExitCode> {
             None => bail!("--plot needs --annotations: the figure plots metrics against people"),
         }
     }
-    if args.json {
+    if args.json || args.table.is_some() {
         for w in &agreement.warnings {
             eprintln!("mapvlm: warning: {w}");
         }
     }
-    let text = if args.json {
-        format!("{:#}\n", json::to_json(&agreement))
-    } else {
-        report::render(&agreement)
+    let text = match args.table {
+        Some(format) => table::render(&agreement, format),
+        None if args.json => format!("{:#}\n", json::to_json(&agreement)),
+        None => report::render(&agreement),
     };
     std::io::stdout().lock().write_all(text.as_bytes())?;
     Ok(if bad_lines == 0 {
@@ -213,11 +233,14 @@ fn read_items(args: &AgreeArgs, bad_lines: &mut usize) -> anyhow::Result<Vec<Pai
 }
 
 /// The current judgements of all annotations files, those of items that
-/// are not in the items file reported and left out.
+/// are not in the items file reported and left out, and those made under
+/// other guidelines than `--guidelines-hash` too; `warning` is set when
+/// judgements under several guidelines are pooled.
 fn read_judgements(
     args: &AgreeArgs,
     items: &[Pair],
     bad_lines: &mut usize,
+    warning: &mut Option<String>,
 ) -> anyhow::Result<Judged> {
     let key = match &args.key {
         Some(path) => Some(crate::corrupt::blind::read_key(path)?),
@@ -270,6 +293,7 @@ fn read_judgements(
             args.items.display()
         );
     }
+    let current = select_guidelines(current, args.guidelines_hash.as_deref(), warning)?;
     let mut step_labels = Vec::new();
     for j in current.judgements() {
         if let (crate::annotate::Subject::Item(item), Some(v)) = (&j.subject, &j.verdict) {
@@ -299,4 +323,59 @@ fn read_judgements(
             })
             .collect(),
     })
+}
+
+/// The name of a judgement's guidelines hash in messages.
+fn hash_name(hash: &str) -> String {
+    if hash.is_empty() {
+        "(none)".to_string()
+    } else {
+        crate::sanitize::for_terminal(hash)
+    }
+}
+
+/// The current judgements made under the guidelines `wanted` (all of them
+/// without it). Pooling judgements under several hashes sets `warning`,
+/// naming each hash with its count; a `wanted` hash that no current
+/// judgement has is an error that lists the hashes present.
+fn select_guidelines(
+    current: Current,
+    wanted: Option<&str>,
+    warning: &mut Option<String>,
+) -> anyhow::Result<Current> {
+    let mut counts: BTreeMap<&str, usize> = BTreeMap::new();
+    for v in current
+        .judgements()
+        .iter()
+        .filter_map(|j| j.verdict.as_ref())
+    {
+        *counts.entry(v.guidelines.as_str()).or_default() += 1;
+    }
+    let listed = || {
+        counts
+            .iter()
+            .map(|(hash, n)| format!("{} ({n})", hash_name(hash)))
+            .collect::<Vec<_>>()
+            .join(", ")
+    };
+    let Some(wanted) = wanted else {
+        if counts.len() > 1 {
+            *warning = Some(format!(
+                "judgements made under {} guidelines are pooled, by hash: {}; keep one with --guidelines-hash HASH",
+                counts.len(),
+                listed()
+            ));
+        }
+        return Ok(current);
+    };
+    if !counts.contains_key(wanted) {
+        bail!(
+            "--guidelines-hash {}: no current judgement was made under it; the hashes present are {}",
+            hash_name(wanted),
+            if counts.is_empty() { "none".to_string() } else { listed() }
+        );
+    }
+    Ok(Current::of(current.judgements().iter().filter(|j| {
+        j.verdict.as_ref().is_some_and(|v| v.guidelines == wanted)
+    })))
 }

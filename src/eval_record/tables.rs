@@ -7,6 +7,7 @@ use std::path::Path;
 
 use super::{write_file, EvalRecordError, TaskResult};
 use crate::agents::Approach;
+use crate::sanitize::csv_field;
 use crate::stats::summary::{self, Spread};
 
 fn cell(value: Option<f64>, digits: usize) -> String {
@@ -279,14 +280,6 @@ fn or_na(text: String) -> String {
         "n/a".into()
     } else {
         text
-    }
-}
-
-fn csv_field(text: &str) -> String {
-    if text.contains([',', '"', '\n']) {
-        format!("\"{}\"", text.replace('"', "\"\""))
-    } else {
-        text.to_string()
     }
 }
 

@@ -1,6 +1,7 @@
 //! Agreement statistics, written once for the whole product: rank
 //! correlations as scipy computes them, pairwise accuracy, percentile
 //! bootstrap intervals, permutation tests (paired tau-b, two-sample means),
+//! Williams' test of dependent correlations with Holm's correction,
 //! Krippendorff's alpha, and the mean and sd of samples.
 //!
 //! Every statistic that can be undefined (too few items, a constant column)
@@ -9,6 +10,7 @@
 
 pub mod bootstrap;
 pub mod correlation;
+pub mod holm;
 pub mod krippendorff;
 pub mod pairs;
 pub mod permutation;
@@ -16,6 +18,7 @@ pub mod pvalue;
 pub mod rank;
 pub mod rng;
 pub mod summary;
+pub mod williams;
 
 /// Why a statistic has no value.
 #[derive(Debug, Clone, Copy, PartialEq, Eq, thiserror::Error)]
@@ -44,6 +47,15 @@ pub enum Undefined {
     /// A pairwise comparison had nothing to compare.
     #[error("no preference between two scored items")]
     NoPreferences,
+    /// Williams' test has n − 3 degrees of freedom.
+    #[error("fewer than four items")]
+    FewerThanFourItems,
+    /// A correlation of exactly ±1 leaves nothing to test.
+    #[error("a correlation is exactly 1 or -1")]
+    PerfectCorrelation,
+    /// The three columns of Williams' test are linearly dependent.
+    #[error("the human score and the two metrics are linearly dependent")]
+    Collinear,
 }
 
 /// Which column of a paired statistic a reason is about.

@@ -23,24 +23,29 @@ fn golden(part: &str) -> String {
         .into_owned()
 }
 
-/// `agree` on the golden items, scores and annotations, plus `extra`.
-fn agree_golden(extra: &[&str]) -> Output {
-    let (items, scores, annotations) = (
-        golden("items.jsonl"),
-        golden("scores.jsonl"),
-        golden("annotations.jsonl"),
-    );
+/// `agree` on these items, scores and annotations, plus `extra`.
+fn agree_on(items: &str, scores: &str, annotations: &str, extra: &[&str]) -> Output {
     let mut args = vec![
         "agree",
         "--items",
-        &items,
+        items,
         "--scores",
-        &scores,
+        scores,
         "--annotations",
-        &annotations,
+        annotations,
     ];
     args.extend_from_slice(extra);
     mapvlm(&args)
+}
+
+/// `agree` on the golden items, scores and annotations, plus `extra`.
+fn agree_golden(extra: &[&str]) -> Output {
+    agree_on(
+        &golden("items.jsonl"),
+        &golden("scores.jsonl"),
+        &golden("annotations.jsonl"),
+        extra,
+    )
 }
 
 fn text(bytes: &[u8]) -> String {
@@ -95,6 +100,11 @@ fn the_golden_set_gives_the_expected_document_and_nothing_else_on_stdout() {
     assert!(lo < tau && tau < hi, "{lo} < {tau} < {hi}");
     let p = doc["pg2s_vs_kas"]["p_value"].as_f64().unwrap_or(-1.0);
     assert!(p > 0.0 && p <= 1.0, "{p}");
+    // The ceiling's mean rests on the items two or more annotators rated.
+    assert_eq!(
+        doc["human_ceiling"]["mean"]["n"],
+        doc["inter_annotator"]["shared_items"]
+    );
     // No pairwise judgements in the golden set: null, with the reason.
     assert_eq!(doc["pairwise"]["pg2s"]["n"], 0);
     assert_eq!(doc["pairwise"]["pg2s"]["agreement"], Value::Null);
@@ -115,30 +125,68 @@ fn the_golden_set_gives_the_expected_document_and_nothing_else_on_stdout() {
     );
 }
 
-#[test]
-fn p_values_of_the_golden_set_equal_scipy_to_1e_9_relative() {
+/// `agree --json` of the golden set, and the values the definitional Python
+/// gives for it: the fixture written by `scripts/agree_cases.py PYTHON
+/// --golden-fixture` with the scipy pinned there.
+fn golden_and_fixture() -> (Value, Value) {
     let out = agree_golden(&["--json"]);
     assert!(out.status.success(), "{}", text(&out.stderr));
     let doc: Value = serde_json::from_slice(&out.stdout).unwrap_or_else(|e| panic!("{e}"));
-    // Written by `scripts/agree_cases.py PYTHON --golden-fixture` with the
-    // scipy pinned there.
     let path =
         Path::new(env!("CARGO_MANIFEST_DIR")).join("tests/fixtures/agree.golden.p_values.json");
     let fixture: Value = serde_json::from_str(&std::fs::read_to_string(&path).unwrap_or_default())
         .unwrap_or_else(|e| panic!("{}: {e}", path.display()));
+    (doc, fixture)
+}
+
+/// `got` equals the number `want` to 1e-9 relative.
+fn assert_close_relative(got: &Value, want: &Value, what: &str) {
+    let want = want.as_f64().unwrap_or(f64::NAN);
+    let got = got
+        .as_f64()
+        .unwrap_or_else(|| panic!("{what}: {got} is not a number"));
+    assert!(
+        (got - want).abs() <= 1e-9 * want.abs(),
+        "{what}: {got:e} != {want:e}"
+    );
+}
+
+#[test]
+fn p_values_of_the_golden_set_equal_scipy_to_1e_9_relative() {
+    let (doc, fixture) = golden_and_fixture();
     let metrics = fixture["metrics"]
         .as_object()
         .unwrap_or_else(|| panic!("{fixture}"));
     assert_eq!(metrics.len(), 4);
     for (metric, row) in metrics {
         for statistic in ["kendall_tau_b", "spearman", "pearson"] {
-            let want = row[statistic].as_f64().unwrap_or(f64::NAN);
-            let got = doc["metrics"][metric]["p_values"][statistic]
-                .as_f64()
-                .unwrap_or_else(|| panic!("{metric} {statistic}: {}", doc["metrics"][metric]));
-            assert!(
-                (got - want).abs() <= 1e-9 * want.abs(),
-                "{metric} {statistic}: {got:e} != {want:e}"
+            assert_close_relative(
+                &doc["metrics"][metric]["p_values"][statistic],
+                &row[statistic],
+                &format!("{metric} {statistic}"),
+            );
+        }
+    }
+}
+
+#[test]
+fn williams_and_holm_of_the_golden_set_equal_the_definitional_python() {
+    // Williams' t and p by the formula with scipy's pearsonr and t.sf, Holm
+    // by its definition.
+    let (doc, fixture) = golden_and_fixture();
+    let (want, got) = (&fixture["williams"], &doc["williams"]);
+    assert_eq!(got["holm_family"], want["holm_family"]);
+    let pairs = want["pairs"]
+        .as_object()
+        .unwrap_or_else(|| panic!("{fixture}"));
+    assert_eq!(pairs.len(), 6);
+    for (pair, row) in pairs {
+        assert_eq!(got["pairs"][pair]["n"], row["n"], "{pair}");
+        for key in ["t", "p_value", "p_holm"] {
+            assert_close_relative(
+                &got["pairs"][pair][key],
+                &row[key],
+                &format!("{pair} {key}"),
             );
         }
     }
@@ -149,6 +197,13 @@ fn the_report_of_the_golden_set() {
     let out = agree_golden(&[]);
     assert!(out.status.success(), "{}", text(&out.stderr));
     insta::assert_snapshot!("agree_report_golden", text(&out.stdout));
+    // The human column of the corruption table says which human score it
+    // compares, as --aggregate makes it.
+    let median = text(&agree_golden(&["--aggregate", "median", "--bootstrap", "10"]).stdout);
+    assert!(
+        median.contains("Corruption detection: source higher / tied / corruption higher (of n); human: the median of an item's ratings (--aggregate median)"),
+        "{median}"
+    );
 }
 
 /// An SVG drawn by resvg with an empty font database, as a machine without
@@ -438,4 +493,244 @@ fn the_pg2s_flags_score_the_items_as_score_does_and_other_settings_are_refused()
     );
     let unrecorded = agree(&["--scores", &golden("scores.jsonl"), "--alpha", "0.4"]);
     common::assert_one_line_failure(&unrecorded, "do not record their PG2S settings");
+}
+
+/// The rows of each `tabular` of a LaTeX document, split into cells, after
+/// checking that it is well-formed booktabs: balanced environments and
+/// braces, and per table `\toprule`, one header row, `\midrule`, the body,
+/// `\bottomrule`, every row with as many cells as the column spec says.
+fn booktabs_tables(tex: &str) -> Vec<(Vec<String>, Vec<Vec<String>>)> {
+    for env in ["table", "tabular"] {
+        let begins = tex.matches(&format!("\\begin{{{env}}}")).count();
+        assert_eq!(
+            begins,
+            tex.matches(&format!("\\end{{{env}}}")).count(),
+            "{env}"
+        );
+    }
+    // Braces balance once the escaped ones (\{ \}) are left out.
+    let unescaped = tex.replace("\\{", "").replace("\\}", "");
+    let mut depth = 0i64;
+    for c in unescaped.chars() {
+        depth += i64::from(c == '{') - i64::from(c == '}');
+        assert!(depth >= 0, "a closing brace without its opening one");
+    }
+    assert_eq!(depth, 0, "unbalanced braces");
+    let mut tables = Vec::new();
+    for block in tex.split("\\begin{tabular}").skip(1) {
+        let (spec, rest) = block
+            .strip_prefix('{')
+            .and_then(|b| b.split_once("}\n"))
+            .unwrap_or_else(|| panic!("no column spec: {block}"));
+        let columns = spec.len();
+        let body = rest
+            .split_once("\\end{tabular}")
+            .unwrap_or_else(|| panic!("no \\end{{tabular}}"))
+            .0;
+        let lines: Vec<&str> = body.lines().collect();
+        assert_eq!(lines.first(), Some(&"\\toprule"), "{body}");
+        assert_eq!(lines.get(2), Some(&"\\midrule"), "{body}");
+        assert_eq!(lines.last(), Some(&"\\bottomrule"), "{body}");
+        let cells = |line: &str| -> Vec<String> {
+            let row = line
+                .strip_suffix(" \\\\")
+                .unwrap_or_else(|| panic!("a row ends in \\\\: {line}"));
+            let cells: Vec<String> = row.split(" & ").map(String::from).collect();
+            assert_eq!(cells.len(), columns, "{line}");
+            cells
+        };
+        let header = cells(lines[1]);
+        let rows = lines[3..lines.len() - 1].iter().map(|l| cells(l)).collect();
+        tables.push((header, rows));
+    }
+    tables
+}
+
+#[test]
+fn the_latex_table_of_the_golden_set_is_booktabs_with_the_numbers_of_the_json() {
+    let out = agree_golden(&["--table", "latex"]);
+    assert!(out.status.success(), "{}", text(&out.stderr));
+    let tex = text(&out.stdout);
+    let doc: Value =
+        serde_json::from_slice(&agree_golden(&["--json"]).stdout).unwrap_or_else(|e| panic!("{e}"));
+    let tables = booktabs_tables(&tex);
+    assert_eq!(tables.len(), 2, "{tex}");
+    let (header, rows) = &tables[0];
+    assert_eq!(header[0], "Metric");
+    let names: Vec<&str> = rows.iter().map(|r| r[0].as_str()).collect();
+    assert_eq!(names, ["PG2S", "S\\_plan", "S\\_goal", "KAS"]);
+    let three = |v: &Value| format!("{:.3}", v.as_f64().unwrap_or(f64::NAN));
+    for (row, metric) in rows.iter().zip(["pg2s", "s_plan", "s_goal", "kas"]) {
+        let m = &doc["metrics"][metric];
+        assert_eq!(row[1], m["n"].to_string(), "{metric}");
+        for (cell, key) in
+            row[2..]
+                .iter()
+                .zip(["kendall_tau_b", "spearman", "pearson", "pairwise_accuracy"])
+        {
+            let ci = &m["ci95"][key];
+            let want = format!("{} [{}, {}]", three(&m[key]), three(&ci[0]), three(&ci[1]));
+            assert_eq!(cell, &want, "{metric} {key}");
+        }
+    }
+    let (header, rows) = &tables[1];
+    assert_eq!(header.last().map(String::as_str), Some("Human"));
+    let kinds = doc["corruption"]
+        .as_object()
+        .unwrap_or_else(|| panic!("{doc}"));
+    assert_eq!(rows.len(), kinds.len());
+    for (row, (kind, cells)) in rows.iter().zip(kinds) {
+        assert_eq!(&row[0], kind);
+        for (cell, column) in row[1..]
+            .iter()
+            .zip(["pg2s", "s_plan", "s_goal", "kas", "human"])
+        {
+            let c = &cells[column];
+            let want = format!(
+                "{}/{}/{} of {}",
+                c["detected"], c["tied"], c["reversed"], c["n"]
+            );
+            assert_eq!(cell, &want, "{kind} {column}");
+        }
+    }
+    // The caption says how the human score and the human column are made.
+    let z = text(&agree_golden(&["--table", "latex", "--aggregate", "z"]).stdout);
+    assert!(
+        z.contains("(Human: the mean of an item's ratings as per-annotator z-scores)"),
+        "{z}"
+    );
+}
+
+#[test]
+fn the_csv_and_markdown_tables_carry_the_numbers_of_the_json() {
+    let doc: Value =
+        serde_json::from_slice(&agree_golden(&["--json"]).stdout).unwrap_or_else(|e| panic!("{e}"));
+    let out = agree_golden(&["--table", "csv"]);
+    assert!(out.status.success(), "{}", text(&out.stderr));
+    let csv = text(&out.stdout);
+    assert!(!csv.replace("\r\n", "").contains('\n'), "CRLF line ends");
+    let (correlations, corruption) = csv
+        .split_once("\r\n\r\n")
+        .unwrap_or_else(|| panic!("two tables: {csv}"));
+    let lines: Vec<Vec<&str>> = correlations
+        .lines()
+        .map(|l| l.split(',').collect())
+        .collect();
+    assert_eq!(lines[0][..3], ["Metric", "n", "kendall_tau_b"]);
+    assert_eq!(lines.len(), 5);
+    for (row, metric) in lines[1..].iter().zip(["pg2s", "s_plan", "s_goal", "kas"]) {
+        for (cell, name) in row.iter().zip(&lines[0]).skip(2) {
+            let (key, bound) = match name.rsplit_once('_') {
+                Some((key, "low")) => (key, Some(0)),
+                Some((key, "high")) => (key, Some(1)),
+                _ => (*name, None),
+            };
+            let m = &doc["metrics"][metric];
+            let want = match bound {
+                Some(b) => &m["ci95"][key][b],
+                None => &m[key],
+            };
+            let got: f64 = cell.parse().unwrap_or_else(|e| panic!("{cell}: {e}"));
+            assert_eq!(Some(got), want.as_f64(), "{metric} {name}: every digit");
+        }
+    }
+    assert!(corruption.starts_with("Kind,Column,n,detected,tied,reversed\r\n"));
+    assert!(corruption.contains("\r\nreorder,Human,"), "{corruption}");
+    let md = text(&agree_golden(&["--table", "md"]).stdout);
+    let rows: Vec<&str> = md.lines().filter(|l| l.starts_with("| ")).collect();
+    assert_eq!(
+        rows.len(),
+        2 + 4 + doc["corruption"].as_object().map_or(0, |c| c.len())
+    );
+    let pg2s = &doc["metrics"]["pg2s"];
+    assert!(
+        rows[1].starts_with(&format!(
+            "| PG2S | {} | {:.3} [",
+            pg2s["n"],
+            pg2s["kendall_tau_b"].as_f64().unwrap_or(f64::NAN)
+        )),
+        "{md}"
+    );
+    // --table and --json are one or the other.
+    let both = agree_golden(&["--table", "md", "--json"]);
+    assert!(!both.status.success());
+}
+
+#[test]
+fn judgements_under_several_guidelines_are_named_and_one_can_be_kept() {
+    let dir = tempfile::tempdir().unwrap_or_else(|e| panic!("{e}"));
+    let (mut items, mut scores) = (String::new(), String::new());
+    for (i, id) in ["a", "b", "c", "d"].iter().enumerate() {
+        items += &format!("{{\"id\": \"{id}\", \"gt\": [\"A.\"], \"pred\": [\"B.\"]}}\n");
+        let v = i as f64 / 4.0;
+        scores += &format!(
+            "{{\"id\": \"{id}\", \"pg2s\": {v}, \"s_plan\": {v}, \"s_goal\": {v}, \"kas\": {v}}}\n"
+        );
+    }
+    let items = write(dir.path(), "items.jsonl", &items);
+    let scores = write(dir.path(), "scores.jsonl", &scores);
+    // ana judged under guidelines aaaa1111 (her line for d superseded under
+    // bbbb2222), bo under bbbb2222; bo's lines carry no `at`, as lines from
+    // another tool may not.
+    let annotations = write(
+        dir.path(),
+        "ann.jsonl",
+        concat!(
+            "{\"item\": \"a\", \"annotator\": \"ana\", \"rating\": 1, \"at\": 1, \"guidelines\": \"aaaa1111\"}\n",
+            "{\"item\": \"b\", \"annotator\": \"ana\", \"rating\": 2, \"at\": 2, \"guidelines\": \"aaaa1111\"}\n",
+            "{\"item\": \"c\", \"annotator\": \"ana\", \"rating\": 4, \"at\": 3, \"guidelines\": \"aaaa1111\"}\n",
+            "{\"item\": \"d\", \"annotator\": \"ana\", \"rating\": 5, \"at\": 4, \"guidelines\": \"aaaa1111\"}\n",
+            "{\"item\": \"d\", \"annotator\": \"ana\", \"rating\": 4, \"at\": 5, \"guidelines\": \"bbbb2222\"}\n",
+            "{\"item\": \"b\", \"annotator\": \"bo\", \"rating\": 3, \"guidelines\": \"bbbb2222\"}\n",
+            "{\"item\": \"c\", \"annotator\": \"bo\", \"rating\": 5, \"guidelines\": \"bbbb2222\"}\n",
+        ),
+    );
+    let run = |extra: &[&str]| {
+        let mut args = vec!["--json", "--bootstrap", "20", "--permutations", "20"];
+        args.extend_from_slice(extra);
+        agree_on(
+            &items.to_string_lossy(),
+            &scores.to_string_lossy(),
+            &annotations.to_string_lossy(),
+            &args,
+        )
+    };
+    // Pooled: one warning naming both hashes, with the current judgements
+    // made under each, and how to keep one; the lines without `at` count.
+    let out = run(&[]);
+    let err = text(&out.stderr);
+    assert!(out.status.success(), "{err}");
+    let warning = "judgements made under 2 guidelines are pooled, by hash: aaaa1111 (3), bbbb2222 (3); keep one with --guidelines-hash HASH";
+    assert_eq!(err.matches(warning).count(), 1, "{err}");
+    let doc: Value = serde_json::from_slice(&out.stdout).unwrap_or_else(|e| panic!("{e}"));
+    assert_eq!(doc["items"], 4);
+    assert_eq!(doc["annotators"], serde_json::json!(["ana", "bo"]));
+    assert!(doc["warnings"]
+        .as_array()
+        .is_some_and(|w| w.contains(&warning.into())));
+    // One hash kept: only its current judgements (ana's superseded line for
+    // d stays superseded), and no warning.
+    let out = run(&["--guidelines-hash", "aaaa1111"]);
+    let err = text(&out.stderr);
+    assert!(out.status.success(), "{err}");
+    assert!(!err.contains("pooled"), "{err}");
+    let doc: Value = serde_json::from_slice(&out.stdout).unwrap_or_else(|e| panic!("{e}"));
+    assert_eq!(
+        (&doc["items"], &doc["annotators"]),
+        (&3.into(), &serde_json::json!(["ana"]))
+    );
+    let doc: Value = serde_json::from_slice(&run(&["--guidelines-hash", "bbbb2222"]).stdout)
+        .unwrap_or_else(|e| panic!("{e}"));
+    assert_eq!(doc["items"], 3);
+    assert_eq!(doc["annotators"], serde_json::json!(["ana", "bo"]));
+    // A hash nobody judged under: one line saying which there are.
+    let out = run(&["--guidelines-hash", "cccc3333"]);
+    let err = text(&out.stderr);
+    assert!(!out.status.success());
+    assert_eq!(err.trim().lines().count(), 1, "{err}");
+    assert!(
+        err.contains("--guidelines-hash cccc3333: no current judgement was made under it; the hashes present are aaaa1111 (3), bbbb2222 (3)"),
+        "{err}"
+    );
+    assert!(out.stdout.is_empty());
 }
