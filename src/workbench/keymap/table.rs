@@ -173,7 +173,7 @@ pub(super) const WORKBENCH: &[Binding] = &[
         C::Prompt,
         &[(ch('S'), A::SavePromptSet), (ch('L'), A::LoadPromptSet)],
         "S L (prompt)",
-        "save every prompt as a named prompt set; load a saved set",
+        "save prompts as a set; load one (asks before edits are lost)",
     ),
     hinted(
         bind(

@@ -100,12 +100,19 @@ impl Component for SetName {
 pub struct SetPicker {
     names: Vec<String>,
     selected: usize,
+    /// The set chosen once over unsaved prompt edits: choosing it again
+    /// discards them.
+    armed: Option<String>,
 }
 
 impl SetPicker {
     /// A picker over `names` (at least one), on the first.
     pub fn new(names: Vec<String>) -> SetPicker {
-        SetPicker { names, selected: 0 }
+        SetPicker {
+            names,
+            selected: 0,
+            armed: None,
+        }
     }
 }
 
@@ -121,6 +128,7 @@ impl Component for SetPicker {
             Action::Leave => SetOutcome::Cancelled,
             Action::Move(delta) => {
                 self.selected = moved(self.selected, delta, self.names.len());
+                self.armed = None;
                 SetOutcome::Open
             }
             Action::Accept => self
@@ -136,9 +144,16 @@ impl Component for SetPicker {
     }
 
     fn draw(&self, frame: &mut Frame, area: Rect, theme: &Theme) {
-        let rect = centred(area, 60, self.names.len() as u16 + 2);
+        let (title, width) = match &self.armed {
+            Some(_) => (
+                "The prompts have unsaved edits: Enter again discards them, Esc keeps them",
+                80,
+            ),
+            None => ("Load a prompt set (Enter loads)", 60),
+        };
+        let rect = centred(area, width, self.names.len() as u16 + 2);
         frame.render_widget(Clear, rect);
-        let block = themed_box(theme, "Load a prompt set (Enter loads)");
+        let block = themed_box(theme, title);
         let inner = block.inner(rect);
         frame.render_widget(block, rect);
         let (first, count) = list_window(self.selected, self.names.len(), 1, inner.height.into());
@@ -196,6 +211,11 @@ impl App {
             SetOutcome::Open => self.overlay = Some(Overlay::PromptSetPicker(picker)),
             SetOutcome::Cancelled => {}
             SetOutcome::Chosen(name) => {
+                if self.panes.prompt.has_unsaved_edits() && picker.armed.as_ref() != Some(&name) {
+                    picker.armed = Some(name);
+                    self.overlay = Some(Overlay::PromptSetPicker(picker));
+                    return Vec::new();
+                }
                 if let Some(root) = self.work.prompt_sets.clone() {
                     return vec![Cmd::LoadPromptSet { root, name }];
                 }
@@ -254,6 +274,7 @@ impl App {
                     Severity::Info,
                 );
                 self.work.prompt_set = name;
+                self.panes.prompt.kept = self.panes.prompt.texts.clone();
             }
             Err(e) => self.set_status(format!("prompt set {name} not saved: {e}"), Severity::Error),
         }
@@ -271,6 +292,7 @@ impl App {
                 for (template, text) in texts {
                     self.panes.prompt.texts.insert(template, text);
                 }
+                self.panes.prompt.kept = self.panes.prompt.texts.clone();
                 self.panes.prompt.load_editor(self.work.approach);
                 self.saving.session_dirty = true;
                 self.set_status(
@@ -386,9 +408,26 @@ mod tests {
             "every template"
         );
 
-        b.app.panes.prompt.texts.insert(SKM.into(), shipped);
+        b.app.panes.prompt.texts.insert(SKM.into(), shipped.clone());
         b.key(KeyCode::Char('L'));
         assert!(matches!(b.app.overlay, Some(Overlay::PromptSetPicker(_))));
+        b.key(KeyCode::Enter);
+        assert!(
+            matches!(&b.app.overlay, Some(Overlay::PromptSetPicker(p)) if p.armed.is_some()),
+            "an edit not in a set: the first Enter asks"
+        );
+        assert_eq!(
+            b.app.panes.prompt.texts[SKM], shipped,
+            "nothing discarded yet"
+        );
+        b.key(KeyCode::Esc);
+        assert!(b.app.overlay.is_none());
+        assert_eq!(
+            b.app.panes.prompt.texts[SKM], shipped,
+            "Esc keeps the edits"
+        );
+        b.key(KeyCode::Char('L'));
+        b.key(KeyCode::Enter);
         b.key(KeyCode::Enter);
         assert_eq!(b.status(), "prompt set towels loaded (r runs what changed)");
         assert_eq!(b.app.panes.prompt.texts[SKM], edited);

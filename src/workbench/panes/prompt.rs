@@ -23,6 +23,9 @@ pub struct PromptPane {
     pub texts: BTreeMap<String, String>,
     /// The templates' texts the workbench started with.
     pub defaults: BTreeMap<String, String>,
+    /// The texts as last saved in or loaded from a prompt set (at start,
+    /// the templates): loading a set over others asks first.
+    pub kept: BTreeMap<String, String>,
     /// The agent whose prompt the pane shows.
     pub agent: AgentRole,
     /// The editor, holding the shown agent's prompt.
@@ -34,10 +37,17 @@ pub struct PromptPane {
 }
 
 impl PromptPane {
+    /// Whether a prompt was edited since the last prompt set was saved or
+    /// loaded (or since the start): what loading a set would discard.
+    pub fn has_unsaved_edits(&self) -> bool {
+        self.texts != self.kept
+    }
+
     /// The pane on the SKM's prompt, `texts` being the templates as started.
     pub fn new(texts: BTreeMap<String, String>) -> Self {
         PromptPane {
             defaults: texts.clone(),
+            kept: texts.clone(),
             texts,
             agent: AgentRole::Skm,
             editor: TextArea::default(),
