@@ -33,6 +33,19 @@ pub fn csv_field(text: &str) -> String {
     }
 }
 
+/// A CSV field of free text from people (notes, labels): [`csv_field`],
+/// with a leading `'` when it starts with `=`, `+`, `-`, `@`, a tab or a
+/// carriage return, so that a spreadsheet shows it as text instead of
+/// running it as a formula (notes may come from crowd workers; OWASP's
+/// advice on CSV injection). Not for numbers, whose `-` must stay.
+pub fn csv_text_field(text: &str) -> String {
+    if text.starts_with(['=', '+', '-', '@', '\t', '\r']) {
+        csv_field(&format!("'{text}"))
+    } else {
+        csv_field(text)
+    }
+}
+
 /// `s` with every [`is_unsafe`] code point replaced by `escape` of its
 /// number: the one loop behind the terminal and the JSON escaping.
 fn escape_unsafe(s: &str, escape: impl Fn(u32) -> String) -> String {

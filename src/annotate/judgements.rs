@@ -444,29 +444,14 @@ impl Current {
                 v.seconds.to_string(),
                 v.guidelines.clone(),
             ];
-            let row: Vec<String> = fields.iter().map(|f| csv_field(f)).collect();
+            let row: Vec<String> = fields
+                .iter()
+                .map(|f| crate::sanitize::csv_text_field(f))
+                .collect();
             out.push_str(&row.join(","));
             out.push('\n');
         }
         out
-    }
-}
-
-/// One CSV field, quoted (RFC 4180) when it holds a comma, quote or line
-/// break. A field that starts with `=`, `+`, `-`, `@`, a tab or a carriage
-/// return gets a leading `'`, so that a spreadsheet shows it as text
-/// instead of running it as a formula (notes may come from crowd workers;
-/// OWASP's advice on CSV injection).
-fn csv_field(text: &str) -> String {
-    let text = if text.starts_with(['=', '+', '-', '@', '\t', '\r']) {
-        format!("'{text}")
-    } else {
-        text.to_string()
-    };
-    if text.contains([',', '"', '\n', '\r']) {
-        format!("\"{}\"", text.replace('"', "\"\""))
-    } else {
-        text
     }
 }
 
