@@ -314,6 +314,18 @@ pub struct Detection {
     pub reversed: usize,
 }
 
+/// The cell as the report and the tables write it: `source higher / tied /
+/// corruption higher of n`.
+impl std::fmt::Display for Detection {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        write!(
+            f,
+            "{}/{}/{} of {}",
+            self.detected, self.tied, self.reversed, self.n
+        )
+    }
+}
+
 impl Detection {
     fn count(&mut self, source: f64, corrupted: f64) {
         self.n += 1;

@@ -237,16 +237,14 @@ fn corruption_section(agreement: &Agreement, out: &mut String) {
     for (kind, row) in &agreement.corruption {
         let _ = write!(out, "{kind:<14}");
         for c in &columns {
-            let text = row.get(*c).map_or_else(|| "–".to_string(), detection);
+            let text = row
+                .get(*c)
+                .map_or_else(|| "–".to_string(), Detection::to_string);
             let _ = write!(out, " {text:<16}");
         }
         out.truncate(out.trim_end().len());
         out.push('\n');
     }
-}
-
-fn detection(d: &Detection) -> String {
-    format!("{}/{}/{} of {}", d.detected, d.tied, d.reversed, d.n)
 }
 
 fn value(e: Estimate) -> String {

@@ -215,7 +215,10 @@ fn corruption(agreement: &Agreement, aggregate: &str, format: TableFormat) -> Ta
         .map(|(kind, row)| {
             let mut cells = vec![kind.clone()];
             for (key, _) in &columns {
-                cells.push(row.get(*key).map_or_else(|| missing(format), detection));
+                cells.push(
+                    row.get(*key)
+                        .map_or_else(|| missing(format), Detection::to_string),
+                );
             }
             cells
         })
@@ -229,10 +232,6 @@ fn corruption(agreement: &Agreement, aggregate: &str, format: TableFormat) -> Ta
         numeric,
         rows,
     }
-}
-
-fn detection(d: &Detection) -> String {
-    format!("{}/{}/{} of {}", d.detected, d.tied, d.reversed, d.n)
 }
 
 /// `text` with LaTeX's special characters escaped.

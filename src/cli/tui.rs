@@ -92,8 +92,8 @@ pub fn run(args: TuiArgs) -> anyhow::Result<ExitCode> {
     .context("the workbench cannot start")?;
     let models = args.models;
     let settings = args.pg2s.settings()?;
+    let (themes, theme_problems) = theme::load_themes(theme::user_theme_dir().as_deref());
     if let Some(name) = &args.theme {
-        let (themes, _) = theme::load_themes(theme::user_theme_dir().as_deref());
         theme::named(&themes, name)?;
     }
     let dataset = match &args.dataset {
@@ -106,7 +106,9 @@ pub fn run(args: TuiArgs) -> anyhow::Result<ExitCode> {
     let options = Options {
         samples: args.samples,
         dataset,
-        session: args.session,
+        session,
+        themes,
+        theme_problems,
         theme: args.theme,
         scorer: Box::new(move |progress: &dyn Fn(String)| {
             progress("loading the models".to_string());

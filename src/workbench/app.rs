@@ -243,14 +243,17 @@ impl App {
     /// A workbench in its starting state, with the commands that start it:
     /// the demo run on a fresh start, and the first scoring.
     pub fn new(init: AppInit) -> (App, Vec<Cmd>) {
+        let flagged_theme = init
+            .theme
+            .as_deref()
+            .and_then(|name| init.themes.iter().find(|t| t.name == name))
+            .cloned();
         let theme = if init.no_color {
             Theme::no_color()
         } else {
-            init.theme
-                .as_deref()
-                .and_then(|name| init.themes.iter().find(|t| t.name == name))
-                .or(init.themes.first())
-                .cloned()
+            flagged_theme
+                .clone()
+                .or_else(|| init.themes.first().cloned())
                 .unwrap_or_else(Theme::no_color)
         };
         let mut app = App {
@@ -302,10 +305,6 @@ impl App {
             quit: false,
         };
         let mut cmds = Vec::new();
-        let flagged_theme = init
-            .theme
-            .as_deref()
-            .and_then(|name| app.looks.themes.iter().find(|t| t.name == name).cloned());
         if let Some(session) = &init.session {
             if flagged_theme.is_some() || app.looks.no_color {
                 app.saving.kept.theme = Some(session.theme.clone());

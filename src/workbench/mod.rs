@@ -67,8 +67,14 @@ pub struct Options {
     /// screen opens so that one that cannot be read is refused, with its
     /// lines that could not be used (said once at the start).
     pub dataset: Option<(Dataset, Vec<LineError>)>,
-    /// The session file (default: [`session::default_path`]).
+    /// The session file (`--session`, else [`session::default_path`]);
+    /// `None` when there is no place for one, and nothing is saved.
     pub session: Option<PathBuf>,
+    /// The themes to choose from (built-in and the user's), loaded once
+    /// before the screen opens so that `--theme` is checked against them.
+    pub themes: Vec<theme::Theme>,
+    /// The user's theme files that could not be used, said at the start.
+    pub theme_problems: Vec<String>,
     /// The theme to start with, by name.
     pub theme: Option<String>,
     /// Loads the PG2S models, in the background.

@@ -240,7 +240,7 @@ fn load_start(
         }
         dataset
     });
-    let path = options.session.clone().or_else(session::default_path);
+    let path = options.session.clone();
     let restored = match &path {
         Some(p) => match session::restore(p) {
             Ok(Restored::Loaded { session, repaired }) => {
@@ -290,7 +290,10 @@ fn load_start(
 
 async fn run_async(mut options: Options) -> Result<(), TuiError> {
     let (dataset, restored, notices, session_path) = load_start(&mut options);
-    let (themes, theme_problems) = theme::load_themes(theme::user_theme_dir().as_deref());
+    let (themes, theme_problems) = (
+        std::mem::take(&mut options.themes),
+        std::mem::take(&mut options.theme_problems),
+    );
     let notice = notices
         .into_iter()
         .chain(theme_problems)
