@@ -28,9 +28,11 @@ use crate::workbench::panes::scene::ScenePane;
 use crate::workbench::panes::steps::{demo_ground_truth, StepList, Steps};
 use crate::workbench::panes::{Pane, Panes};
 use crate::workbench::persist::Persist;
-use crate::workbench::runs::{AgentStatus, Runs};
+use crate::workbench::runs::Runs;
 use crate::workbench::scoring::{ModelSlot, ScoreOutcome, ScoreRequest};
-use crate::workbench::session::{GroundTruthSource, PlanSource, Session, SessionError};
+use crate::workbench::session::{
+    GroundTruthSource, PlanSource, Session, SessionError, SourceState,
+};
 use crate::workbench::shared::Severity;
 use crate::workbench::theme::Theme;
 
@@ -173,6 +175,9 @@ pub struct Workspace {
     pub score_generation: u64,
     /// The PG2S models.
     pub models: ModelSlot,
+    /// The sources opened in this session other than the one in use, each
+    /// as it was left ([`crate::workbench::sources`]).
+    pub parked: Vec<SourceState>,
 }
 
 /// How the workbench looks.
@@ -276,6 +281,7 @@ impl App {
                 scores: None,
                 score_generation: 0,
                 models: init.models,
+                parked: Vec::new(),
             },
             panes: Panes {
                 zoom: false,
@@ -313,18 +319,18 @@ impl App {
                 app.saving.kept.samples = Some(session.samples);
             }
         }
-        match init.session {
-            Some(session) => cmds.extend(app.restore(session)),
-            None => match app
-                .work
-                .dataset
+        // The dataset given at start opens on the session's task when it
+        // is one of its tasks, else on its first; without one, the demo.
+        let dataset_task = app.work.dataset.as_ref().and_then(|d| {
+            let saved = init
+                .session
                 .as_ref()
-                .and_then(|d| d.tasks.first())
-                .cloned()
-            {
-                Some(task) => cmds.extend(app.switch_task(&task)),
-                None => cmds.extend(app.start_run(false)),
-            },
+                .and_then(|s| s.current.task_id.as_deref());
+            saved.and_then(|id| d.task(id)).or(d.tasks.first()).cloned()
+        });
+        match init.session {
+            Some(session) => cmds.extend(app.restore(session, dataset_task.as_ref())),
+            None => cmds.extend(app.open_source(dataset_task.as_ref())),
         }
         if let Some(theme) = flagged_theme.filter(|_| !app.looks.no_color) {
             app.looks.theme = theme;
@@ -363,28 +369,6 @@ impl App {
     /// Whether the demo is what is loaded (no dataset task).
     pub fn is_demo(&self) -> bool {
         self.work.task.id.is_none()
-    }
-
-    /// Switches to a dataset task: its ground truth, image and published plan.
-    pub(crate) fn switch_task(&mut self, task: &Task) -> Vec<Cmd> {
-        self.work.task = task_view(task);
-        self.panes.ground_truth.items = task.ground_truth.clone();
-        self.work.ground_truth_source = GroundTruthSource::Dataset {
-            task: task.id.clone(),
-        };
-        self.panes.ground_truth.selected = 0;
-        if !self.work.approach.uses_image() && self.work.task.table.is_none() {
-            self.set_approach(Approach::MultiImage);
-        }
-        for v in self.runs.agents.values_mut() {
-            v.output.clear();
-            v.status = AgentStatus::Idle;
-            v.ran_with = None;
-        }
-        self.use_configured_providers();
-        self.refresh_graph();
-        self.load_published_plan();
-        self.load_scene()
     }
 
     /// On a user's task, puts every agent still on the demo's recording

@@ -37,6 +37,7 @@ pub mod scroll;
 pub mod session;
 pub mod shared;
 pub mod snapshot;
+pub mod sources;
 pub mod terminal_query;
 pub mod theme;
 pub mod update;

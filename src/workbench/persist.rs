@@ -4,13 +4,13 @@
 use std::time::Instant;
 
 use crate::agents::prompts::template_name;
-use crate::workbench::app::{task_view, App};
+use crate::dataset::Task;
+use crate::workbench::app::App;
 use crate::workbench::editing::Editing;
 use crate::workbench::message::Cmd;
 use crate::workbench::panes::steps::StepList;
 use crate::workbench::panes::Pane;
-use crate::workbench::runs::AgentStatus;
-use crate::workbench::session::{Draft, RunState, Session, SESSION_VERSION};
+use crate::workbench::session::{Draft, Session, SESSION_VERSION};
 use crate::workbench::shared::{single_line_editor, Severity};
 use crate::workbench::snapshot::{Snapshot, SnapshotPacer, SNAPSHOT_EVERY};
 
@@ -94,32 +94,9 @@ impl App {
         };
         Session {
             version: SESSION_VERSION,
-            task_id: self.work.task.id.clone(),
-            approach: self.work.approach,
-            ground_truth_source: self.work.ground_truth_source.clone(),
-            ground_truth: self.panes.ground_truth.items.clone(),
-            plan_source: self.work.plan_source.clone(),
-            plan: self.panes.plan.items.clone(),
+            current: self.source_state(),
+            parked: self.work.parked.clone(),
             prompts,
-            settings: self
-                .runs
-                .agents
-                .iter()
-                .map(|(a, v)| (*a, v.settings.clone()))
-                .collect(),
-            outputs: self
-                .runs
-                .agents
-                .iter()
-                .filter(|(_, v)| v.status == AgentStatus::Done)
-                .map(|(a, v)| (*a, v.output.clone()))
-                .collect(),
-            ran_with: self
-                .runs
-                .agents
-                .iter()
-                .filter_map(|(a, v)| v.ran_with.clone().map(|r| (*a, r)))
-                .collect(),
             theme: self
                 .saving
                 .kept
@@ -127,87 +104,45 @@ impl App {
                 .clone()
                 .unwrap_or_else(|| self.looks.theme.name.clone()),
             image: self.panes.scene.enabled,
-            runs: self
-                .runs
-                .history
-                .iter()
-                .cloned()
-                .chain(
-                    self.runs
-                        .active
-                        .as_ref()
-                        .map(|active| self.run_record(active, RunState::Running)),
-                )
-                .collect(),
             samples: self.saving.kept.samples.unwrap_or(self.work.samples),
             draft,
         }
     }
 
-    pub(crate) fn restore(&mut self, s: Session) -> Vec<Cmd> {
-        let mut cmds = Vec::new();
-        if let Some(id) = &s.task_id {
-            match self.work.dataset.as_ref().and_then(|d| d.task(id)).cloned() {
-                Some(task) => {
-                    self.work.task = task_view(&task);
-                    cmds.extend(self.load_scene());
-                }
-                None => self.set_status(
-                    format!("the session's task {id} is not in the loaded dataset; showing the demo task"),
-                    Severity::Warn,
-                ),
-            }
-        }
-        self.set_approach(s.approach);
-        self.work.ground_truth_source = s.ground_truth_source;
-        self.panes.ground_truth.items = s.ground_truth;
-        self.work.plan_source = s.plan_source;
-        self.panes.plan.items = s.plan;
+    /// Puts a saved session in place with `task` in use (`None`: the
+    /// demo): the session's source for it when it has one, else a fresh
+    /// start on it; every other source the session holds is parked, kept
+    /// for when it is opened again. The draft comes back only on the
+    /// source it was typed in.
+    pub(crate) fn restore(&mut self, s: Session, task: Option<&Task>) -> Vec<Cmd> {
         for (name, text) in s.prompts {
             if let Some(prompt) = self.panes.prompt.texts.get_mut(&name) {
                 *prompt = text;
             }
-        }
-        for (agent, view) in self.runs.agents.iter_mut() {
-            if let Some(st) = s.settings.get(agent) {
-                view.settings = st.clone();
-            }
-            if let Some(out) = s.outputs.get(agent) {
-                view.output = out.clone();
-                view.status = AgentStatus::Done;
-            }
-            view.ran_with = s.ran_with.get(agent).cloned();
         }
         if let Some(theme) = self.looks.themes.iter().find(|t| t.name == s.theme) {
             if !self.looks.no_color {
                 self.looks.theme = theme.clone();
             }
         }
-        self.use_configured_providers();
         self.panes.scene.enabled = s.image;
-        self.runs.history = s.runs;
-        for run in &mut self.runs.history {
-            if run.state == RunState::Running {
-                run.state = RunState::Cancelled;
-                run.reason =
-                    Some("cancelled: the workbench stopped during the run, not scored".into());
-            }
-        }
-        for (agent, view) in self.runs.agents.iter_mut() {
-            let last = self.runs.history.iter().rev().find_map(|r| {
-                r.agents
-                    .iter()
-                    .find(|a| a.role == *agent && a.output.is_some() && a.error.is_none())
-            });
-            if let Some(record) = last.filter(|_| view.status == AgentStatus::Done) {
-                view.usage = record.usage;
-                view.duration_ms = record.elapsed_ms;
-                view.cached = record.cached;
-            }
+        let wanted = task.map(|t| t.id.clone());
+        let same = s.current.task_id == wanted;
+        let kept = (!same).then(|| s.current.task_id.clone()).flatten();
+        self.work.parked = s.parked;
+        self.work.parked.retain(|p| p.task_id != s.current.task_id);
+        self.work.parked.push(s.current);
+        let cmds = self.open_source(task);
+        if let Some(id) = kept {
+            let opened = wanted.as_deref().unwrap_or("the demo");
+            self.set_status(
+                format!("{opened} opened; the session's task {id} and its runs are kept for when it is opened again"),
+                Severity::Info,
+            );
         }
         self.work.samples = s.samples;
-        self.refresh_graph();
-        if let Some(draft) = s.draft {
+        let draft = s.draft.filter(|_| same);
+        if let Some(draft) = draft {
             let list = if draft.target == StepList::GroundTruth.key() {
                 StepList::GroundTruth
             } else {

@@ -208,6 +208,21 @@ impl Default for Runs {
 }
 
 impl AgentView {
+    /// An agent with `settings` that has not answered yet on the source in
+    /// use: no output, tokens, time or wait.
+    pub fn idle(settings: AgentSettings) -> AgentView {
+        AgentView {
+            status: AgentStatus::Idle,
+            output: String::new(),
+            settings,
+            ran_with: None,
+            usage: Usage::default(),
+            duration_ms: 0,
+            cached: false,
+            retry: None,
+        }
+    }
+
     /// Starts a new call: no output, tokens, time or cache use yet, so
     /// nothing of the call before is counted for this one.
     fn begin_call(&mut self) {
@@ -219,24 +234,11 @@ impl AgentView {
     }
 }
 
-fn fresh_agents() -> BTreeMap<AgentRole, AgentView> {
+/// Every agent idle on the demo's recording, as a fresh start has them.
+pub(crate) fn fresh_agents() -> BTreeMap<AgentRole, AgentView> {
     AgentRole::ALL
         .iter()
-        .map(|&a| {
-            (
-                a,
-                AgentView {
-                    status: AgentStatus::Idle,
-                    output: String::new(),
-                    settings: AgentSettings::demo_recording(),
-                    ran_with: None,
-                    usage: Usage::default(),
-                    duration_ms: 0,
-                    cached: false,
-                    retry: None,
-                },
-            )
-        })
+        .map(|&a| (a, AgentView::idle(AgentSettings::demo_recording())))
         .collect()
 }
 

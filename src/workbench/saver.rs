@@ -91,7 +91,7 @@ mod tests {
     fn with_plan(step: &str) -> Session {
         let (app, _) = App::new(AppInit::demo((80, 24), "no models in this test"));
         let mut session = app.to_session();
-        session.plan = vec![step.to_string()];
+        session.current.plan = vec![step.to_string()];
         session
     }
 

@@ -20,7 +20,7 @@ mod repair;
 pub use file::{decode, default_path, restore, save, DecodeError, Restored, SessionError};
 
 /// The format version written into every session file.
-pub const SESSION_VERSION: u32 = 5;
+pub const SESSION_VERSION: u32 = 6;
 
 /// Where the ground truth in use came from.
 #[derive(Debug, Clone, PartialEq, Eq, Serialize, Deserialize)]
@@ -258,12 +258,13 @@ pub struct Draft {
     pub text: String,
 }
 
-/// Everything a session restores.
+/// What one source of plans keeps of its own: the built-in demo, or one
+/// dataset task. Each source has its own plan, ground truth, agents' answers
+/// and run history, so opening one never shows or scores anything of
+/// another.
 #[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
-pub struct Session {
-    /// The format version ([`SESSION_VERSION`]).
-    pub version: u32,
-    /// The dataset task in use, if any (else the built-in demo).
+pub struct SourceState {
+    /// The dataset task, or `None` for the built-in demo.
     pub task_id: Option<String>,
     /// The approach.
     pub approach: Approach,
@@ -275,21 +276,35 @@ pub struct Session {
     pub plan_source: PlanSource,
     /// The plan steps, as edited.
     pub plan: Vec<String>,
-    /// The prompt templates edited in the workbench, by template name (e.g.
-    /// `multi-image-planner`); the others are the built-in or user ones.
-    pub prompts: BTreeMap<String, String>,
     /// The settings of each agent.
     pub settings: BTreeMap<AgentRole, AgentSettings>,
     /// The latest output of each agent.
     pub outputs: BTreeMap<AgentRole, String>,
     /// The prompt and settings each output was made with.
     pub ran_with: BTreeMap<AgentRole, (String, AgentSettings)>,
+    /// Every run on this source.
+    pub runs: Vec<RunRecord>,
+}
+
+/// Everything a session restores.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+pub struct Session {
+    /// The format version ([`SESSION_VERSION`]).
+    pub version: u32,
+    /// The source in use when the session was saved (its fields sit at the
+    /// top of the file, where version 5 kept them).
+    #[serde(flatten)]
+    pub current: SourceState,
+    /// The other sources opened in this session, each as it was left.
+    #[serde(default, skip_serializing_if = "Vec::is_empty")]
+    pub parked: Vec<SourceState>,
+    /// The prompt templates edited in the workbench, by template name (e.g.
+    /// `multi-image-planner`); the others are the built-in or user ones.
+    pub prompts: BTreeMap<String, String>,
     /// The theme's name.
     pub theme: String,
     /// Whether the scene image is shown.
     pub image: bool,
-    /// Every run.
-    pub runs: Vec<RunRecord>,
     /// How many samples `r` asks each agent for (1 to
     /// [`MAX_SAMPLES`](crate::agents::pipeline::MAX_SAMPLES)).
     pub samples: u32,
@@ -302,28 +317,39 @@ mod tests {
     use super::*;
 
     fn sample() -> Session {
-        Session {
+        let mut session = Session {
             version: SESSION_VERSION,
-            task_id: None,
-            approach: Approach::MultiImage,
-            ground_truth_source: GroundTruthSource::Demo { index: 1 },
-            ground_truth: vec!["Walk to the sink.".into()],
-            plan_source: PlanSource::Run { run: 3 },
-            plan: vec!["Go to the sink.".into()],
+            current: SourceState {
+                task_id: None,
+                approach: Approach::MultiImage,
+                ground_truth_source: GroundTruthSource::Demo { index: 1 },
+                ground_truth: vec!["Walk to the sink.".into()],
+                plan_source: PlanSource::Run { run: 3 },
+                plan: vec!["Go to the sink.".into()],
+                settings: BTreeMap::new(),
+                outputs: BTreeMap::new(),
+                ran_with: BTreeMap::new(),
+                runs: Vec::new(),
+            },
+            parked: Vec::new(),
             prompts: BTreeMap::from([("multi-image-skm".into(), "[user]\nList triples.".into())]),
-            settings: BTreeMap::new(),
-            outputs: BTreeMap::new(),
-            ran_with: BTreeMap::new(),
             theme: "dark".into(),
             image: true,
-            runs: Vec::new(),
             samples: 3,
             draft: Some(Draft {
                 target: "plan".into(),
                 index: 0,
                 text: "Go to".into(),
             }),
-        }
+        };
+        session.parked.push(SourceState {
+            task_id: Some("pick-1".into()),
+            ground_truth_source: GroundTruthSource::Dataset {
+                task: "pick-1".into(),
+            },
+            ..session.current.clone()
+        });
+        session
     }
 
     #[test]
@@ -377,8 +403,11 @@ mod tests {
         let path = dir.path().join("session.json");
         let settings = AgentSettings::new(crate::agents::ProviderKind::Openai, "gpt-4o", 0.5, 300);
         let mut saved = sample();
-        saved.settings.insert(AgentRole::Planner, settings.clone());
-        saved.runs.push(RunRecord {
+        saved
+            .current
+            .settings
+            .insert(AgentRole::Planner, settings.clone());
+        saved.current.runs.push(RunRecord {
             id: 1,
             started_unix: 1_700_000_000,
             approach: Approach::MultiImage,
@@ -410,12 +439,15 @@ mod tests {
         let Restored::Loaded { session, repaired } = restore(&path).unwrap() else {
             panic!("the session was set aside");
         };
-        assert_eq!(session.runs, {
-            let mut runs = saved.runs.clone();
+        assert_eq!(session.current.runs, {
+            let mut runs = saved.current.runs.clone();
             runs[0].agents[0].settings.max_tokens = crate::agents::config::DEFAULT_MAX_TOKENS;
             runs
         });
-        assert_eq!(session.settings[&AgentRole::Planner].temperature, 0.0);
+        assert_eq!(
+            session.current.settings[&AgentRole::Planner].temperature,
+            0.0
+        );
         assert_eq!(repaired.len(), 2, "{repaired:?}");
         assert!(
             repaired[0].contains("settings.planner.temperature = null"),
@@ -503,54 +535,57 @@ mod tests {
                 .prop_map(|(head, plans, agents, (image, draft), (run, kas))| {
                     Session {
                         version: SESSION_VERSION,
-                        task_id: head.0,
-                        approach: head.1,
-                        ground_truth_source: GroundTruthSource::Typed,
-                        ground_truth: plans.0.clone(),
-                        plan_source: PlanSource::Run { run },
-                        plan: plans.1.clone(),
-                        prompts: plans.2,
-                        settings: agents.0.clone(),
-                        outputs: agents.1.clone(),
-                        ran_with: agents.2,
-                        theme: "dark".into(),
-                        image,
-                        runs: vec![RunRecord {
-                            id: run,
-                            started_unix: run / 2,
+                        current: SourceState {
+                            task_id: head.0,
                             approach: head.1,
-                            task: "Do it.".into(),
-                            agents: agents
-                                .0
-                                .iter()
-                                .map(|(&role, settings)| AgentRecord {
-                                    output: Some("1. Go.".into()),
-                                    ..AgentRecord::blank(
-                                        role,
-                                        settings,
-                                        "multi-image-planner",
-                                        "0123",
-                                    )
-                                })
-                                .collect(),
-                            prompts: agents.1,
-                            plan: plans.1,
-                            ground_truth: plans.0,
-                            scores: Some(ScoreRecord {
-                                kas,
-                                ..ScoreRecord::default()
-                            }),
-                            state: if image {
-                                RunState::Cancelled
-                            } else {
-                                RunState::Finished
-                            },
-                            error: None,
-                            reason: image.then(|| "cancelled".to_string()),
-                            corrupted: None,
-                            steps: Vec::new(),
-                            samples: Vec::new(),
-                        }],
+                            ground_truth_source: GroundTruthSource::Typed,
+                            ground_truth: plans.0.clone(),
+                            plan_source: PlanSource::Run { run },
+                            plan: plans.1.clone(),
+                            settings: agents.0.clone(),
+                            outputs: agents.1.clone(),
+                            ran_with: agents.2,
+                            runs: vec![RunRecord {
+                                id: run,
+                                started_unix: run / 2,
+                                approach: head.1,
+                                task: "Do it.".into(),
+                                agents: agents
+                                    .0
+                                    .iter()
+                                    .map(|(&role, settings)| AgentRecord {
+                                        output: Some("1. Go.".into()),
+                                        ..AgentRecord::blank(
+                                            role,
+                                            settings,
+                                            "multi-image-planner",
+                                            "0123",
+                                        )
+                                    })
+                                    .collect(),
+                                prompts: agents.1,
+                                plan: plans.1,
+                                ground_truth: plans.0,
+                                scores: Some(ScoreRecord {
+                                    kas,
+                                    ..ScoreRecord::default()
+                                }),
+                                state: if image {
+                                    RunState::Cancelled
+                                } else {
+                                    RunState::Finished
+                                },
+                                error: None,
+                                reason: image.then(|| "cancelled".to_string()),
+                                corrupted: None,
+                                steps: Vec::new(),
+                                samples: Vec::new(),
+                            }],
+                        },
+                        parked: Vec::new(),
+                        image,
+                        prompts: plans.2,
+                        theme: "dark".into(),
                         samples: 1 + (run % 100) as u32,
                         draft: draft.map(|(text, index)| Draft {
                             target: "plan".into(),

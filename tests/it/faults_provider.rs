@@ -290,41 +290,44 @@ fn session_of(record: &mapvlm::agents::pipeline::PlanRecord) -> Session {
     let agents = record.agents.clone();
     Session {
         version: SESSION_VERSION,
-        task_id: None,
-        approach: record.approach,
-        ground_truth_source: GroundTruthSource::Typed,
-        ground_truth: vec!["Walk to the sink.".into()],
-        plan_source: PlanSource::Run { run: 1 },
-        plan: record.steps.clone(),
+        current: session::SourceState {
+            task_id: None,
+            approach: record.approach,
+            ground_truth_source: GroundTruthSource::Typed,
+            ground_truth: vec!["Walk to the sink.".into()],
+            plan_source: PlanSource::Run { run: 1 },
+            plan: record.steps.clone(),
+            settings: agents
+                .iter()
+                .map(|a| (a.role, a.settings.clone()))
+                .collect(),
+            outputs: agents
+                .iter()
+                .map(|a| (a.role, a.output_text().to_string()))
+                .collect(),
+            ran_with: BTreeMap::new(),
+            runs: vec![session::RunRecord {
+                id: 1,
+                started_unix: 0,
+                approach: record.approach,
+                task: record.task.clone(),
+                agents,
+                prompts: BTreeMap::new(),
+                plan: record.steps.clone(),
+                ground_truth: vec!["Walk to the sink.".into()],
+                scores: None,
+                state: session::RunState::Finished,
+                error: None,
+                reason: None,
+                corrupted: None,
+                steps: Vec::new(),
+                samples: Vec::new(),
+            }],
+        },
+        parked: Vec::new(),
         prompts: BTreeMap::new(),
-        settings: agents
-            .iter()
-            .map(|a| (a.role, a.settings.clone()))
-            .collect(),
-        outputs: agents
-            .iter()
-            .map(|a| (a.role, a.output_text().to_string()))
-            .collect(),
-        ran_with: BTreeMap::new(),
         theme: "dark".into(),
         image: true,
-        runs: vec![session::RunRecord {
-            id: 1,
-            started_unix: 0,
-            approach: record.approach,
-            task: record.task.clone(),
-            agents,
-            prompts: BTreeMap::new(),
-            plan: record.steps.clone(),
-            ground_truth: vec!["Walk to the sink.".into()],
-            scores: None,
-            state: session::RunState::Finished,
-            error: None,
-            reason: None,
-            corrupted: None,
-            steps: Vec::new(),
-            samples: Vec::new(),
-        }],
         samples: 1,
         draft: None,
     }

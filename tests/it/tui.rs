@@ -248,7 +248,7 @@ fn another_ground_truth_and_an_edited_step_change_the_scores() {
     );
     assert_ne!(kas_of(&h), with_b);
     let session = h.app.to_session();
-    assert_eq!(session.plan[0], h.app.panes.plan.items[0]);
+    assert_eq!(session.current.plan[0], h.app.panes.plan.items[0]);
 }
 
 /// The session is copied for the saver at most every `SNAPSHOT_EVERY` while
@@ -286,7 +286,7 @@ fn typing_copies_the_session_at_most_every_period_and_a_commit_at_once() {
     h.key(KeyCode::Enter);
     let (committed, _) = h.app.poll_snapshot(clock + Duration::from_millis(1));
     assert_eq!(h.app.saving.persist.taken(), before + while_typing + 1);
-    let plan = committed.map(|s| s.plan).unwrap_or_default();
+    let plan = committed.map(|s| s.current.plan).unwrap_or_default();
     assert!(
         plan.first().is_some_and(|s| s.ends_with("abab")),
         "{plan:?}"
@@ -1074,7 +1074,7 @@ fn a_cancelled_run_and_a_run_in_flight_at_quit_are_kept_as_cancelled() {
     let good = h.app.runs.history[0].clone();
     let run = run_with_events(&mut h, planner_writes("1. Walk"));
     let saved = h.app.to_session();
-    let in_flight = saved.runs.last().unwrap();
+    let in_flight = saved.current.runs.last().unwrap();
     assert_eq!((in_flight.id, in_flight.state), (run, RunState::Running));
     let (restored, _) = App::new(AppInit {
         session: Some(saved.clone()),
@@ -1189,4 +1189,163 @@ fn a_start_up_flag_wins_over_the_session_which_keeps_its_own_value() {
         KeyModifiers::NONE,
     )));
     assert_eq!(changed.to_session().samples, changed.work.samples);
+}
+
+/// The harness of a workbench started from `init`, scoring with `models`.
+fn started(init: AppInit, models: ModelSlot) -> Harness {
+    let (app, cmds) = App::new(init);
+    let mut h = Harness {
+        app,
+        models,
+        pipeline: AgentsPipeline::offline(Pace::Instant).unwrap(),
+    };
+    h.run(cmds);
+    h
+}
+
+/// The demo and each dataset task keep their own plans and runs: the demo
+/// started after a dataset session is the demo, scored on its own ground
+/// truth as a fresh start is, and the task's edited plan and runs are as
+/// they were left when it is opened again, by a new start or by `g`.
+#[test]
+fn the_demo_and_a_dataset_task_keep_their_own_plans_and_runs() {
+    let root = concat!(env!("CARGO_MANIFEST_DIR"), "/../shared/data/alfred30");
+    let (dataset, _) = mapvlm::dataset::Dataset::load(std::path::Path::new(root)).unwrap();
+    let models = real_models();
+    let demo = |session| AppInit {
+        session,
+        ..AppInit::demo((200, 60), "no models in this test")
+    };
+    let on_dataset = |session| AppInit {
+        dataset: Some(dataset.clone()),
+        session,
+        ..AppInit::demo((200, 60), "no models in this test")
+    };
+    let fresh = started(demo(None), models.clone());
+    let fresh_pg2s = h_pg2s(&fresh);
+    assert_eq!(
+        format!("{fresh_pg2s:.3}"),
+        "0.900",
+        "the built-in demo's score"
+    );
+
+    // A dataset session: the first task, its published plan with a step
+    // deleted, and a corrupted run of it in the history.
+    let mut task = started(on_dataset(None), models.clone());
+    let task_id = dataset.tasks[0].id.clone();
+    assert_eq!(task.app.work.task.id.as_deref(), Some(task_id.as_str()));
+    task.app.focus = mapvlm::workbench::panes::Pane::Plan;
+    task.key(KeyCode::Char('d'));
+    let edited = task.app.panes.plan.items.clone();
+    assert_eq!(
+        edited.len() + 1,
+        dataset.tasks[0].plans["multi_agent_image"].len()
+    );
+    let task_session = task.app.to_session();
+
+    // Plain `mapvlm` after it: the demo, as a fresh start has it.
+    let mut back_to_demo = started(demo(Some(task_session.clone())), models.clone());
+    assert!(back_to_demo.app.is_demo());
+    assert_eq!(
+        back_to_demo.app.panes.plan.items,
+        fresh.app.panes.plan.items
+    );
+    assert_eq!(
+        back_to_demo.app.panes.ground_truth.items,
+        fresh.app.panes.ground_truth.items
+    );
+    assert_eq!(h_pg2s(&back_to_demo), fresh_pg2s);
+    let screen = back_to_demo.screen();
+    assert!(screen.contains("PG2S 0.900"), "{screen}");
+    assert!(
+        back_to_demo
+            .app
+            .runs
+            .history
+            .iter()
+            .all(|r| r.task == fresh.app.work.task.text),
+        "only the demo's runs are shown"
+    );
+    let demo_runs = back_to_demo.app.runs.history.len();
+
+    // The dataset again: the task as it was left, and the demo kept too.
+    let both = back_to_demo.app.to_session();
+    let mut reopened = started(on_dataset(Some(both)), models.clone());
+    assert_eq!(reopened.app.work.task.id.as_deref(), Some(task_id.as_str()));
+    assert_eq!(reopened.app.panes.plan.items, edited);
+    assert_eq!(reopened.app.runs.history, task.app.runs.history);
+
+    // `g` to the demo and back, in one workbench.
+    pick(&mut reopened, "Demo: the built-in task");
+    assert!(reopened.app.is_demo());
+    assert_eq!(reopened.app.runs.history.len(), demo_runs);
+    assert_eq!(h_pg2s(&reopened), fresh_pg2s);
+    pick(&mut reopened, &task_id);
+    assert_eq!(reopened.app.work.task.id.as_deref(), Some(task_id.as_str()));
+    assert_eq!(reopened.app.panes.plan.items, edited);
+    assert_eq!(reopened.app.runs.history, task.app.runs.history);
+}
+
+/// `g`, then Enter on the first choice whose label starts with `label`.
+fn pick(h: &mut Harness, label: &str) {
+    h.key(KeyCode::Char('g'));
+    let choices = h.app.ground_truth_choices();
+    let at = choices
+        .iter()
+        .position(|(_, l)| l.starts_with(label))
+        .unwrap_or_else(|| panic!("no choice {label}: {choices:?}"));
+    for _ in 0..choices.len() {
+        h.key(KeyCode::Up);
+    }
+    for _ in 0..at {
+        h.key(KeyCode::Down);
+    }
+    h.key(KeyCode::Enter);
+}
+
+/// The PG2S the Scores pane shows.
+fn h_pg2s(h: &Harness) -> f64 {
+    let scores = h.app.work.scores.as_ref().expect("scored");
+    let Pg2sOutcome::Ready(report) = &scores.pg2s else {
+        panic!("PG2S not scored");
+    };
+    report.pg2s().expect("PG2S with goal models")
+}
+
+/// A session saved by version 5 on a dataset task, opened without its
+/// dataset: the demo opens, and the task's plan and runs are kept, whole,
+/// in the session it saves next.
+#[test]
+fn a_version_5_session_on_a_dataset_task_loses_nothing() {
+    use mapvlm::workbench::session::{restore, Restored};
+    let fixture = concat!(
+        env!("CARGO_MANIFEST_DIR"),
+        "/tests/fixtures/session-v5.json"
+    );
+    let dir = tempfile::tempdir().unwrap();
+    let path = dir.path().join("session.json");
+    std::fs::copy(fixture, &path).unwrap();
+    let Restored::Loaded { session, repaired } = restore(&path).unwrap() else {
+        panic!("the version 5 session was not loaded");
+    };
+    assert!(repaired.is_empty(), "{repaired:?}");
+    let old = session.current.clone();
+    assert_eq!(old.task_id.as_deref(), Some("pick-mug-1"));
+    let h = started(
+        AppInit {
+            session: Some(*session),
+            ..AppInit::demo((200, 60), "no models in this test")
+        },
+        unavailable(),
+    );
+    assert!(h.app.is_demo());
+    assert!(h.app.runs.history.iter().all(|r| !old.runs.contains(r)));
+    let saved = h.app.to_session();
+    assert!(saved.current.task_id.is_none());
+    let kept = saved
+        .parked
+        .iter()
+        .find(|p| p.task_id.as_deref() == Some("pick-mug-1"))
+        .expect("the task is kept");
+    assert_eq!(kept, &old);
 }

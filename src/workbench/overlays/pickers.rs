@@ -169,7 +169,7 @@ impl App {
     /// The ground truths the picker offers, with their labels.
     pub fn ground_truth_choices(&self) -> Vec<(GroundTruthChoice, String)> {
         let mut out = Vec::new();
-        if self.work.task.id.is_none() {
+        if self.is_demo() {
             out.push((
                 GroundTruthChoice::Demo(0),
                 "Demo: annotator A's ground truth".to_string(),
@@ -184,6 +184,12 @@ impl App {
                 out.push((GroundTruthChoice::Task(i), format!("{} · {}", t.id, t.task)));
             }
         }
+        if !self.is_demo() {
+            out.push((
+                GroundTruthChoice::Demo(0),
+                "Demo: the built-in task, with its own plan and runs".to_string(),
+            ));
+        }
         out.push((GroundTruthChoice::File, "Load a step file…".to_string()));
         out.push((
             GroundTruthChoice::Typed,
@@ -195,6 +201,7 @@ impl App {
     pub(crate) fn choose_ground_truth(&mut self, choice: GroundTruthChoice) -> Vec<Cmd> {
         self.overlay = None;
         match choice {
+            GroundTruthChoice::Demo(_) if !self.is_demo() => return self.switch_source(None),
             GroundTruthChoice::Demo(index) => {
                 self.panes.ground_truth.items = demo_ground_truth(index);
                 self.work.ground_truth_source = GroundTruthSource::Demo { index };
@@ -209,9 +216,11 @@ impl App {
                 else {
                     return Vec::new();
                 };
-                let mut cmds = self.switch_task(&task);
-                cmds.push(self.rescore());
-                return cmds;
+                if self.work.task.id.as_ref() != Some(&task.id) {
+                    return self.switch_source(Some(&task));
+                }
+                self.panes.ground_truth.items = task.ground_truth.clone();
+                self.work.ground_truth_source = GroundTruthSource::Dataset { task: task.id };
             }
             GroundTruthChoice::File => {
                 self.overlay = Some(Overlay::StepFilePath(Box::default()));

@@ -24,6 +24,9 @@ pub(super) fn migrate(mut value: Value) -> Result<Value, DecodeError> {
             2 => v2_to_v3(&mut value),
             3 => v3_to_v4(&mut value),
             4 => v4_to_v5(&mut value),
+            // Version 6 adds the parked sources beside the one in use, which
+            // stays where it was: an older file has none.
+            5 => {}
             _ => return Err(DecodeError::TooOld(version)),
         }
         version += 1;
@@ -290,14 +293,17 @@ mod tests {
         assert!(repaired.is_empty(), "{repaired:?}");
         assert!(path.exists(), "the file stays where it was");
         assert_eq!(session.version, SESSION_VERSION);
-        assert_eq!(session.runs.len(), old["runs"].as_array().unwrap().len());
-        assert!(session.runs.len() >= 2);
+        assert_eq!(
+            session.current.runs.len(),
+            old["runs"].as_array().unwrap().len()
+        );
+        assert!(session.current.runs.len() >= 2);
         (*session, old)
     }
 
     /// Runs saved before version 4 are one finished sample each.
     fn assert_one_finished_sample(session: &Session) {
-        for run in &session.runs {
+        for run in &session.current.runs {
             assert!(run.samples.is_empty(), "an older run is one sample");
             assert_eq!(run.state, RunState::Finished);
             let scores = crate::workbench::runs::sample_scores(run);
@@ -312,7 +318,7 @@ mod tests {
         let (s, old) = restored("session-v4.json");
         assert_eq!(old["version"], 4);
         let old_runs = old["runs"].as_array().unwrap();
-        for (run, old_run) in s.runs.iter().zip(old_runs) {
+        for (run, old_run) in s.current.runs.iter().zip(old_runs) {
             assert_eq!(run.id, old_run["id"]);
             assert_eq!(
                 run.plan,
@@ -333,7 +339,7 @@ mod tests {
             );
             assert_eq!(run.total_ms(), old_run["agents"][0]["elapsed_ms"]);
         }
-        let states: Vec<RunState> = s.runs.iter().map(|r| r.state).collect();
+        let states: Vec<RunState> = s.current.runs.iter().map(|r| r.state).collect();
         assert_eq!(
             states,
             [
@@ -344,11 +350,16 @@ mod tests {
             ]
         );
         assert_eq!(
-            s.runs[2].error.as_deref(),
+            s.current.runs[2].error.as_deref(),
             Some("single: HTTP 500 Internal Server Error")
         );
-        assert_eq!(s.runs[2].plan, ["Walk"], "the broken-off plan is kept");
+        assert_eq!(
+            s.current.runs[2].plan,
+            ["Walk"],
+            "the broken-off plan is kept"
+        );
         let scored: Vec<usize> = s
+            .current
             .runs
             .iter()
             .map(|r| crate::workbench::runs::sample_scores(r).len())
@@ -358,7 +369,7 @@ mod tests {
             [1, 0, 0, 2],
             "the failed and cancelled runs count for nothing, the partial one over its complete samples"
         );
-        let sampled = &s.runs[3];
+        let sampled = &s.current.runs[3];
         assert_eq!(sampled.samples[0].agents.len(), 1);
         let call = &sampled.samples[0].agents[0];
         assert_eq!(call.output_text(), "1. Walk to the sink.");
@@ -370,7 +381,10 @@ mod tests {
         assert!(sampled.samples[1].agents.is_empty(), "it had no answer");
         assert_eq!(sampled.total_tokens(), 120 + 109, "every sample's tokens");
         assert_eq!(s.samples, 3);
-        assert_eq!(s.plan_source, super::super::PlanSource::Run { run: 4 });
+        assert_eq!(
+            s.current.plan_source,
+            super::super::PlanSource::Run { run: 4 }
+        );
     }
 
     #[test]
@@ -378,7 +392,7 @@ mod tests {
         let (s, old) = restored("session-v1.json");
         assert_one_finished_sample(&s);
         assert_eq!(old["version"], 1);
-        for (run, old_run) in s.runs.iter().zip(old["runs"].as_array().unwrap()) {
+        for (run, old_run) in s.current.runs.iter().zip(old["runs"].as_array().unwrap()) {
             assert_eq!(run.plan.len(), old_run["plan"].as_array().unwrap().len());
             for (agent, old_agent) in run.agents.iter().zip(old_run["agents"].as_array().unwrap()) {
                 assert_eq!(agent.usage.input_tokens, old_agent["usage"]["input"]);
@@ -392,7 +406,7 @@ mod tests {
         let (s, old) = restored("session-v2.json");
         assert_one_finished_sample(&s);
         assert_eq!(old["version"], 2);
-        for (run, old_run) in s.runs.iter().zip(old["runs"].as_array().unwrap()) {
+        for (run, old_run) in s.current.runs.iter().zip(old["runs"].as_array().unwrap()) {
             assert_eq!(
                 run.plan,
                 serde_json::from_value::<Vec<String>>(old_run["plan"].clone()).unwrap()
@@ -414,7 +428,7 @@ mod tests {
                 assert_eq!(agent.prompt_hash, prompt_hash(text));
             }
         }
-        for (role, settings) in &s.settings {
+        for (role, settings) in &s.current.settings {
             assert_eq!(settings.provider, ProviderKind::Replay, "{role}");
             assert!(settings.is_demo_recording(), "{role}: {settings:?}");
         }

@@ -82,63 +82,113 @@ pub(super) fn repair_numbers(session: &mut Value) -> Vec<String> {
     if let Some(object) = session.as_object_mut() {
         fix_field(object, "", "samples", Kind::Samples, &mut notices);
     }
-    let mut fix = |object: Option<&mut Value>, path: &str, fields: &[(&str, Kind)]| {
-        let Some(object) = object.and_then(Value::as_object_mut) else {
-            return;
-        };
-        for &(field, kind) in fields {
-            fix_field(object, path, field, kind, &mut notices);
-        }
-    };
+    fix(
+        session.get_mut("draft"),
+        "draft",
+        &[("index", Kind::Count)],
+        &mut notices,
+    );
+    repair_source(session, "", &mut notices);
+    let parked = session.get_mut("parked").and_then(Value::as_array_mut);
+    for (i, source) in parked.into_iter().flatten().enumerate() {
+        repair_source(source, &format!("parked[{i}]."), &mut notices);
+    }
+    notices
+}
+
+/// [`repair_numbers`] over the fields of one source (see
+/// [`super::SourceState`]), named with `prefix` in the notices.
+fn repair_source(source: &mut Value, prefix: &str, notices: &mut Vec<String>) {
     let settings = [
         ("temperature", Kind::Temperature),
         ("max_tokens", Kind::TokenLimit),
     ];
-    for (role, agent) in entries(session.get_mut("settings")) {
-        fix(Some(agent), &format!("settings.{role}"), &settings);
+    for (role, agent) in entries(source.get_mut("settings")) {
+        fix(
+            Some(agent),
+            &format!("{prefix}settings.{role}"),
+            &settings,
+            notices,
+        );
     }
-    for (role, pair) in entries(session.get_mut("ran_with")) {
-        fix(pair.get_mut(1), &format!("ran_with.{role}"), &settings);
+    for (role, pair) in entries(source.get_mut("ran_with")) {
+        fix(
+            pair.get_mut(1),
+            &format!("{prefix}ran_with.{role}"),
+            &settings,
+            notices,
+        );
     }
-    fix(session.get_mut("draft"), "draft", &[("index", Kind::Count)]);
     fix(
-        session.get_mut("ground_truth_source"),
-        "ground_truth_source",
+        source.get_mut("ground_truth_source"),
+        &format!("{prefix}ground_truth_source"),
         &[("index", Kind::Count)],
+        notices,
     );
     fix(
-        session.get_mut("plan_source"),
-        "plan_source",
+        source.get_mut("plan_source"),
+        &format!("{prefix}plan_source"),
         &[("run", Kind::Count)],
+        notices,
     );
-    let runs = session.get_mut("runs").and_then(Value::as_array_mut);
+    let runs = source.get_mut("runs").and_then(Value::as_array_mut);
     for (i, run) in runs.into_iter().flatten().enumerate() {
-        let at = format!("runs[{i}]");
+        let at = format!("{prefix}runs[{i}]");
         fix(
             Some(run),
             &at,
             &[("id", Kind::Count), ("started_unix", Kind::Count)],
+            notices,
         );
         let scores = ["kas", "s_plan", "s_goal", "pg2s"].map(|name| (name, Kind::Score));
-        fix(run.get_mut("scores"), &format!("{at}.scores"), &scores);
+        fix(
+            run.get_mut("scores"),
+            &format!("{at}.scores"),
+            &scores,
+            notices,
+        );
         let samples = run.get_mut("samples").and_then(Value::as_array_mut);
         for (j, sample) in samples.into_iter().flatten().enumerate() {
             let at = format!("{at}.samples[{j}]");
-            fix(sample.get_mut("scores"), &format!("{at}.scores"), &scores);
+            fix(
+                sample.get_mut("scores"),
+                &format!("{at}.scores"),
+                &scores,
+                notices,
+            );
         }
         let agents = run.get_mut("agents").and_then(Value::as_array_mut);
         for (j, agent) in agents.into_iter().flatten().enumerate() {
             let at = format!("{at}.agents[{j}]");
-            fix(Some(&mut *agent), &at, &[("elapsed_ms", Kind::Count)]);
-            fix(Some(&mut *agent), &at, &settings);
+            fix(
+                Some(&mut *agent),
+                &at,
+                &[("elapsed_ms", Kind::Count)],
+                notices,
+            );
+            fix(Some(&mut *agent), &at, &settings, notices);
             let usage = [
                 ("input_tokens", Kind::Count),
                 ("output_tokens", Kind::Count),
             ];
-            fix(agent.get_mut("usage"), &format!("{at}.usage"), &usage);
+            fix(
+                agent.get_mut("usage"),
+                &format!("{at}.usage"),
+                &usage,
+                notices,
+            );
         }
     }
-    notices
+}
+
+/// [`fix_field`] over each of `fields` of `object`, when it is an object.
+fn fix(object: Option<&mut Value>, path: &str, fields: &[(&str, Kind)], notices: &mut Vec<String>) {
+    let Some(object) = object.and_then(Value::as_object_mut) else {
+        return;
+    };
+    for &(field, kind) in fields {
+        fix_field(object, path, field, kind, notices);
+    }
 }
 
 /// The entries of a JSON object (none when `value` is not one).
