@@ -35,6 +35,7 @@ use crate::workbench::session::{
 };
 use crate::workbench::shared::Severity;
 use crate::workbench::theme::Theme;
+use crate::workbench::undo::StepUndo;
 
 /// The order the approaches cycle in.
 const APPROACH_CYCLE: [Approach; 4] = [
@@ -178,6 +179,9 @@ pub struct Workspace {
     /// The sources opened in this session other than the one in use, each
     /// as it was left ([`crate::workbench::sources`]).
     pub parked: Vec<SourceState>,
+    /// The step edits `u` can take back on each parked source, by task id
+    /// (`None`: the demo); kept while the workbench runs, not saved.
+    pub parked_undo: BTreeMap<Option<String>, StepUndo>,
 }
 
 /// How the workbench looks.
@@ -282,6 +286,7 @@ impl App {
                 score_generation: 0,
                 models: init.models,
                 parked: Vec::new(),
+                parked_undo: BTreeMap::new(),
             },
             panes: Panes {
                 zoom: false,
@@ -292,6 +297,7 @@ impl App {
                 scene: ScenePane::demo(),
                 scroll: BTreeMap::new(),
                 search: String::new(),
+                undo: StepUndo::default(),
             },
             looks: Looks {
                 theme,

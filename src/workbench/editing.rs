@@ -56,9 +56,15 @@ impl App {
                 inserted,
             } => match action {
                 Some(Action::Accept) => {
-                    self.panes
-                        .steps_mut(list)
-                        .commit(index, &editor.lines().join(" "));
+                    let text = editor.lines().join(" ");
+                    let mut before = self.steps_before(list);
+                    if inserted {
+                        before.steps.items.remove(index);
+                    }
+                    self.panes.steps_mut(list).commit(index, &text);
+                    if self.panes.steps(list).items != before.steps.items {
+                        self.panes.undo.push(before);
+                    }
                     if list == StepList::GroundTruth {
                         self.work.ground_truth_source = GroundTruthSource::Typed;
                     }
@@ -69,7 +75,11 @@ impl App {
                     vec![self.rescore()]
                 }
                 _ => {
-                    editor.input(key);
+                    if action == Some(Action::Undo) {
+                        editor.undo();
+                    } else {
+                        editor.input(key);
+                    }
                     self.editing = Editing::Step {
                         list,
                         index,

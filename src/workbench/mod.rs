@@ -40,6 +40,7 @@ pub mod snapshot;
 pub mod sources;
 pub mod terminal_query;
 pub mod theme;
+pub mod undo;
 pub mod update;
 
 use std::collections::BTreeMap;

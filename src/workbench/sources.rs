@@ -65,6 +65,8 @@ impl App {
             return Vec::new();
         }
         let parked = self.source_state();
+        let undo = std::mem::take(&mut self.panes.undo);
+        self.work.parked_undo.insert(parked.task_id.clone(), undo);
         self.work.parked.retain(|p| p.task_id != parked.task_id);
         self.work.parked.push(parked);
         self.saving.session_dirty = true;
@@ -78,6 +80,7 @@ impl App {
     /// recording, a dataset task shows its published plan).
     pub(crate) fn open_source(&mut self, task: Option<&Task>) -> Vec<Cmd> {
         let id = task.map(|t| t.id.clone());
+        self.panes.undo = self.work.parked_undo.remove(&id).unwrap_or_default();
         match self.work.parked.iter().position(|p| p.task_id == id) {
             Some(at) => {
                 let state = self.work.parked.remove(at);

@@ -11,12 +11,15 @@ use crate::workbench::keymap::{self, Action, Context};
 use crate::workbench::layout::{pane_rects, Screen};
 use crate::workbench::message::{Cmd, Msg};
 use crate::workbench::overlays::actions::ActionsView;
+use crate::workbench::overlays::help::Help;
 use crate::workbench::overlays::Overlay;
 use crate::workbench::panes::steps::StepList;
 use crate::workbench::panes::{list_window, Pane};
 use crate::workbench::scoring::ModelSlot;
+use crate::workbench::scroll::{Motion, WHEEL_LINES};
 use crate::workbench::session::GroundTruthSource;
 use crate::workbench::shared::{single_line_editor, Severity};
+use crate::workbench::undo::StepsBefore;
 
 impl App {
     /// The top-level update: applies one message.
@@ -27,6 +30,9 @@ impl App {
             Msg::Mouse(mouse) => self.on_mouse(mouse),
             Msg::Resize(w, h) => {
                 self.size = (w, h);
+                if let Some(Overlay::Help(help)) = &mut self.overlay {
+                    help.resize(Rect::new(0, 0, w, h));
+                }
                 Vec::new()
             }
             Msg::Paste(text) => self.on_paste(&text),
@@ -151,11 +157,15 @@ impl App {
             | Action::InsertBefore
             | Action::DeleteStep
             | Action::StepDown
-            | Action::StepUp => return self.step_command(list, action),
+            | Action::StepUp
+            | Action::Undo => return self.step_command(list, action),
             Action::Quit => self.quit = true,
             Action::NextPane => self.focus_step(1),
             Action::PreviousPane => self.focus_step(-1),
-            Action::Help => self.overlay = Some(Overlay::Help),
+            Action::Help => {
+                let screen = Rect::new(0, 0, self.size.0, self.size.1);
+                self.overlay = Some(Overlay::Help(Help::new(screen)));
+            }
             Action::Zoom => self.panes.zoom = !self.panes.zoom,
             Action::Escape => {
                 if self.messages.notice.is_some() {
@@ -263,8 +273,7 @@ impl App {
             | Action::NextItem
             | Action::PreviousItem
             | Action::NextUnjudged
-            | Action::SkipItem
-            | Action::Undo => {}
+            | Action::SkipItem => {}
         }
         Vec::new()
     }
@@ -291,9 +300,45 @@ impl App {
             Action::EditStep => self.edit_step(list, None),
             Action::InsertAfter => self.edit_step(list, Some(sel + usize::from(len > 0))),
             Action::InsertBefore => self.edit_step(list, Some(sel)),
-            _ if self.panes.steps_mut(list).rearrange(action) => vec![self.rescore()],
-            _ => Vec::new(),
+            Action::Undo => self.undo_step_edit(),
+            _ => {
+                let before = self.steps_before(list);
+                if !self.panes.steps_mut(list).rearrange(action) {
+                    return Vec::new();
+                }
+                self.panes.undo.push(before);
+                vec![self.rescore()]
+            }
         }
+    }
+
+    /// The list `list` as it is now, for [`StepUndo`] to keep before an edit.
+    pub(crate) fn steps_before(&self, list: StepList) -> StepsBefore {
+        StepsBefore {
+            list,
+            steps: self.panes.steps(list).clone(),
+            plan_source: self.work.plan_source.clone(),
+            ground_truth_source: self.work.ground_truth_source.clone(),
+        }
+    }
+
+    /// `u`: puts back the step list the newest edit changed, with where
+    /// its steps came from.
+    fn undo_step_edit(&mut self) -> Vec<Cmd> {
+        let Some(before) = self.panes.undo.pop() else {
+            self.set_status("no step edit to undo", Severity::Info);
+            return Vec::new();
+        };
+        match before.list {
+            StepList::Plan => self.work.plan_source = before.plan_source,
+            StepList::GroundTruth => self.work.ground_truth_source = before.ground_truth_source,
+        }
+        *self.panes.steps_mut(before.list) = before.steps;
+        self.set_status(
+            format!("undone ({} more can be undone)", self.panes.undo.len()),
+            Severity::Info,
+        );
+        vec![self.rescore()]
     }
 
     pub(crate) fn focus_step(&mut self, step: isize) {
@@ -350,10 +395,13 @@ impl App {
 
     pub(crate) fn on_mouse(&mut self, mouse: MouseEvent) -> Vec<Cmd> {
         if self.overlay.is_some() || !matches!(self.editing, Editing::None) {
-            if matches!(mouse.kind, MouseEventKind::Down(_))
-                && matches!(self.overlay, Some(Overlay::Help))
-            {
-                self.overlay = None;
+            if let Some(Overlay::Help(help)) = &mut self.overlay {
+                match mouse.kind {
+                    MouseEventKind::Down(_) => self.overlay = None,
+                    MouseEventKind::ScrollDown => help.scroll_by(Motion::Wheel(WHEEL_LINES)),
+                    MouseEventKind::ScrollUp => help.scroll_by(Motion::Wheel(-WHEEL_LINES)),
+                    _ => {}
+                }
             }
             return Vec::new();
         }

@@ -181,23 +181,57 @@ fn too_small_terminal_gets_a_message() {
     insta::assert_snapshot!("too_small_40x10", screen);
 }
 
+/// The help pages of `h` from the top, scrolled with PgDn until nothing
+/// is below: every page's screen.
+fn help_pages(h: &mut Harness) -> Vec<String> {
+    h.key(KeyCode::Char('?'));
+    let mut pages = vec![h.screen()];
+    let more_below = |page: &String| {
+        page.split("↓ ")
+            .skip(1)
+            .any(|rest| rest.starts_with(|c: char| c.is_ascii_digit()))
+    };
+    while pages.last().is_some_and(more_below) {
+        assert!(pages.len() < 20, "the help does not end");
+        h.key(KeyCode::PageDown);
+        pages.push(h.screen());
+    }
+    pages
+}
+
+/// Every key of the key table is in the help, whole, at 120×40 and at
+/// 80×24 (scrolled there), and a key besides the scroll keys closes it.
 #[test]
 fn help_lists_every_key() {
-    let mut h = Harness::new((120, 40), None, false, unavailable());
-    h.key(KeyCode::Char('?'));
-    let screen = h.screen();
-    assert!(screen.contains("Keys (any key closes)"));
     let workbench = |b: &&Binding| !b.context.is_overlay() && !b.context.is_annotate();
-    for binding in BINDINGS.iter().filter(workbench) {
-        assert!(
-            screen.contains(binding.label),
-            "{} not in the help",
-            binding.label
-        );
+    for size in [(120, 40), (80, 24)] {
+        let mut h = Harness::new(size, None, false, unavailable());
+        let pages = help_pages(&mut h);
+        if size == (120, 40) {
+            insta::assert_snapshot!("help_120x40", pages[0]);
+        } else {
+            assert!(pages.len() > 1, "80×24 needs scrolling");
+            assert!(pages[1].contains("↑ "), "{}", pages[1]);
+        }
+        let all = pages.join("\n");
+        for binding in BINDINGS.iter().filter(workbench) {
+            assert!(
+                all.contains(binding.label),
+                "{} not in the help at {size:?}",
+                binding.label
+            );
+            // Each word of the description is on some page: nothing cut.
+            for word in binding.help.split_whitespace() {
+                assert!(
+                    all.contains(word),
+                    "{word} of {} cut at {size:?}",
+                    binding.label
+                );
+            }
+        }
+        h.key(KeyCode::Char('x'));
+        assert!(!h.screen().contains("any other key closes"));
     }
-    insta::assert_snapshot!("help_120x40", screen);
-    h.key(KeyCode::Char('x'));
-    assert!(!h.screen().contains("Keys (any key closes)"));
 }
 
 #[test]
@@ -534,7 +568,7 @@ fn state_for(context: Context, action: Action, warm: bool) -> Harness {
                 h.key(KeyCode::Enter);
             }
             Context::Prompt => h.key(KeyCode::Right),
-            Context::Search => {}
+            Context::Search | Context::Help => {}
             _ => {
                 h.keys("/the");
                 h.key(KeyCode::Enter);
@@ -585,6 +619,15 @@ fn open_overlay(h: &mut Harness, context: Context, warm: bool) {
             h.key(KeyCode::Char('S'));
         }
         Context::Viewer => h.key(KeyCode::Char('f')),
+        Context::Help => {
+            // At 80×24 the help is longer than the screen.
+            let cmds = h.app.update(Msg::Resize(80, 24));
+            h.run(cmds);
+            h.key(KeyCode::Char('?'));
+            if warm {
+                h.key(KeyCode::End);
+            }
+        }
         _ => return,
     }
     if warm && context == Context::Picker {
@@ -597,7 +640,7 @@ fn open_overlay(h: &mut Harness, context: Context, warm: bool) {
     );
 }
 
-const OVERLAYS: [Context; 7] = [
+const OVERLAYS: [Context; 8] = [
     Context::Picker,
     Context::History,
     Context::PathPrompt,
@@ -605,6 +648,7 @@ const OVERLAYS: [Context; 7] = [
     Context::SetName,
     Context::Viewer,
     Context::RunDiff,
+    Context::Help,
 ];
 
 #[test]
@@ -1275,13 +1319,24 @@ fn the_demo_and_a_dataset_task_keep_their_own_plans_and_runs() {
     assert_eq!(reopened.app.panes.plan.items, edited);
     assert_eq!(reopened.app.runs.history, task.app.runs.history);
 
-    // `g` to the demo and back, in one workbench.
+    // `g` to the demo and back, in one workbench: a step deleted on the
+    // task before is undone after, on the task.
+    reopened.app.focus = mapvlm::workbench::panes::Pane::Plan;
+    reopened.key(KeyCode::Char('d'));
     pick(&mut reopened, "Demo: the built-in task");
+    reopened.key(KeyCode::Char('u'));
     assert!(reopened.app.is_demo());
     assert_eq!(reopened.app.runs.history.len(), demo_runs);
     assert_eq!(h_pg2s(&reopened), fresh_pg2s);
+    assert_eq!(
+        reopened.app.panes.plan.items, fresh.app.panes.plan.items,
+        "u on the demo has no edit of the task to undo"
+    );
     pick(&mut reopened, &task_id);
     assert_eq!(reopened.app.work.task.id.as_deref(), Some(task_id.as_str()));
+    assert_eq!(reopened.app.panes.plan.items.len() + 1, edited.len());
+    reopened.app.focus = mapvlm::workbench::panes::Pane::Plan;
+    reopened.key(KeyCode::Char('u'));
     assert_eq!(reopened.app.panes.plan.items, edited);
     assert_eq!(reopened.app.runs.history, task.app.runs.history);
 }
@@ -1348,4 +1403,65 @@ fn a_version_5_session_on_a_dataset_task_loses_nothing() {
         .find(|p| p.task_id.as_deref() == Some("pick-mug-1"))
         .expect("the task is kept");
     assert_eq!(kept, &old);
+}
+
+/// `u` takes back step edits, insertions, deletions and moves one at a
+/// time, more than a hundred deep, with where the steps came from; Ctrl-Z
+/// in the step editor takes back typing, not the list.
+#[test]
+fn undo_restores_edited_deleted_and_moved_steps_a_hundred_levels_deep() {
+    use mapvlm::workbench::panes::Pane;
+    use mapvlm::workbench::session::GroundTruthSource;
+    let mut h = Harness::new((200, 60), None, false, bag_of_words());
+    let plan = h.app.panes.plan.items.clone();
+    assert!(plan.len() >= 3, "{plan:?}");
+    h.app.focus = Pane::Plan;
+    h.key(KeyCode::Char('d'));
+    assert_eq!(h.app.panes.plan.items, plan[1..]);
+    h.key(KeyCode::Char('u'));
+    assert_eq!(h.app.panes.plan.items, plan);
+
+    for n in 0..120 {
+        match n % 3 {
+            0 => {
+                h.key(KeyCode::Char('o'));
+                h.keys(&format!("step {n}"));
+                h.key(KeyCode::Enter);
+            }
+            1 => h.key(KeyCode::Char('J')),
+            _ => {
+                h.key(KeyCode::Char('e'));
+                h.keys(" more");
+                h.key(KeyCode::Enter);
+            }
+        }
+    }
+    assert_ne!(h.app.panes.plan.items, plan);
+    for _ in 0..120 {
+        h.key(KeyCode::Char('u'));
+    }
+    assert_eq!(h.app.panes.plan.items, plan, "120 edits taken back");
+    h.key(KeyCode::Char('u'));
+    assert!(h.screen().contains("no step edit to undo"));
+
+    h.app.focus = Pane::GroundTruth;
+    let ground_truth = h.app.panes.ground_truth.items.clone();
+    h.key(KeyCode::Char('e'));
+    h.keys(" now");
+    let ctrl_z = KeyEvent::new(KeyCode::Char('z'), KeyModifiers::CONTROL);
+    let cmds = h.app.update(Msg::Key(ctrl_z));
+    h.run(cmds);
+    h.key(KeyCode::Enter);
+    assert_eq!(
+        h.app.panes.ground_truth.items[0],
+        format!("{} no", ground_truth[0]),
+        "Ctrl-Z took back the last letter typed"
+    );
+    assert_eq!(h.app.work.ground_truth_source, GroundTruthSource::Typed);
+    h.key(KeyCode::Char('u'));
+    assert_eq!(h.app.panes.ground_truth.items, ground_truth);
+    assert_eq!(
+        h.app.work.ground_truth_source,
+        GroundTruthSource::Demo { index: 0 }
+    );
 }

@@ -95,7 +95,9 @@ fn help_as_the_first_key_and_a_resize_drawn_at_once_without_halfblocks() {
     let tmux = start_with("first-help", dir.path(), &dir.path().join("s.json"), "");
     tmux.wait_for(E2E, "the first frame", first_frame);
     tmux.keys(E2E, &["?"]);
-    tmux.wait_for(E2E, "the help", |s| s.contains("Keys (any key closes)"));
+    tmux.wait_for(E2E, "the help", |s| {
+        s.contains("PgUp PgDn scroll · any other key closes")
+    });
     tmux.cmd(&["resize-window", "-t", E2E, "-x", "120", "-y", "40"]);
     // Redrawn for 120 columns: the rightmost pane closes in the last column.
     let start = Instant::now();
@@ -117,7 +119,7 @@ fn help_as_the_first_key_and_a_resize_drawn_at_once_without_halfblocks() {
     // Esc and q sent together would read as Alt-q: wait for the help to close.
     tmux.keys(E2E, &["Escape"]);
     tmux.wait_for(E2E, "the help to close", |s| {
-        !s.contains("Keys (any key closes)")
+        !s.contains("PgUp PgDn scroll · any other key closes")
     });
     tmux.keys(E2E, &["q"]);
     assert_eq!(exit_status(dir.path()), "0");
@@ -235,7 +237,7 @@ fn a_terminal_that_answers_the_graphics_query_gets_the_first_key() {
     pty.send(KITTY_ANSWER);
     pty.wait_for("the first frame", "mapvlm");
     pty.send(b"?");
-    pty.wait_for("the help", "Keys (any key closes)");
+    pty.wait_for("the help", "PgUp PgDn scroll · any other key closes");
     pty.send(b"q");
     std::thread::sleep(Duration::from_millis(100));
     pty.send(b"q");

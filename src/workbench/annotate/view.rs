@@ -23,6 +23,7 @@ use crate::annotate::order::Unit;
 use crate::annotate::{Preference, StepLabelKind};
 use crate::sanitize::for_terminal;
 use crate::workbench::keymap::{self, Context};
+use crate::workbench::overlays::help::key_rows;
 use crate::workbench::scene_image;
 use crate::workbench::scroll::{self, wrap_hanging, Scroll, Wrapped};
 use crate::workbench::theme::Theme;
@@ -672,31 +673,11 @@ fn help_lines(screen: &Judging, width: usize, theme: &Theme) -> Vec<Line<'static
     }
     lines.push(Line::default());
     lines.push(Line::from(Span::styled("Keys:", theme.title)));
-    let rows: Vec<(&str, &str)> = keymap::help_lines_of(&help_contexts(screen)).collect();
-    let keys_width = rows
-        .iter()
-        .map(|(k, _)| k.width())
-        .max()
-        .unwrap_or(0)
-        .min(width / 2)
-        + 2;
-    for (keys, what) in rows {
-        let pad = keys_width.saturating_sub(keys.width());
-        let mut prefix = vec![Span::styled(
-            format!("{keys}{}", " ".repeat(pad)),
-            theme.accent,
-        )];
-        if keys.width() + 2 > keys_width {
-            // A label wider than the column takes a line of its own.
-            lines.push(Line::from(prefix));
-            prefix = vec![Span::raw(" ".repeat(keys_width))];
-        }
-        lines.extend(wrap_hanging(
-            &prefix,
-            &[Span::styled(what, theme.base)],
-            width,
-        ));
-    }
+    lines.extend(key_rows(
+        keymap::help_lines_of(&help_contexts(screen)),
+        width,
+        theme,
+    ));
     lines
 }
 

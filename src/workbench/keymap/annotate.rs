@@ -3,29 +3,12 @@
 
 use crossterm::event::KeyCode;
 
-use super::row::{bind, ch, hinted, key};
-use super::{Action, Binding, Context, Key};
+use super::row::{bind, ch, hinted, key, SCROLL_KEYS, SCROLL_LABEL};
+use super::{Action, Binding, Context};
 use crate::annotate::{Preference, StepLabelKind};
 
 use Action as A;
 use Context as C;
-
-/// The keys that move through a list or scroll a text: a line with ↑↓ j k,
-/// a page with PgUp PgDn, the ends with Home End (read by
-/// [`crate::workbench::scroll::Motion::of_move`]).
-const SCROLL_KEYS: &[(Key, Action)] = &[
-    (key(KeyCode::Up), A::Move(-1)),
-    (key(KeyCode::Down), A::Move(1)),
-    (ch('k'), A::Move(-1)),
-    (ch('j'), A::Move(1)),
-    (key(KeyCode::PageUp), A::Move(-10)),
-    (key(KeyCode::PageDown), A::Move(10)),
-    (key(KeyCode::Home), A::Move(isize::MIN)),
-    (key(KeyCode::End), A::Move(isize::MAX)),
-];
-
-/// How the help shows [`SCROLL_KEYS`].
-const SCROLL_LABEL: &str = "↑↓ j k, PgUp PgDn, Home End";
 
 /// Every binding of the annotation screen.
 pub(super) const ANNOTATE: &[Binding] = &[

@@ -46,6 +46,8 @@ pub enum Context {
     Viewer,
     /// The diff of two runs, scrolled.
     RunDiff,
+    /// The workbench's key help, open.
+    Help,
     /// The annotation screen, rating single plans or choosing between two.
     Annotate,
     /// The annotation screen rating single plans.
@@ -73,6 +75,7 @@ impl Context {
                 | Context::SetName
                 | Context::Viewer
                 | Context::RunDiff
+                | Context::Help
         )
     }
 
@@ -103,6 +106,7 @@ impl Context {
             Context::SetName => Some("SAVE prompts"),
             Context::Viewer => Some("VIEW"),
             Context::RunDiff => Some("DIFF"),
+            Context::Help => Some("HELP"),
             _ => None,
         }
     }
@@ -227,7 +231,9 @@ pub enum Action {
     NextUnjudged,
     /// Leave this item for later and show the next one not judged.
     SkipItem,
-    /// Withdraw the last judgement and show its item again.
+    /// Take back the newest change: a judgement on the annotation screen
+    /// (its item shown again), a step edit in the workbench's step lists,
+    /// the last change to the text in an editor.
     Undo,
 }
 

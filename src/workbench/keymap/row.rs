@@ -54,3 +54,20 @@ pub(super) const MOVE_KEYS: &[(Key, Action)] = &[
     (ch('k'), Action::Move(-1)),
     (ch('j'), Action::Move(1)),
 ];
+
+/// The keys that move through a list or scroll a text: a line with ↑↓ j k,
+/// a page with PgUp PgDn, the ends with Home End (read by
+/// [`crate::workbench::scroll::Motion::of_move`]).
+pub(super) const SCROLL_KEYS: &[(Key, Action)] = &[
+    (key(KeyCode::Up), Action::Move(-1)),
+    (key(KeyCode::Down), Action::Move(1)),
+    (ch('k'), Action::Move(-1)),
+    (ch('j'), Action::Move(1)),
+    (key(KeyCode::PageUp), Action::Move(-10)),
+    (key(KeyCode::PageDown), Action::Move(10)),
+    (key(KeyCode::Home), Action::Move(isize::MIN)),
+    (key(KeyCode::End), Action::Move(isize::MAX)),
+];
+
+/// How the help shows [`SCROLL_KEYS`].
+pub(super) const SCROLL_LABEL: &str = "↑↓ j k, PgUp PgDn, Home End";

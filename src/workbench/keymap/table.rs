@@ -3,7 +3,7 @@
 
 use crossterm::event::KeyCode;
 
-use super::row::{bind, ch, ctrl, hinted, key, MOVE_KEYS};
+use super::row::{bind, ch, ctrl, hinted, key, MOVE_KEYS, SCROLL_KEYS};
 use super::{Action, Binding, Context};
 use crate::workbench::graph_view::Direction;
 
@@ -125,9 +125,13 @@ pub(super) const WORKBENCH: &[Binding] = &[
     ),
     bind(
         C::Steps,
-        &[(ch('J'), A::StepDown), (ch('K'), A::StepUp)],
-        "J, K (steps)",
-        "move the selected step down or up",
+        &[
+            (ch('J'), A::StepDown),
+            (ch('K'), A::StepUp),
+            (ch('u'), A::Undo),
+        ],
+        "J, K, u (steps)",
+        "move the selected step down or up; undo a step edit (200 deep)",
     ),
     bind(
         C::Plan,
@@ -217,6 +221,12 @@ pub(super) const WORKBENCH: &[Binding] = &[
         ),
         "Esc",
         "cancels",
+    ),
+    bind(
+        C::StepEditor,
+        &[(ctrl('z'), A::Undo)],
+        "Ctrl-Z (editing a step)",
+        "undo the last change to the text",
     ),
     hinted(
         bind(
@@ -481,6 +491,16 @@ pub(super) const WORKBENCH: &[Binding] = &[
         ),
         "Esc",
         "cancels",
+    ),
+    hinted(
+        bind(
+            C::Help,
+            SCROLL_KEYS,
+            "↑↓ j k, PgUp PgDn, Home End (help)",
+            "scroll this help (also the mouse wheel); any other key closes it",
+        ),
+        "↑↓ PgUp PgDn",
+        "scroll · any other key closes",
     ),
     hinted(
         bind(

@@ -1,133 +1,129 @@
 //! The key help overlay: the key table, drawn as it is declared, for the
 //! workbench and for the annotation screen.
 
+use std::convert::Infallible;
+
 use crossterm::event::KeyEvent;
 use ratatui::layout::Rect;
-use ratatui::layout::{Constraint, Layout};
 use ratatui::text::{Line, Span};
-use ratatui::widgets::{Clear, Paragraph, Wrap};
+use ratatui::widgets::Clear;
 use ratatui::Frame;
 use unicode_width::UnicodeWidthStr;
 
-use super::{centred, themed_box};
+use super::{centred, themed_box, Picked};
 use crate::workbench::component::Component;
 use crate::workbench::keymap::{self, Action, Context};
+use crate::workbench::scroll::{self, wrap_hanging, Motion, Scroll};
 use crate::workbench::theme::Theme;
 
-/// The help overlay. It has no keys of its own: any key closes it.
-#[derive(Debug, Clone, Copy, Default)]
-pub struct Help;
+/// The help overlay: every key of the workbench, drawn from the key table
+/// with its description wrapped under itself, scrolled by the movement
+/// keys and the wheel (with `↑ N more` / `↓ N more` on its frame); any
+/// other key closes it.
+#[derive(Debug, Clone, Copy)]
+pub struct Help {
+    scroll: Scroll,
+    area: Rect,
+}
 
-/// What a key does to the help: it always closes it.
-#[derive(Debug, Clone, Copy, PartialEq, Eq)]
-pub struct Close;
-
-impl Component for Help {
-    type Outcome = Close;
-
-    fn contexts(&self) -> Vec<Context> {
-        Vec::new()
+impl Help {
+    /// The help at its top, laid out over `area` (the screen).
+    pub fn new(area: Rect) -> Help {
+        Help {
+            scroll: Scroll::default(),
+            area,
+        }
     }
 
-    fn on_action(&mut self, _action: Action) -> Close {
-        Close
+    /// Lays the help out over a resized screen `area`.
+    pub fn resize(&mut self, area: Rect) {
+        self.area = area;
     }
 
-    fn on_other_key(&mut self, _key: KeyEvent) -> Close {
-        Close
-    }
-
-    fn draw(&self, frame: &mut Frame, area: Rect, theme: &Theme) {
-        draw_keys(frame, area, theme, &[], keymap::help_lines());
+    /// Scrolls the help by `motion`, within its lines.
+    pub fn scroll_by(&mut self, motion: Motion) {
+        let (_, lines, viewport) = layout(self.area, &Theme::no_color());
+        self.scroll.scroll(lines.len(), viewport, motion);
     }
 }
 
-/// The width of the keys column of every help.
-const KEYS_WIDTH: usize = 34;
+impl Component for Help {
+    /// The help chooses nothing: it stays open (scrolled) or is closed.
+    type Outcome = Picked<Infallible>;
+
+    fn contexts(&self) -> Vec<Context> {
+        vec![Context::Help]
+    }
+
+    fn on_action(&mut self, action: Action) -> Self::Outcome {
+        match action {
+            Action::Move(delta) => {
+                self.scroll_by(Motion::of_move(delta));
+                Picked::Open
+            }
+            _ => Picked::Cancelled,
+        }
+    }
+
+    fn on_other_key(&mut self, _key: KeyEvent) -> Self::Outcome {
+        Picked::Cancelled
+    }
+
+    fn draw(&self, frame: &mut Frame, area: Rect, theme: &Theme) {
+        let (rect, lines, _) = layout(area, theme);
+        frame.render_widget(Clear, rect);
+        let block = themed_box(theme, "Keys (↑↓ PgUp PgDn scroll · any other key closes)");
+        scroll::render(frame, rect, block, &lines, self.scroll, theme.accent);
+    }
+}
 
 /// The widest a help box gets.
 const HELP_WIDTH: u16 = 100;
 
-/// Draws a key help over `area`, closed by any key: `intro` (paragraphs,
-/// wrapped) above one row per binding, its keys and what they do. The
-/// workbench's help and the annotation screen's are both drawn by it.
-pub fn draw_keys<'a>(
-    frame: &mut Frame,
-    area: Rect,
-    theme: &Theme,
-    intro: &[String],
-    rows: impl Iterator<Item = (&'a str, &'a str)>,
-) {
-    let rows: Vec<Line> = rows
-        .map(|(keys, what)| {
-            Line::from(vec![
-                Span::styled(format!("{keys:<KEYS_WIDTH$}"), theme.accent),
-                Span::styled(what, theme.base),
-            ])
-        })
-        .collect();
-    let inner_width = usize::from(
-        HELP_WIDTH
-            .min(area.width.saturating_sub(2))
-            .saturating_sub(2),
-    );
-    let intro_height = match intro {
-        [] => 0,
-        _ => {
-            intro
-                .iter()
-                .map(|p| wrapped_height(p, inner_width))
-                .sum::<usize>()
-                + 1
-        }
-    };
-    let height = u16::try_from(intro_height + rows.len() + 2).unwrap_or(u16::MAX);
-    let rect = centred(area, HELP_WIDTH, height);
-    frame.render_widget(Clear, rect);
-    let block = themed_box(theme, "Keys (any key closes)");
-    let inner = block.inner(rect);
-    frame.render_widget(block, rect);
-    let [top, bottom] = Layout::vertical([
-        Constraint::Length(u16::try_from(intro_height).unwrap_or(u16::MAX)),
-        Constraint::Min(0),
-    ])
-    .areas(inner);
-    let intro: Vec<Line> = intro
-        .iter()
-        .map(|p| Line::from(Span::styled(p.as_str(), theme.base)))
-        .collect();
-    frame.render_widget(Paragraph::new(intro).wrap(Wrap { trim: true }), top);
-    frame.render_widget(Paragraph::new(rows), bottom);
+/// The help's box over `area`, its lines and how many it shows at once.
+fn layout(area: Rect, theme: &Theme) -> (Rect, Vec<Line<'static>>, usize) {
+    let width = HELP_WIDTH.min(area.width.saturating_sub(2));
+    let inner_width = usize::from(width.saturating_sub(2)).max(1);
+    let lines = key_rows(keymap::help_lines(), inner_width, theme);
+    let height = u16::try_from(lines.len() + 2).unwrap_or(u16::MAX);
+    let rect = centred(area, width, height);
+    (rect, lines, usize::from(rect.height.saturating_sub(2)))
 }
 
-/// The lines `text` takes when its words are wrapped greedily at `width`
-/// columns (a word wider than the line takes lines of its own).
-fn wrapped_height(text: &str, width: usize) -> usize {
-    let width = width.max(1);
-    let mut lines = 1;
-    let mut used = 0;
-    for word in text.split_whitespace().map(UnicodeWidthStr::width) {
-        let needed = if used == 0 { word } else { used + 1 + word };
-        if needed <= width {
-            used = needed;
-        } else {
-            lines += usize::from(used > 0) + (word.saturating_sub(1)) / width;
-            used = (word - 1) % width + 1;
+/// One row per binding for a help `width` columns wide: its keys in a
+/// column as wide as the widest label (at most a third of the width), then what
+/// it does, wrapped under itself; a label wider than the column takes a
+/// line of its own. Every help (the workbench's and the annotation
+/// screen's) lays its keys out by this.
+pub fn key_rows<'a>(
+    rows: impl Iterator<Item = (&'a str, &'a str)>,
+    width: usize,
+    theme: &Theme,
+) -> Vec<Line<'static>> {
+    let rows: Vec<(&str, &str)> = rows.collect();
+    let keys_width = rows
+        .iter()
+        .map(|(k, _)| k.width())
+        .max()
+        .unwrap_or(0)
+        .min(width / 3)
+        + 2;
+    let mut lines = Vec::new();
+    for (keys, what) in rows {
+        let pad = keys_width.saturating_sub(keys.width());
+        let mut prefix = vec![Span::styled(
+            format!("{keys}{}", " ".repeat(pad)),
+            theme.accent,
+        )];
+        if keys.width() + 2 > keys_width {
+            lines.push(Line::from(prefix));
+            prefix = vec![Span::raw(" ".repeat(keys_width))];
         }
+        lines.extend(wrap_hanging(
+            &prefix,
+            &[Span::styled(what.to_string(), theme.base)],
+            width,
+        ));
     }
     lines
-}
-
-#[cfg(test)]
-mod tests {
-    use super::wrapped_height;
-
-    #[test]
-    fn wrapped_height_counts_greedy_lines() {
-        assert_eq!(wrapped_height("", 10), 1);
-        assert_eq!(wrapped_height("one two", 7), 1);
-        assert_eq!(wrapped_height("one two three", 7), 2);
-        assert_eq!(wrapped_height("abcdefghijkl", 5), 3);
-        assert_eq!(wrapped_height("ab abcdefghijkl", 5), 4);
-    }
 }

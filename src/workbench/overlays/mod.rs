@@ -23,7 +23,7 @@ use crate::workbench::keymap::Context;
 use crate::workbench::message::Cmd;
 use crate::workbench::overlays::actions::ActionsView;
 use crate::workbench::overlays::corrupt::CorruptPicker;
-use crate::workbench::overlays::help::{Close, Help};
+use crate::workbench::overlays::help::Help;
 use crate::workbench::overlays::model_form::ModelForm;
 use crate::workbench::overlays::pickers::{GroundTruthPicker, PathPrompt};
 use crate::workbench::overlays::prompt_sets::{SetName, SetPicker};
@@ -32,8 +32,8 @@ use crate::workbench::theme::Theme;
 /// A modal view over the panes.
 #[derive(Debug, Clone)]
 pub enum Overlay {
-    /// Every key.
-    Help,
+    /// Every key, scrolled.
+    Help(Help),
     /// Choose a ground truth.
     GroundTruthPicker(GroundTruthPicker),
     /// Type the path of a step file.
@@ -68,7 +68,7 @@ impl Overlay {
     /// closes.
     pub fn context(&self) -> Option<Context> {
         match self {
-            Overlay::Help => None,
+            Overlay::Help(_) => Some(Context::Help),
             Overlay::GroundTruthPicker(_) | Overlay::CorruptPicker(_) => Some(Context::Picker),
             Overlay::StepFilePath(_) => Some(Context::PathPrompt),
             Overlay::ModelForm(_) => Some(Context::ModelForm),
@@ -95,8 +95,8 @@ impl App {
             return Vec::new();
         };
         match overlay {
-            Overlay::Help => {
-                let Close = component::dispatch(&mut Help, &key);
+            Overlay::Help(help) => {
+                let _ = self.pick(help, &key, Overlay::Help);
                 Vec::new()
             }
             Overlay::Actions(view) => {
@@ -197,7 +197,7 @@ pub(crate) fn render_overlay(frame: &mut Frame, app: &App, area: Rect) {
     let Some(overlay) = &app.overlay else { return };
     let t = &app.looks.theme;
     match overlay {
-        Overlay::Help => Help.draw(frame, area, t),
+        Overlay::Help(help) => help.draw(frame, area, t),
         Overlay::GroundTruthPicker(picker) => picker.draw(frame, area, t),
         Overlay::StepFilePath(prompt) => prompt.draw(frame, area, t),
         Overlay::ModelForm(form) => form.draw(frame, area, t),

@@ -23,6 +23,7 @@ use crate::workbench::panes::prompt::PromptPane;
 use crate::workbench::panes::scene::ScenePane;
 use crate::workbench::panes::steps::{StepList, Steps};
 use crate::workbench::runs::{AgentStatus, AgentView};
+use crate::workbench::undo::StepUndo;
 
 /// The panes' own state: each pane's content and view.
 pub struct Panes {
@@ -42,6 +43,8 @@ pub struct Panes {
     pub scroll: BTreeMap<Pane, u16>,
     /// The search, highlighted in every pane.
     pub search: String,
+    /// The step edits `u` takes back on the source in use.
+    pub undo: StepUndo,
 }
 
 impl Panes {
