@@ -32,12 +32,14 @@ fn published_plans_give_table_3_for_all_30_tasks_and_4_approaches() {
         out.to_str().unwrap(),
     ];
     let run = mapvlm(&args, home.path());
-    assert!(
-        run.status.success(),
-        "{}",
-        String::from_utf8_lossy(&run.stderr)
-    );
+    let said = String::from_utf8_lossy(&run.stderr);
+    assert!(run.status.success(), "{said}");
     assert_eq!(std::fs::read_dir(out.join("tasks")).unwrap().count(), 120);
+    // Not on a terminal: the plain progress lines of a live eval.
+    for done in (10..=120).step_by(10) {
+        let line = format!("mapvlm: {done}/120 plans, 0 failed, ");
+        assert!(said.contains(&line), "{line}: {said}");
+    }
 
     let golden: Vec<Value> = common::golden("pg2s.dev.jsonl");
     let csv = std::fs::read_to_string(out.join("table3.csv")).unwrap();
@@ -128,11 +130,9 @@ async fn a_live_eval_plans_each_task_once_and_resumes() {
         .await
         .unwrap()
     };
-    assert!(
-        run.status.success(),
-        "{}",
-        String::from_utf8_lossy(&run.stderr)
-    );
+    let said = String::from_utf8_lossy(&run.stderr);
+    assert!(run.status.success(), "{said}");
+    assert!(said.contains("mapvlm: 2/2 plans, 0 failed, "), "{said}");
     assert_eq!(server.received_requests().await.unwrap().len(), 2);
     let result: Value = serde_json::from_str(
         &std::fs::read_to_string(out.join("tasks/t-1.single-image.json")).unwrap(),
