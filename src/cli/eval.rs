@@ -113,7 +113,7 @@ pub fn run(args: &EvalArgs) -> anyhow::Result<ExitCode> {
     let _lock = Lock::acquire(&args.out.join(LOCK_FILE), "mapvlm eval")
         .context("another eval is writing this --out, so nothing was asked of any model")?;
     let (mut dataset, bad_lines) = Dataset::load_with(&args.dataset, args.allow_outside_paths)?;
-    let dataset_hash = super::file_sha256(&Dataset::tasks_file(&args.dataset))?;
+    let dataset_hash = dataset.content_hash(&Dataset::tasks_file(&args.dataset))?;
     let bad_tasks = bad_lines_of_shard(&bad_lines, shard);
     let dataset_tasks: Vec<String> = dataset.tasks.iter().map(|t| t.id.clone()).collect();
     dataset.tasks.retain(|task| shard.contains(&task.id));
@@ -166,6 +166,9 @@ pub fn run(args: &EvalArgs) -> anyhow::Result<ExitCode> {
         failed: bad_tasks,
     };
     let mut to_make = Vec::new();
+    // Plans already at hand (the dataset's, or results written before
+    // results recorded their provenance), scored after the loop.
+    let mut to_score = Vec::new();
     let mut skipped = 0;
     for task in &dataset.tasks {
         for (&approach, sample) in approaches
@@ -182,12 +185,12 @@ pub fn run(args: &EvalArgs) -> anyhow::Result<ExitCode> {
                         done.results.push(result);
                     }
                     // Written before results recorded their provenance: scored again.
-                    None => done.add(&file, result),
+                    None => to_score.push((file, result)),
                 },
                 None if args.from_dataset_plans => match task.plans.get(approach.dataset_field()) {
                     Some(steps) => {
                         let result = new_result(task, approach, "dataset", steps.clone(), None);
-                        done.add(&file, result);
+                        to_score.push((file, result));
                     }
                     None => skipped += 1,
                 },
@@ -200,6 +203,11 @@ pub fn run(args: &EvalArgs) -> anyhow::Result<ExitCode> {
                 None => skipped += 1,
             }
         }
+    }
+    let mut lines = PlainProgress::new(to_score.len());
+    for (file, result) in to_score {
+        done.add(&file, result);
+        lines.tick(done.failed.len());
     }
     if !to_make.is_empty() {
         make_plans(args, to_make, &mut done)?;
@@ -494,7 +502,8 @@ fn make_plans(args: &EvalArgs, jobs: Vec<Job<'_>>, done: &mut Finished) -> anyho
 /// Plain progress lines on stderr for a log (a job's output file), where
 /// the bar does not show: every [`PlainProgress::EVERY`] plans or
 /// [`PlainProgress::SECONDS`] seconds, the plans done of all, the failures
-/// and the rate. Silent on a terminal, which has the bar.
+/// and the rate, for the plans made and for those scored from the dataset
+/// alike. Silent on a terminal, where the plans made have the bar.
 struct PlainProgress {
     total: usize,
     done: usize,

@@ -170,8 +170,9 @@ impl ModelArgs {
 impl ModelArgs {
     /// The verification stamps of the sentence encoder and of the word
     /// vectors these settings load (a `--vectors` file: its name and
-    /// SHA-256): what an eval's provenance records, so that results scored
-    /// with other models are never joined. Call after the models loaded.
+    /// SHA-256; `--paper`: [`crate::models::paper_vectors_identity`]): what
+    /// an eval's provenance records, so that results scored with other
+    /// models are never joined. Call after the models loaded.
     fn stamps(&self) -> anyhow::Result<(Option<String>, Option<String>)> {
         let dir = crate::models::models_dir(self.models_dir.as_deref());
         let stamp = |folder: &str| {
@@ -183,7 +184,7 @@ impl ModelArgs {
                 file.file_name().unwrap_or_default().to_string_lossy(),
                 file_sha256(file)?
             )),
-            None if self.paper => stamp(crate::models::WORD2VEC_GOOGLE_NEWS),
+            None if self.paper => Some(crate::models::paper_vectors_identity(&dir)?),
             None => stamp(crate::models::GLOVE_6B_50D),
         };
         Ok((stamp(crate::models::MPNET), vectors))

@@ -154,7 +154,7 @@ pub(crate) fn check_lfs_files(
 
 /// The SHA-256 a snapshot file's blob is named after, when the Hub stored
 /// it with LFS (its ETag is then the content's SHA-256).
-fn lfs_sha256(link: &Path) -> Option<String> {
+pub(super) fn lfs_sha256(link: &Path) -> Option<String> {
     let blob = fs::canonicalize(link).ok()?;
     let name = blob.file_name()?.to_str()?;
     (name.len() == 64 && name.bytes().all(|b| b.is_ascii_hexdigit())).then(|| name.to_string())

@@ -298,6 +298,27 @@ pub fn paper_word2vec() -> ModelSpec {
     }
 }
 
+/// The identity of the paper's word vectors in the pack `models_dir`, as
+/// a run's provenance records it: `FOLDER: FILE=SHA256;...` for each of
+/// its files, the SHA-256 the Hub stated for it (the name of the blob a
+/// fetched file links to, checked when it was fetched) or, for a copy put
+/// there otherwise, its own, hashed as a stream.
+pub fn paper_vectors_identity(models_dir: &Path) -> Result<String, ModelsError> {
+    let spec = paper_word2vec();
+    let folder = model_path(models_dir, &spec.folder)?;
+    let files = spec.hub.map(|hub| hub.files).unwrap_or_default();
+    let mut hashes = Vec::new();
+    for file in files {
+        let path = folder.join(&file);
+        let sha = match hf_cache::lfs_sha256(&path) {
+            Some(sha) => sha,
+            None => sha256_file(&path, |_| {}).map_err(ModelsError::io("read", &path))?,
+        };
+        hashes.push(format!("{file}={sha}"));
+    }
+    Ok(format!("{}: {}", spec.folder, hashes.join(";")))
+}
+
 /// What can go wrong while fetching, verifying or locating models. Every
 /// message says what failed and what to do.
 #[derive(Debug, thiserror::Error)]

@@ -32,12 +32,14 @@ fn published_plans_give_table_3_for_all_30_tasks_and_4_approaches() {
         out.to_str().unwrap(),
     ];
     let run = mapvlm(&args, home.path());
-    assert!(
-        run.status.success(),
-        "{}",
-        String::from_utf8_lossy(&run.stderr)
-    );
+    let said = String::from_utf8_lossy(&run.stderr);
+    assert!(run.status.success(), "{said}");
     assert_eq!(std::fs::read_dir(out.join("tasks")).unwrap().count(), 120);
+    // Not on a terminal: the plain progress lines of a live eval.
+    for done in (10..=120).step_by(10) {
+        let line = format!("mapvlm: {done}/120 plans, 0 failed, ");
+        assert!(said.contains(&line), "{line}: {said}");
+    }
 
     let golden: Vec<Value> = common::golden("pg2s.dev.jsonl");
     let csv = std::fs::read_to_string(out.join("table3.csv")).unwrap();
@@ -128,11 +130,9 @@ async fn a_live_eval_plans_each_task_once_and_resumes() {
         .await
         .unwrap()
     };
-    assert!(
-        run.status.success(),
-        "{}",
-        String::from_utf8_lossy(&run.stderr)
-    );
+    let said = String::from_utf8_lossy(&run.stderr);
+    assert!(run.status.success(), "{said}");
+    assert!(said.contains("mapvlm: 2/2 plans, 0 failed, "), "{said}");
     assert_eq!(server.received_requests().await.unwrap().len(), 2);
     let result: Value = serde_json::from_str(
         &std::fs::read_to_string(out.join("tasks/t-1.single-image.json")).unwrap(),
@@ -475,4 +475,70 @@ fn the_pg2s_flags_change_the_scores_as_score_does_and_a_resume_with_others_is_re
         changed > 0,
         "another threshold gives other scores: some S_plan moves"
     );
+}
+
+#[test]
+fn eval_with_the_papers_vectors_records_their_identity_and_a_resume_with_glove_is_refused() {
+    use mapvlm::models::{WORD2VEC_GOOGLE_NEWS, WORD2VEC_GOOGLE_NEWS_FILE};
+    let home = tempfile::tempdir().unwrap();
+    // A pack with the user's three models and, as the paper's vectors, the
+    // gensim KeyedVectors fixture under the names the Hub's files have.
+    let pack = home.path().join("pack");
+    let paper = pack.join(WORD2VEC_GOOGLE_NEWS);
+    std::fs::create_dir_all(&paper).unwrap();
+    for model in [
+        mapvlm::models::MPNET,
+        mapvlm::models::EN_CORE_WEB_SM,
+        mapvlm::models::GLOVE_6B_50D,
+    ] {
+        std::os::unix::fs::symlink(common::pack_dir().join(model), pack.join(model)).unwrap();
+    }
+    let fixture = Path::new(env!("CARGO_MANIFEST_DIR")).join("tests/fixtures/keyed_vectors");
+    let mut files = Vec::new();
+    for (from, to) in [
+        ("tiny.model", WORD2VEC_GOOGLE_NEWS_FILE.to_string()),
+        (
+            "tiny.model.vectors.npy",
+            format!("{WORD2VEC_GOOGLE_NEWS_FILE}.vectors.npy"),
+        ),
+    ] {
+        std::fs::copy(fixture.join(from), paper.join(&to)).unwrap();
+        let sha = mapvlm::models::sha256_file(&paper.join(&to), |_| {}).unwrap();
+        files.push(format!("{to}={sha}"));
+    }
+    let data = home.path().join("data");
+    std::fs::create_dir_all(&data).unwrap();
+    std::fs::write(
+        data.join("tasks.jsonl"),
+        r#"{"id": "t-1", "task": "Put the mug in the sink", "ground_truth": ["Walk to the sink.", "Put the mug in the sink."], "single_agent_image": ["Walk to the sink.", "Drop the mug in the sink."]}"#,
+    )
+    .unwrap();
+    let out = home.path().join("eval");
+    let pack_arg = pack.to_string_lossy();
+    let paper_run = dataset_plans_args(&data, &out, &["--models-dir", &pack_arg, "--paper"]);
+    let run = common::mapvlm(&paper_run);
+    assert!(run.status.success(), "{}", common::stderr(&run));
+    let expected = format!("{WORD2VEC_GOOGLE_NEWS}: {}", files.join(";"));
+    let manifest: Value =
+        serde_json::from_slice(&std::fs::read(out.join("manifest.json")).unwrap()).unwrap();
+    assert_eq!(
+        manifest["provenance"]["word_vectors"].as_str(),
+        Some(expected.as_str()),
+        "{manifest}"
+    );
+    for (name, result) in results_of(&out) {
+        assert_eq!(
+            result["provenance"]["word_vectors"].as_str(),
+            Some(expected.as_str()),
+            "{name}"
+        );
+        assert!(result["pg2s"].is_number(), "{name}: {result}");
+    }
+    // The same folder resumed with the pack's GloVe is refused, naming the field.
+    let glove = common::mapvlm(&dataset_plans_args(
+        &data,
+        &out,
+        &["--models-dir", &pack_arg],
+    ));
+    common::assert_one_line_failure(&glove, "`word_vectors`");
 }
