@@ -12,6 +12,9 @@ use super::{AgentError, Secret, Usage};
 /// The default base URL.
 pub const DEFAULT_BASE_URL: &str = "https://api.anthropic.com";
 
+/// Where a request goes under the base URL.
+pub const REQUEST_PATH: &str = "v1/messages";
+
 /// The API version sent in `anthropic-version`.
 pub const API_VERSION: &str = "2023-06-01";
 
@@ -42,7 +45,7 @@ impl Anthropic {
         cancel: &CancellationToken,
     ) -> Result<Completion, AgentError> {
         let body = request_body(request);
-        let url = self.endpoint.url("v1/messages");
+        let url = self.endpoint.url(REQUEST_PATH);
         let build = || {
             let builder = self
                 .endpoint

@@ -515,8 +515,9 @@ fn seconds(value: f64, name: &str) -> Result<Duration, ConfigError> {
 }
 
 /// Refuses a base URL that is not an absolute `http` or `https` URL with a
-/// host, before any request is made.
-fn check_base_url(role: AgentRole, url: &str) -> Result<(), ConfigError> {
+/// host, before any request is made (the config file, the environment and
+/// the workbench's model form all check by it).
+pub fn check_base_url(role: AgentRole, url: &str) -> Result<(), ConfigError> {
     let bad = |why: String| {
         ConfigError::Invalid(format!(
             "{role}: base URL `{}` {why}; give one like http://localhost:8000/v1",

@@ -110,6 +110,16 @@ impl ProviderKind {
         }
     }
 
+    /// The path of a request under the base URL (none for the recording,
+    /// which sends nothing).
+    pub fn request_path(self) -> Option<&'static str> {
+        match self {
+            Self::Openai => Some(openai::REQUEST_PATH),
+            Self::Anthropic => Some(anthropic::REQUEST_PATH),
+            Self::Replay => None,
+        }
+    }
+
     /// The model used when none is configured.
     pub fn default_model(self) -> &'static str {
         match self {

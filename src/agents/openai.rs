@@ -14,6 +14,9 @@ use super::{AgentError, Secret, Usage};
 /// The default base URL.
 pub const DEFAULT_BASE_URL: &str = "https://api.openai.com/v1";
 
+/// Where a request goes under the base URL.
+pub const REQUEST_PATH: &str = "chat/completions";
+
 const NAME: &str = "openai";
 
 /// A Chat Completions endpoint.
@@ -63,7 +66,7 @@ impl OpenAi {
         cancel: &CancellationToken,
     ) -> Result<Completion, AgentError> {
         let body = request_body(request, with_schema);
-        let url = self.endpoint.url("chat/completions");
+        let url = self.endpoint.url(REQUEST_PATH);
         let build = || {
             let builder = self.endpoint.client.post(&url).json(&body);
             match &self.endpoint.key {

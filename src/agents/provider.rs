@@ -189,6 +189,26 @@ impl Default for HttpSettings {
     }
 }
 
+/// The full URL of `path` under `base_url`, as a request goes: one slash
+/// between them, and a query string of the base URL (`?api-version=…`)
+/// kept after the path.
+pub fn endpoint_url(base_url: &str, path: &str) -> String {
+    let (base, query) = match base_url.split_once('?') {
+        Some((base, query)) => (base, Some(query)),
+        None => (base_url, None),
+    };
+    let mut url = format!(
+        "{}/{}",
+        base.trim_end_matches('/'),
+        path.trim_start_matches('/')
+    );
+    if let Some(query) = query {
+        url.push('?');
+        url.push_str(query);
+    }
+    url
+}
+
 /// The HTTP side of a provider: a client, its endpoint, key and policy.
 #[derive(Debug, Clone)]
 pub struct HttpEndpoint {
@@ -235,19 +255,9 @@ impl HttpEndpoint {
         })
     }
 
-    /// The full URL of `path` under the base URL; a query string of the
-    /// base URL (`?api-version=…`) is kept after the path.
+    /// The full URL of `path` under the base URL ([`endpoint_url`]).
     pub fn url(&self, path: &str) -> String {
-        let (base, query) = match self.base_url.split_once('?') {
-            Some((base, query)) => (base.trim_end_matches('/'), Some(query)),
-            None => (self.base_url.as_str(), None),
-        };
-        let mut url = format!("{base}/{}", path.trim_start_matches('/'));
-        if let Some(query) = query {
-            url.push('?');
-            url.push_str(query);
-        }
-        url
+        endpoint_url(&self.base_url, path)
     }
 
     /// An unreadable-answer error for this provider, the key removed.

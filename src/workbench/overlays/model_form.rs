@@ -1,5 +1,6 @@
-//! The model form: an agent's provider, model, temperature and token limit,
-//! as a [`Component`] with its own state. It opens for the agent in
+//! The model form: an agent's provider, base URL, model, temperature and
+//! token limit, as a [`Component`] with its own state; it shows where the
+//! requests will go as the fields are typed. It opens for the agent in
 //! question (the one the status message names, e.g. "SKM needs a
 //! provider"), and can save its settings for every agent at once.
 
@@ -10,8 +11,10 @@ use ratatui::widgets::{Clear, Paragraph};
 use ratatui::Frame;
 use ratatui_textarea::TextArea;
 
-use crate::agents::config::{check_max_tokens, check_temperature, AgentSettings};
+use crate::agents::config::{check_base_url, check_max_tokens, check_temperature, AgentSettings};
+use crate::agents::provider::endpoint_url;
 use crate::agents::{AgentRole, ProviderKind};
+use crate::sanitize::{for_terminal, redact_url_credentials};
 use crate::workbench::app::App;
 use crate::workbench::component::{self, Component};
 use crate::workbench::keymap::{Action, Context};
@@ -22,7 +25,14 @@ use crate::workbench::shared::{single_line_editor, Severity};
 use crate::workbench::theme::Theme;
 
 /// The form's fields, in order.
-const LABELS: [&str; 4] = ["provider", "model", "temperature", "max tokens"];
+const LABELS: [&str; 5] = ["provider", "base URL", "model", "temperature", "max tokens"];
+
+/// The fields by position in [`LABELS`].
+const PROVIDER: usize = 0;
+const BASE_URL: usize = 1;
+const MODEL: usize = 2;
+const TEMPERATURE: usize = 3;
+const MAX_TOKENS: usize = 4;
 
 /// The model form's state: one editor per field, the field with focus,
 /// whether saving applies to every agent, and why the last save was refused.
@@ -59,6 +69,7 @@ impl ModelForm {
     pub fn new(agent: AgentRole, settings: &AgentSettings) -> ModelForm {
         let values = [
             settings.provider.to_string(),
+            redact_url_credentials(&settings.base_url),
             settings.model.clone(),
             settings.temperature.to_string(),
             settings.max_tokens.to_string(),
@@ -90,23 +101,57 @@ impl ModelForm {
             .unwrap_or_default()
     }
 
+    /// The base URL the typed fields give: the one typed, or, when the
+    /// field was left as it opened and the provider was changed, the new
+    /// provider's default (an OpenAI URL never goes to Anthropic); the
+    /// opened one itself (credentials and all) when nothing was changed.
+    fn base_url(&self, provider: ProviderKind) -> String {
+        let typed = self.text(BASE_URL);
+        let untouched = typed == redact_url_credentials(&self.opened_with.base_url);
+        match (untouched, provider == self.opened_with.provider) {
+            (true, true) => self.opened_with.base_url.clone(),
+            (true, false) => provider.default_base_url().to_string(),
+            (false, _) => typed,
+        }
+    }
+
+    /// Where a run with the typed fields sends its requests, or why the
+    /// fields name no place yet.
+    fn destination(&self) -> Result<String, String> {
+        let provider = self.text(PROVIDER).parse::<ProviderKind>()?;
+        let base_url = self.base_url(provider);
+        check_form_url(self.agent, &base_url)?;
+        Ok(match provider.request_path() {
+            Some(path) => endpoint_url(&redact_url_credentials(&base_url), path),
+            None => "nowhere: the demo's recording answers".to_string(),
+        })
+    }
+
     /// The settings typed, checked: a known provider (or the recording), a
-    /// model, and numbers in range; else why not, naming the value.
+    /// base URL without credentials, a model, and numbers in range; else
+    /// why not, naming the value.
     fn checked(&self) -> Result<AgentSettings, String> {
-        let (provider, model) = (self.text(0), self.text(1));
+        let (provider, model) = (self.text(PROVIDER), self.text(MODEL));
         if provider.is_empty() || model.is_empty() {
             return Err("provider and model must be set".into());
         }
         let provider = provider.parse::<ProviderKind>()?;
+        let base_url = self.base_url(provider);
+        check_form_url(self.agent, &base_url)?;
         let temperature = self
-            .text(2)
+            .text(TEMPERATURE)
             .parse::<f64>()
-            .map_err(|_| format!("temperature `{}` is not a number", self.text(2)))
+            .map_err(|_| format!("temperature `{}` is not a number", self.text(TEMPERATURE)))
             .and_then(|t| check_temperature("temperature", t).map_err(|e| e.to_string()))?;
         let max_tokens = self
-            .text(3)
+            .text(MAX_TOKENS)
             .parse::<u64>()
-            .map_err(|_| format!("token limit `{}` is not a whole number", self.text(3)))
+            .map_err(|_| {
+                format!(
+                    "token limit `{}` is not a whole number",
+                    self.text(MAX_TOKENS)
+                )
+            })
             .and_then(|n| check_max_tokens("token limit", n).map_err(|e| e.to_string()))?;
         // Another provider starts from its defaults until a run resolves it.
         let base = Some(&self.opened_with)
@@ -117,9 +162,26 @@ impl ModelForm {
             model,
             temperature,
             max_tokens,
+            base_url,
             ..base
         })
     }
+}
+
+/// Refuses a base URL typed in the form that is not one, or that holds
+/// credentials (`user:key@host`): a key belongs in the key variable or the
+/// config file, never in a URL the session keeps.
+fn check_form_url(agent: AgentRole, base_url: &str) -> Result<(), String> {
+    check_base_url(agent, base_url).map_err(|e| e.to_string())?;
+    let with_credentials = reqwest::Url::parse(base_url.trim())
+        .is_ok_and(|url| !url.username().is_empty() || url.password().is_some());
+    if with_credentials {
+        return Err(
+            "the base URL holds credentials: set the key in OPENAI_API_KEY or ANTHROPIC_API_KEY (or api_key in the config file) instead"
+                .to_string(),
+        );
+    }
+    Ok(())
 }
 
 impl Component for ModelForm {
@@ -161,16 +223,16 @@ impl Component for ModelForm {
     }
 
     fn draw(&self, frame: &mut Frame, area: Rect, theme: &Theme) {
-        let rect = centred(area, 76, 9);
+        let rect = centred(area, 86, 10);
         frame.render_widget(Clear, rect);
         let title = format!(
-            "{}: provider and model (Tab next, Enter saves)",
+            "{}: provider, base URL and model (Tab next, Enter saves)",
             self.agent.label()
         );
         let block = themed_box(theme, &title);
         let inner = block.inner(rect);
         frame.render_widget(block, rect);
-        let rows = Layout::vertical([Constraint::Length(1); 7]).split(inner);
+        let rows = Layout::vertical([Constraint::Length(1); 8]).split(inner);
         for (i, (label, editor)) in LABELS.iter().zip(&self.fields).enumerate() {
             let [l, r] =
                 Layout::horizontal([Constraint::Length(14), Constraint::Min(1)]).areas(rows[i]);
@@ -184,21 +246,32 @@ impl Component for ModelForm {
         }
         let scope = if self.every_agent {
             Line::from(vec![
-                Span::styled("saves for    ", theme.muted),
+                Span::styled("saves for     ", theme.muted),
                 Span::styled("every agent", theme.accent),
                 Span::styled(" (Ctrl-A: this agent only)", theme.muted),
             ])
         } else {
             Line::from(vec![
-                Span::styled("saves for    ", theme.muted),
+                Span::styled("saves for     ", theme.muted),
                 Span::styled(self.agent.label(), theme.accent),
                 Span::styled(" only (Ctrl-A: every agent)", theme.muted),
             ])
         };
-        frame.render_widget(Paragraph::new(scope), rows[5]);
+        let destination = match self.destination() {
+            Ok(url) => Line::from(vec![
+                Span::styled("sends to      ", theme.muted),
+                Span::styled(for_terminal(&url), theme.base),
+            ]),
+            Err(why) => Line::from(vec![
+                Span::styled("sends to      ", theme.muted),
+                Span::styled(for_terminal(&why), theme.warn),
+            ]),
+        };
+        frame.render_widget(Paragraph::new(destination), rows[5]);
+        frame.render_widget(Paragraph::new(scope), rows[6]);
         if let Some(problem) = &self.problem {
-            let line = Span::styled(format!("not saved: {problem}"), theme.warn);
-            frame.render_widget(Paragraph::new(line), rows[6]);
+            let line = Span::styled(format!("not saved: {}", for_terminal(problem)), theme.warn);
+            frame.render_widget(Paragraph::new(line), rows[7]);
         }
     }
 }
@@ -304,8 +377,13 @@ mod tests {
         }
     }
 
+    /// Types the provider, model, temperature and token limit (the base
+    /// URL is left as it opened).
     fn fill(app: &mut App, values: [&str; 4]) {
-        for (i, value) in values.iter().enumerate() {
+        for (i, value) in [PROVIDER, MODEL, TEMPERATURE, MAX_TOKENS]
+            .into_iter()
+            .zip(values)
+        {
             type_into(app, i, value);
         }
     }
@@ -362,7 +440,7 @@ mod tests {
                 problem.contains(why),
                 "{temperature} {max_tokens}: {problem}"
             );
-            assert_eq!(form.text(2), temperature);
+            assert_eq!(form.text(TEMPERATURE), temperature);
             assert_eq!(app.runs.agents[&AgentRole::Planner].settings, before);
             press(&mut app, KeyCode::Esc, KeyModifiers::NONE);
             assert!(app.overlay.is_none());
@@ -418,14 +496,71 @@ mod tests {
     fn the_form_draws_its_fields_scope_and_problem() {
         let mut form = ModelForm::new(AgentRole::Skm, &AgentSettings::demo_recording());
         form.on_action(Action::EveryAgent);
-        form.on_action(Action::NextField);
-        form.on_action(Action::NextField);
+        for _ in 0..TEMPERATURE {
+            form.on_action(Action::NextField);
+        }
         form.on_other_key(KeyEvent::new(KeyCode::Char('x'), KeyModifiers::NONE));
         assert_eq!(form.on_action(Action::Accept), FormOutcome::Open);
-        let mut terminal = Terminal::new(TestBackend::new(80, 11)).unwrap();
+        let mut terminal = Terminal::new(TestBackend::new(90, 12)).unwrap();
         terminal
             .draw(|f| form.draw(f, f.area(), &Theme::no_color()))
             .unwrap();
         insta::assert_snapshot!(terminal.backend());
+    }
+
+    /// The form edits the base URL and shows where requests go: another
+    /// provider with the URL left alone gets that provider's default (an
+    /// OpenAI URL never reaches Anthropic), a typed URL is kept, and a URL
+    /// with credentials is refused, pointing to the key variables.
+    #[test]
+    fn the_base_url_is_edited_shown_and_never_holds_credentials() {
+        let mut app = demo();
+        app.panes.prompt.agent = AgentRole::Planner;
+        app.open_model_form();
+        fill(&mut app, ["openai", "gpt-4o", "0", "512"]);
+        type_into(&mut app, BASE_URL, "http://127.0.0.1:8000/v1?api-version=2");
+        let Some(Overlay::ModelForm(form)) = &app.overlay else {
+            panic!("not open");
+        };
+        assert_eq!(
+            form.destination(),
+            Ok("http://127.0.0.1:8000/v1/chat/completions?api-version=2".to_string())
+        );
+        press(&mut app, KeyCode::Enter, KeyModifiers::NONE);
+        let planner = &app.runs.agents[&AgentRole::Planner].settings;
+        assert_eq!(planner.base_url, "http://127.0.0.1:8000/v1?api-version=2");
+
+        app.open_model_form();
+        type_into(&mut app, PROVIDER, "anthropic");
+        let Some(Overlay::ModelForm(form)) = &app.overlay else {
+            panic!("not open");
+        };
+        assert_eq!(
+            form.destination(),
+            Ok("https://api.anthropic.com/v1/messages".to_string()),
+            "the OpenAI-style URL left as it was does not go to Anthropic"
+        );
+        press(&mut app, KeyCode::Enter, KeyModifiers::NONE);
+        let planner = &app.runs.agents[&AgentRole::Planner].settings;
+        assert_eq!(planner.provider, ProviderKind::Anthropic);
+        assert_eq!(planner.base_url, "https://api.anthropic.com");
+
+        app.open_model_form();
+        type_into(&mut app, BASE_URL, "http://user:sk-secret@127.0.0.1:8000");
+        press(&mut app, KeyCode::Enter, KeyModifiers::NONE);
+        let Some(Overlay::ModelForm(form)) = &app.overlay else {
+            panic!("a URL with credentials is not saved");
+        };
+        let problem = form.problem.clone().unwrap_or_default();
+        assert!(problem.contains("ANTHROPIC_API_KEY"), "{problem}");
+        assert!(!problem.contains("sk-secret"), "{problem}");
+        assert_eq!(planner_url(&app), "https://api.anthropic.com");
+    }
+
+    fn planner_url(app: &App) -> String {
+        app.runs.agents[&AgentRole::Planner]
+            .settings
+            .base_url
+            .clone()
     }
 }
