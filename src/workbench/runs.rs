@@ -145,6 +145,9 @@ pub struct AgentView {
     /// The wait before a retry it is in, and when the wait ends: shown in
     /// its pane's title, counting down, until the answer starts.
     pub retry: Option<(RetryNotice, Instant)>,
+    /// When it last heard from its provider while running (the call's
+    /// start, then each token): its pane's title counts the silence since.
+    pub heard: Option<Instant>,
 }
 
 /// The run in flight.
@@ -220,6 +223,7 @@ impl AgentView {
             duration_ms: 0,
             cached: false,
             retry: None,
+            heard: None,
         }
     }
 
@@ -227,6 +231,7 @@ impl AgentView {
     /// nothing of the call before is counted for this one.
     fn begin_call(&mut self) {
         self.retry = None;
+        self.heard = None;
         self.output.clear();
         self.usage = Usage::default();
         self.duration_ms = 0;
@@ -612,6 +617,7 @@ impl App {
                 if let Some(v) = self.runs.agents.get_mut(&agent) {
                     v.status = AgentStatus::Running;
                     v.begin_call();
+                    v.heard = Some(Instant::now());
                 }
                 if agent == self.work.approach.planning_role() {
                     if matches!(
@@ -642,6 +648,7 @@ impl App {
             AgentEvent::Token { role: agent, text } => {
                 if let Some(v) = self.runs.agents.get_mut(&agent) {
                     v.retry = None;
+                    v.heard = Some(Instant::now());
                     v.output.push_str(&text);
                 }
                 match agent {
@@ -717,13 +724,22 @@ impl App {
     /// When the screen must be drawn again for a retry's countdown to
     /// move (a quarter second on, or the wait's end), if one is shown.
     pub fn countdown_wake(&self, now: Instant) -> Option<Instant> {
-        self.runs
+        let retries = self
+            .runs
             .agents
             .values()
             .filter_map(|v| v.retry.as_ref().map(|(_, until)| *until))
             .filter(|until| *until > now)
-            .map(|until| until.min(now + Duration::from_millis(250)))
-            .min()
+            .map(|until| until.min(now + Duration::from_millis(250)));
+        // The silence of a running agent, counted in whole seconds.
+        let silences = self
+            .runs
+            .agents
+            .values()
+            .filter(|v| v.status == AgentStatus::Running)
+            .filter_map(|v| v.heard)
+            .map(|heard| heard + Duration::from_secs(now.duration_since(heard).as_secs() + 1));
+        retries.chain(silences).min()
     }
 
     pub(crate) fn cancel_run(&mut self) -> Vec<Cmd> {

@@ -245,3 +245,25 @@ fn retries_and_a_retry_after_are_counted_down_in_the_planners_pane() {
     assert_eq!(planner, 4, "three refusals, then the answer");
     assert_eq!(workbench.quit(), "0");
 }
+
+/// A provider that says nothing for seconds is not shown as streaming: the
+/// pane titles count the silence (`no answer yet · 3 s`) until the answer
+/// comes.
+#[test]
+fn a_silent_provider_is_counted_in_the_pane_titles() {
+    let server = LocalServer::start();
+    let home = UserHome::new();
+    home.write_config(&format!(
+        "[defaults]\nprovider = \"openai\"\nbase_url = \"{}\"\nmodel = \"{LOCAL_MODEL}\"\n",
+        server.base_url()
+    ));
+    server.delay_answers(std::time::Duration::from_secs(5));
+    let workbench = Workbench::start_on_alfred30("silence", &home);
+    workbench.keys(&["r"]);
+    workbench.wait_for("the silence counted", |s| s.contains("no answer yet · 3 s"));
+    workbench.wait_for("the count moving", |s| s.contains("no answer yet · 4 s"));
+    workbench.wait_for("the run finished after the silence", |s| {
+        s.contains("run 1 finished") && s.contains(GOOD_STEP) && !s.contains("no answer yet")
+    });
+    assert_eq!(workbench.quit(), "0");
+}

@@ -139,11 +139,24 @@ pub(crate) fn render_pane(frame: &mut Frame, app: &App, pane: Pane, area: Rect) 
     }
 }
 
-/// The wait before a retry an agent is in, counting down (`HTTP 503 ·
-/// retry 3 of 4 in 2 s (Retry-After)`), for its pane's title.
-pub(crate) fn retry_text(v: &AgentView) -> Option<String> {
-    let (notice, until) = v.retry.as_ref()?;
-    let left = until.saturating_duration_since(std::time::Instant::now());
+/// How long a running agent may be silent before its pane says so.
+const SILENCE_SHOWN: std::time::Duration = std::time::Duration::from_secs(2);
+
+/// What a running agent is waiting for, for its pane's title: the wait
+/// before a retry, counting down (`HTTP 503 · retry 3 of 4 in 2 s
+/// (Retry-After)`), or a silence of [`SILENCE_SHOWN`] or more since its
+/// last token (`no answer yet · 5 s`, `5 s since the last token`); `None`
+/// while the answer flows.
+pub(crate) fn waiting_text(v: &AgentView) -> Option<String> {
+    let now = std::time::Instant::now();
+    let Some((notice, until)) = v.retry.as_ref() else {
+        let silent = now.saturating_duration_since(v.heard?);
+        return (silent >= SILENCE_SHOWN).then(|| match v.output.is_empty() {
+            true => format!("no answer yet · {} s", silent.as_secs()),
+            false => format!("{} s since the last token", silent.as_secs()),
+        });
+    };
+    let left = until.saturating_duration_since(now);
     Some(format!(
         "HTTP {} · retry {} of {} in {} s{}",
         notice.status,
@@ -164,7 +177,7 @@ pub(crate) fn agent_badge<'a>(app: &App, agent: AgentRole) -> Span<'a> {
         AgentStatus::Idle => Span::styled("idle", t.muted),
         AgentStatus::Waiting => Span::styled("waiting", t.warn),
         AgentStatus::Running => Span::styled(
-            retry_text(v).unwrap_or_else(|| "writing…".to_string()),
+            waiting_text(v).unwrap_or_else(|| "writing…".to_string()),
             t.warn,
         ),
         AgentStatus::Done => Span::styled(

@@ -282,7 +282,7 @@ pub(crate) fn draw(frame: &mut Frame, app: &App, list: StepList, area: Rect) {
                         Some(v) if v.status == AgentStatus::Running => Span::styled(
                             format!(
                                 "run {run} · {}",
-                                super::retry_text(v).unwrap_or_else(|| "streaming…".to_string())
+                                super::waiting_text(v).unwrap_or_else(|| "streaming…".to_string())
                             ),
                             t.warn,
                         ),
