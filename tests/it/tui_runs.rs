@@ -12,8 +12,13 @@ use mapvlm::agents::AgentRole;
 /// A config file sending every agent to `server`, with no retries (a 500
 /// fails at once).
 fn point_without_retries(home: &UserHome, server: &LocalServer) {
+    point_at(home, server, 0);
+}
+
+/// A config file sending every agent to `server`, retrying `retries` times.
+fn point_at(home: &UserHome, server: &LocalServer, retries: u32) {
     home.write_config(&format!(
-        "max_retries = 0\n[defaults]\nprovider = \"openai\"\nbase_url = \"{}\"\nmodel = \"{LOCAL_MODEL}\"\n",
+        "max_retries = {retries}\n[defaults]\nprovider = \"openai\"\nbase_url = \"{}\"\nmodel = \"{LOCAL_MODEL}\"\n",
         server.base_url()
     ));
 }
@@ -216,10 +221,7 @@ fn a_sampled_runs_tokens_cost_and_time_in_the_history_are_sums_over_every_reques
 fn retries_and_a_retry_after_are_counted_down_in_the_planners_pane() {
     let server = LocalServer::start();
     let home = UserHome::new();
-    home.write_config(&format!(
-        "max_retries = 4\n[defaults]\nprovider = \"openai\"\nbase_url = \"{}\"\nmodel = \"{LOCAL_MODEL}\"\n",
-        server.base_url()
-    ));
+    point_at(&home, &server, 4);
     server.fail_planner_next(&[
         Failure::Status(500),
         Failure::Status(500),
@@ -253,10 +255,7 @@ fn retries_and_a_retry_after_are_counted_down_in_the_planners_pane() {
 fn a_silent_provider_is_counted_in_the_pane_titles() {
     let server = LocalServer::start();
     let home = UserHome::new();
-    home.write_config(&format!(
-        "[defaults]\nprovider = \"openai\"\nbase_url = \"{}\"\nmodel = \"{LOCAL_MODEL}\"\n",
-        server.base_url()
-    ));
+    point_at(&home, &server, 0);
     server.delay_answers(std::time::Duration::from_secs(5));
     let workbench = Workbench::start_on_alfred30("silence", &home);
     workbench.keys(&["r"]);
