@@ -3,7 +3,7 @@
 
 pub mod lines;
 
-use std::collections::{BTreeMap, BTreeSet};
+use std::collections::BTreeMap;
 use std::fmt;
 use std::io::BufRead;
 use std::path::{Path, PathBuf};
@@ -370,39 +370,6 @@ impl Dataset {
         } else {
             path.to_path_buf()
         }
-    }
-
-    /// The SHA-256 (hex) of what this dataset's runs read, for their
-    /// provenance: the tasks file `tasks_file` and every image and table
-    /// its tasks name, each hashed as a stream (never read whole). A file
-    /// that is missing, not a regular file or past the size a run reads
-    /// counts as that, unhashed. An edited image or table thus changes it
-    /// as an edited task does.
-    pub fn content_hash(&self, tasks_file: &Path) -> Result<String, DatasetError> {
-        use crate::limits::{MAX_IMAGE_FILE_BYTES, MAX_TEXT_FILE_BYTES};
-        let named: BTreeSet<&PathBuf> = self
-            .tasks
-            .iter()
-            .flat_map(|task| task.image.iter().chain(&task.table))
-            .collect();
-        let largest = MAX_IMAGE_FILE_BYTES.max(MAX_TEXT_FILE_BYTES);
-        let mut listing = String::new();
-        for path in std::iter::once(tasks_file).chain(named.iter().map(|p| p.as_path())) {
-            let read = |error| DatasetError::Read {
-                path: path.to_path_buf(),
-                error,
-            };
-            let hash = match std::fs::metadata(path) {
-                Err(error) if error.kind() == std::io::ErrorKind::NotFound => "missing".into(),
-                Err(error) => return Err(read(error)),
-                Ok(meta) if !meta.is_file() => "not a regular file".into(),
-                Ok(meta) if meta.len() > largest => format!("{} bytes, past the limit", meta.len()),
-                Ok(_) => crate::models::sha256_file(path, |_| {}).map_err(read)?,
-            };
-            let name = path.strip_prefix(&self.root).unwrap_or(path);
-            listing += &format!("{}\0{hash}\n", name.display());
-        }
-        Ok(crate::agents::sha256_hex(listing.as_bytes()))
     }
 
     /// The task with this id.

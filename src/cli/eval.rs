@@ -113,7 +113,7 @@ pub fn run(args: &EvalArgs) -> anyhow::Result<ExitCode> {
     let _lock = Lock::acquire(&args.out.join(LOCK_FILE), "mapvlm eval")
         .context("another eval is writing this --out, so nothing was asked of any model")?;
     let (mut dataset, bad_lines) = Dataset::load_with(&args.dataset, args.allow_outside_paths)?;
-    let dataset_hash = dataset.content_hash(&Dataset::tasks_file(&args.dataset))?;
+    let dataset_hash = super::file_sha256(&Dataset::tasks_file(&args.dataset))?;
     let bad_tasks = bad_lines_of_shard(&bad_lines, shard);
     let dataset_tasks: Vec<String> = dataset.tasks.iter().map(|t| t.id.clone()).collect();
     dataset.tasks.retain(|task| shard.contains(&task.id));

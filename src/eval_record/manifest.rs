@@ -46,8 +46,7 @@ pub struct Manifest {
 pub struct Provenance {
     /// The mapvlm version that scored.
     pub mapvlm_version: String,
-    /// The SHA-256 of the dataset's tasks file and of the images and
-    /// tables its tasks name, in hex ([`crate::dataset::Dataset::content_hash`]).
+    /// The SHA-256 of the dataset's tasks file, in hex.
     pub dataset_hash: String,
     /// The metrics computed: `kas`, and `pg2s` when PG2S was scored.
     pub metrics: Vec<String>,

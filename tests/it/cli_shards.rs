@@ -187,24 +187,6 @@ fn eval(out: &Path, shard: Option<&str>) {
     assert!(done.status.success(), "{shard:?}: {}", stderr(&done));
 }
 
-/// `eval` of the published plans of `data` (KAS, no model), shard `shard`, into `out`.
-fn eval_shard_of(data: &Path, shard: &str, out: &Path) -> Output {
-    let (d, o) = (data.to_string_lossy(), out.to_string_lossy());
-    let args = [
-        "eval",
-        "--dataset",
-        &d,
-        "--from-dataset-plans",
-        "--metrics",
-        "kas",
-        "--out",
-        &o,
-        "--shard",
-        shard,
-    ];
-    run(&args, &[])
-}
-
 fn merge(shards: &[&Path], out: &Path) -> Output {
     let mut args: Vec<String> = vec!["merge".into()];
     args.extend(shards.iter().map(|p| p.to_string_lossy().into_owned()));
@@ -484,7 +466,23 @@ fn a_bad_tasks_line_fails_only_its_shard_and_one_without_an_id_fails_every_shard
     std::fs::write(data.join("tasks.jsonl"), lines.join("\n") + "\n")
         .unwrap_or_else(|e| panic!("{e}"));
     let owner = mapvlm::shard::Shard::of("bad", 3);
-    let eval_shard = |i: u64, out: &Path| eval_shard_of(&data, &format!("{i}/3"), out);
+    let eval_shard = |i: u64, out: &Path| {
+        let (d, o) = (data.to_string_lossy(), out.to_string_lossy());
+        let shard = format!("{i}/3");
+        let args = [
+            "eval",
+            "--dataset",
+            &d,
+            "--from-dataset-plans",
+            "--metrics",
+            "kas",
+            "--out",
+            &o,
+            "--shard",
+            &shard,
+        ];
+        run(&args, &[])
+    };
     let dirs: Vec<_> = (1..=3).map(|i| home.path().join(format!("s{i}"))).collect();
     for (i, dir) in (1..=3).zip(&dirs) {
         let done = eval_shard(i, dir);
@@ -521,63 +519,4 @@ fn a_bad_tasks_line_fails_only_its_shard_and_one_without_an_id_fails_every_shard
     let shard_dirs: Vec<&Path> = fresh.iter().map(|p| p.as_path()).collect();
     let refused = merge(&shard_dirs, &home.path().join("m2"));
     assert_one_line_failure(&refused, "line 7 of the tasks file (no readable id)");
-}
-
-#[test]
-fn a_changed_image_or_table_of_the_dataset_makes_merge_and_resume_refuse_naming_the_hash() {
-    let home = tempfile::tempdir().unwrap_or_else(|e| panic!("{e}"));
-    let data = home.path().join("data");
-    for folder in ["images", "tables"] {
-        std::fs::create_dir_all(data.join(folder)).unwrap_or_else(|e| panic!("{e}"));
-    }
-    let (image, table) = (data.join("images/1.png"), data.join("tables/1.csv"));
-    std::fs::write(&image, b"the scene as it was").unwrap_or_else(|e| panic!("{e}"));
-    std::fs::write(&table, "id,object_type\n1,Mug\n").unwrap_or_else(|e| panic!("{e}"));
-    let lines: Vec<String> = (1..=6)
-        .map(|i| {
-            format!(
-                r#"{{"id": "t-{i}", "task": "Wash mug {i}", "image": "images/1.png", "table": "tables/1.csv", "ground_truth": ["Walk to the sink.", "Wash the mug."], "single_agent_image": ["Go to the sink.", "Wash the mug."]}}"#
-            )
-        })
-        .collect();
-    std::fs::write(data.join("tasks.jsonl"), lines.join("\n") + "\n")
-        .unwrap_or_else(|e| panic!("{e}"));
-    let eval_shard = |i: u64, out: &Path| eval_shard_of(&data, &format!("{i}/2"), out);
-    let hash =
-        |dir: &Path| read_json(&dir.join("manifest.json"))["provenance"]["dataset_hash"].clone();
-    let (one, two) = (home.path().join("s1"), home.path().join("s2"));
-    for (i, dir) in [(1, &one), (2, &two)] {
-        let done = eval_shard(i, dir);
-        assert!(done.status.success(), "shard {i}: {}", stderr(&done));
-    }
-    assert_eq!(hash(&one), hash(&two));
-    let before = read(&one.join("manifest.json"));
-
-    for (file, changed) in [
-        (&image, &b"the scene, edited"[..]),
-        (&table, &b"id,object_type\n1,Cup\n"[..]),
-    ] {
-        let kept = read(file);
-        std::fs::write(file, changed).unwrap_or_else(|e| panic!("{e}"));
-        let name = file
-            .file_name()
-            .unwrap_or_default()
-            .to_string_lossy()
-            .into_owned();
-        let again = home.path().join(format!("s2-{name}"));
-        let done = eval_shard(2, &again);
-        assert!(done.status.success(), "{name}: {}", stderr(&done));
-        assert_ne!(hash(&again), hash(&one), "{name} is part of the hash");
-        let refused = merge(&[&one, &again], &home.path().join(format!("m-{name}")));
-        assert_one_line_failure(&refused, "`dataset_hash`");
-        assert_one_line_failure(&eval_shard(1, &one), "`dataset_hash`");
-        assert_eq!(
-            read(&one.join("manifest.json")),
-            before,
-            "{name}: nothing rewritten"
-        );
-        std::fs::write(file, kept).unwrap_or_else(|e| panic!("{e}"));
-    }
-    let merged = merge(&[&one, &two], &home.path().join("merged"));
-    assert!(merged.status.success(), "{}", stderr(&merged));
 }
