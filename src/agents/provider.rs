@@ -426,7 +426,7 @@ impl HttpEndpoint {
             AgentError::Connect {
                 provider: self.provider,
                 url: self.shown_url(),
-                message: self.redact(&with_certificate_hint(root_cause(err))),
+                message: self.redact(&connection_failure(err)),
             }
         } else {
             AgentError::InvalidResponse {
@@ -690,10 +690,19 @@ fn root_cause(err: &(dyn std::error::Error + 'static)) -> String {
     cause.to_string()
 }
 
+/// What a failed connection says: its deepest cause, with where trusted
+/// certificates come from when it is a TLS failure; the one wording of the
+/// providers' clients and of `models fetch`'s Hub downloads.
+pub fn connection_failure(err: &(dyn std::error::Error + 'static)) -> String {
+    with_certificate_hint(root_cause(err))
+}
+
 /// A TLS failure's cause with where trusted certificates come from: the
 /// system's roots, `SSL_CERT_FILE` and `SSL_CERT_DIR` (read by
-/// rustls-native-certs), so a server behind a private CA can be reached.
-fn with_certificate_hint(cause: String) -> String {
+/// rustls-native-certs), so a server behind a private CA can be reached;
+/// also said of `models fetch`'s downloads (the Hub, and pip, which is
+/// given `SSL_CERT_FILE`). Other causes are returned as they are.
+pub fn with_certificate_hint(cause: String) -> String {
     if cause.to_ascii_lowercase().contains("certificate") {
         format!(
             "{cause} (the system's certificates and the bundled web roots are trusted; for a private CA put its PEM file in SSL_CERT_FILE or its folder in SSL_CERT_DIR)"

@@ -38,6 +38,7 @@ mod kas_golden;
 mod keyed_vectors;
 mod models;
 mod models_cli;
+mod models_fetch_faults;
 mod models_hf_cli;
 mod models_hub;
 mod mpnet;
