@@ -452,6 +452,11 @@ impl HttpEndpoint {
         if response.content_length().is_some_and(|n| n > limit as u64) {
             return Err(too_long());
         }
+        let streamed = response
+            .headers()
+            .get(reqwest::header::CONTENT_TYPE)
+            .and_then(|v| v.to_str().ok())
+            .is_some_and(|v| v.starts_with("text/event-stream"));
         let mut body = Vec::new();
         while let Some(piece) = cancellable(cancel, response.chunk())
             .await?
@@ -462,12 +467,20 @@ impl HttpEndpoint {
             }
             body.extend_from_slice(&piece);
         }
-        serde_json::from_slice(&body).map_err(|err| AgentError::InvalidResponse {
-            provider: self.provider,
-            message: format!(
-                "invalid JSON ({err}): {}",
-                shorten(&self.redact(&crate::sanitize::body_text(&body)), 120)
-            ),
+        serde_json::from_slice(&body).map_err(|err| {
+            let excerpt = shorten(&self.redact(&crate::sanitize::body_text(&body)), 120);
+            let message = if streamed || body.starts_with(b"data:") {
+                format!(
+                    "an event stream (text/event-stream) instead of the whole answer asked for (--no-stream): the server does not honour `\"stream\": false`; leave out --no-stream. It began: {}",
+                    crate::sanitize::one_line(&excerpt)
+                )
+            } else {
+                format!("invalid JSON ({err}): {}", crate::sanitize::one_line(&excerpt))
+            };
+            AgentError::InvalidResponse {
+                provider: self.provider,
+                message,
+            }
         })
     }
 
