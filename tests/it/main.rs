@@ -33,6 +33,7 @@ mod eval_batch;
 mod eval_safety;
 mod faults_hostile;
 mod faults_input;
+mod faults_limits;
 mod faults_paths_and_flags;
 mod faults_provider;
 mod kas_golden;
