@@ -384,3 +384,53 @@ exec "$@""#;
     );
     assert_eq!(asked(&server).await, 1);
 }
+
+#[tokio::test(flavor = "multi_thread")]
+async fn cache_clear_removes_only_entries_of_the_cache() {
+    let home = tempfile::tempdir().unwrap();
+    let server = crate::faults_provider::planning_server().await;
+    let base = base_url(&server, ProviderKind::Openai);
+    // A real entry: an answer cached by a run.
+    let args = crate::faults_provider::plan_args(home.path(), &base, &[]);
+    let planned = run(args, home.path()).await;
+    assert!(planned.status.success(), "{}", stderr(&planned));
+    let cache = home.path().join("cache/mapvlm/responses");
+    let entries = |dir: &Path| -> Vec<std::path::PathBuf> {
+        crate::common::files_under(dir)
+            .into_iter()
+            .map(|(path, _)| path)
+            .filter(|path| {
+                // 64 hex digits, as `SHARD/KEY.json`.
+                path.extension().is_some_and(|e| e == "json")
+                    && path.file_stem().is_some_and(|n| {
+                        n.len() == 64 && n.to_string_lossy().bytes().all(|b| b.is_ascii_hexdigit())
+                    })
+            })
+            .collect()
+    };
+    let cached = entries(&cache);
+    assert_eq!(cached.len(), 1, "{cached:?}");
+    let entry = &cached[0];
+    let name = entry.file_name().unwrap().to_owned();
+    let elsewhere = home.path().join("elsewhere");
+    std::fs::create_dir_all(&elsewhere).unwrap();
+    std::fs::write(elsewhere.join("a.bin"), b"keep").unwrap();
+    std::os::unix::fs::symlink(&elsewhere, cache.join("linked")).unwrap();
+    let theirs = [
+        cache.join("sub/a.bin"),
+        entry.with_file_name("notes.txt"),
+        cache.join("zz").join(&name),
+        elsewhere.join("a.bin"),
+    ];
+    for file in &theirs {
+        std::fs::create_dir_all(file.parent().unwrap()).unwrap();
+        std::fs::write(file, b"keep").unwrap();
+    }
+
+    let cleared = run(os(&["cache", "clear", "responses"]), home.path()).await;
+    assert!(cleared.status.success(), "{}", stderr(&cleared));
+    assert!(!entry.exists(), "the entry is removed");
+    for file in &theirs {
+        assert!(file.exists(), "{} is kept", file.display());
+    }
+}
