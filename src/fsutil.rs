@@ -62,6 +62,28 @@ impl From<FsError> for io::Error {
     }
 }
 
+/// A path that is not UTF-8 text where mapvlm keeps paths as text (`plan
+/// --json`, records, `eval`'s results): it would fail to be written after
+/// the models were paid, so it is refused before anything is asked.
+#[derive(Debug, thiserror::Error)]
+#[error("{what} {}: the path is not UTF-8 text, and mapvlm keeps the paths it is given as text (in --json, records and results); rename it, or link it under a UTF-8 name and give that", path.to_string_lossy())]
+pub struct NotUtf8Path {
+    /// Where the path came from (a flag, e.g. `--image`).
+    pub what: String,
+    /// The path.
+    pub path: PathBuf,
+}
+
+/// `path` as UTF-8 text, or a [`NotUtf8Path`] naming it (lossily) as
+/// `what`: the check of every path a command will write as text, made
+/// before any work is spent.
+pub fn utf8_path<'a>(what: &str, path: &'a Path) -> Result<&'a str, NotUtf8Path> {
+    path.to_str().ok_or_else(|| NotUtf8Path {
+        what: what.to_string(),
+        path: path.to_path_buf(),
+    })
+}
+
 /// The folder a file at `path` lives in (`.` for a bare file name).
 fn folder_of(path: &Path) -> &Path {
     path.parent()

@@ -1,7 +1,7 @@
 //! Every size limit on what mapvlm reads, in one place: a server, a file or
 //! a model may send more than any real input holds, and reading it whole
 //! would fill memory. Each limit is named in the message of the input it
-//! stops, and listed in `docs/limits.md`.
+//! stops, and listed in `docs/commands.md`.
 
 /// Bytes of answer allowed per token of `max_tokens`: a token of any
 /// tokenizer is at most a few bytes of UTF-8, so a longer answer did not

@@ -11,7 +11,7 @@ fn main() -> ExitCode {
         Err(err) => {
             // The error may quote a server, a model, a file or a path.
             let line = mapvlm::sanitize::redact_url_credentials(&format!("{err:#}"));
-            eprintln!("mapvlm: {}", mapvlm::sanitize::for_terminal(&line));
+            eprintln!("mapvlm: {}", mapvlm::sanitize::one_line(&line));
             ExitCode::FAILURE
         }
     }

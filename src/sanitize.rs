@@ -23,6 +23,13 @@ pub fn for_terminal(s: &str) -> String {
     escape_unsafe(s, |cp| format!("\\u{{{cp:x}}}"))
 }
 
+/// `s` as one line of a message: [`for_terminal`], with each line break
+/// shown as `\n`, so that a path, a body or an answer quoted in an error
+/// can neither split the line nor fake another one.
+pub fn one_line(s: &str) -> String {
+    for_terminal(s).replace('\n', "\\n")
+}
+
 /// One CSV field as RFC 4180 writes it: quoted, with its quotes doubled,
 /// when it holds a comma, a quote or a line break; as it is otherwise.
 pub fn csv_field(text: &str) -> String {
@@ -118,6 +125,13 @@ mod tests {
             for_terminal(s),
             "a\\u{1b}]52;c;Zm9v\\u{7}b\\u{d}\nc\td\\u{9b}6n\\u{202e}x\\u{7f}"
         );
+    }
+
+    #[test]
+    fn one_line_shows_line_breaks_so_nothing_splits_the_line() {
+        let line = one_line("image a\nmapvlm: fake.png\r\n\tdone");
+        assert_eq!(line, "image a\\nmapvlm: fake.png\\u{d}\\n\tdone");
+        assert_eq!(line.lines().count(), 1);
     }
 
     #[test]

@@ -66,6 +66,13 @@ pub enum ShardError {
         /// SLURM_ARRAY_TASK_COUNT.
         count: u64,
     },
+    /// `SLURM_ARRAY_TASK_ID` without the `SLURM_ARRAY_TASK_COUNT` Slurm
+    /// sets beside it in a job array.
+    #[error("auto: SLURM_ARRAY_TASK_ID is {id} but SLURM_ARRAY_TASK_COUNT is not set, as Slurm sets both in a job array (sbatch --array); run it as one, or give --shard I/N")]
+    SlurmNoCount {
+        /// SLURM_ARRAY_TASK_ID.
+        id: u64,
+    },
     /// An Indexed Job without the count of its completions.
     #[error("auto: JOB_COMPLETION_INDEX is set but not the shard count; give --shard-count N or set MAPVLM_SHARD_COUNT to the Job's completions")]
     NoCount,
@@ -124,7 +131,7 @@ impl Shard {
         };
         if let Some(id) = number("SLURM_ARRAY_TASK_ID")? {
             let min = number("SLURM_ARRAY_TASK_MIN")?.unwrap_or(0);
-            let total = number("SLURM_ARRAY_TASK_COUNT")?.unwrap_or(0);
+            let total = number("SLURM_ARRAY_TASK_COUNT")?.ok_or(ShardError::SlurmNoCount { id })?;
             let slurm = ShardError::SlurmRange {
                 id,
                 min,
@@ -244,6 +251,12 @@ mod tests {
             matches!(err, Err(ShardError::SlurmRange { id: 8, .. })),
             "{err:?}"
         );
+        let alone = [("SLURM_ARRAY_TASK_ID", "2")];
+        let err = Shard::from_scheduler(env(&alone), None).unwrap_err();
+        assert_eq!(err, ShardError::SlurmNoCount { id: 2 });
+        assert!(err
+            .to_string()
+            .contains("SLURM_ARRAY_TASK_COUNT is not set"));
     }
 
     #[test]

@@ -412,12 +412,18 @@ impl Settings {
                 &format!("{role}: max_tokens"),
                 u64::from(merged.max_tokens.unwrap_or(DEFAULT_MAX_TOKENS)),
             )?;
+            let model = merged.model.unwrap_or_else(|| default_model.to_string());
+            if model.trim().is_empty() {
+                return Err(ConfigError::Invalid(format!(
+                    "{role}: the model name is empty; give one with --model NAME, --agent {role}.model=NAME or model = \"NAME\" in the config file"
+                )));
+            }
             agents.insert(
                 role,
                 AgentSettings {
                     provider,
                     base_url,
-                    model: merged.model.unwrap_or_else(|| default_model.to_string()),
+                    model,
                     api_key: merged.api_key,
                     temperature,
                     max_tokens,

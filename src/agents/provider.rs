@@ -436,7 +436,7 @@ impl HttpEndpoint {
             AgentError::Connect {
                 provider: self.provider,
                 url: self.shown_url(),
-                message: self.redact(&with_certificate_hint(root_cause(err))),
+                message: self.redact(&connection_failure(err)),
             }
         } else {
             AgentError::InvalidResponse {
@@ -462,6 +462,11 @@ impl HttpEndpoint {
         if response.content_length().is_some_and(|n| n > limit as u64) {
             return Err(too_long());
         }
+        let streamed = response
+            .headers()
+            .get(reqwest::header::CONTENT_TYPE)
+            .and_then(|v| v.to_str().ok())
+            .is_some_and(|v| v.starts_with("text/event-stream"));
         let mut body = Vec::new();
         while let Some(piece) = cancellable(cancel, response.chunk())
             .await?
@@ -472,12 +477,20 @@ impl HttpEndpoint {
             }
             body.extend_from_slice(&piece);
         }
-        serde_json::from_slice(&body).map_err(|err| AgentError::InvalidResponse {
-            provider: self.provider,
-            message: format!(
-                "invalid JSON ({err}): {}",
-                shorten(&self.redact(&crate::sanitize::body_text(&body)), 120)
-            ),
+        serde_json::from_slice(&body).map_err(|err| {
+            let excerpt = shorten(&self.redact(&crate::sanitize::body_text(&body)), 120);
+            let message = if streamed || body.starts_with(b"data:") {
+                format!(
+                    "an event stream (text/event-stream) instead of the whole answer asked for (--no-stream): the server does not honour `\"stream\": false`; leave out --no-stream. It began: {}",
+                    crate::sanitize::one_line(&excerpt)
+                )
+            } else {
+                format!("invalid JSON ({err}): {}", crate::sanitize::one_line(&excerpt))
+            };
+            AgentError::InvalidResponse {
+                provider: self.provider,
+                message,
+            }
         })
     }
 
@@ -700,10 +713,19 @@ fn root_cause(err: &(dyn std::error::Error + 'static)) -> String {
     cause.to_string()
 }
 
+/// What a failed connection says: its deepest cause, with where trusted
+/// certificates come from when it is a TLS failure; the one wording of the
+/// providers' clients and of `models fetch`'s Hub downloads.
+pub fn connection_failure(err: &(dyn std::error::Error + 'static)) -> String {
+    with_certificate_hint(root_cause(err))
+}
+
 /// A TLS failure's cause with where trusted certificates come from: the
 /// system's roots, `SSL_CERT_FILE` and `SSL_CERT_DIR` (read by
-/// rustls-native-certs), so a server behind a private CA can be reached.
-fn with_certificate_hint(cause: String) -> String {
+/// rustls-native-certs), so a server behind a private CA can be reached;
+/// also said of `models fetch`'s downloads (the Hub, and pip, which is
+/// given `SSL_CERT_FILE`). Other causes are returned as they are.
+pub fn with_certificate_hint(cause: String) -> String {
     if cause.to_ascii_lowercase().contains("certificate") {
         format!(
             "{cause} (the system's certificates and the bundled web roots are trusted; for a private CA put its PEM file in SSL_CERT_FILE or its folder in SSL_CERT_DIR)"

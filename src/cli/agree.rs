@@ -109,6 +109,9 @@ pub fn run(args: &AgreeArgs) -> anyhow::Result<ExitCode> {
         if n > MAX_RESAMPLES {
             bail!("{flag} {n} is more than {MAX_RESAMPLES}; ask for fewer");
         }
+        if n == 0 {
+            bail!("{flag} 0: the intervals and the test need at least 1 (1000 by default); ask for some");
+        }
     }
     let pg2s = args.pg2s.settings()?;
     let layout = plot::Layout::new(args.size, args.dpi, args.seed)?;

@@ -69,6 +69,18 @@ pub struct EvalArgs {
     pub shard: super::ShardArgs,
 }
 
+impl EvalArgs {
+    /// The approaches asked for: `--approaches`, else all four in Table 3
+    /// order.
+    fn approaches(&self) -> Vec<Approach> {
+        if self.approaches.is_empty() {
+            Approach::ALL.to_vec()
+        } else {
+            self.approaches.clone()
+        }
+    }
+}
+
 struct Job<'a> {
     task: &'a Task,
     approach: Approach,
@@ -99,6 +111,9 @@ const LOCK_FILE: &str = "eval.lock";
 /// scored; a task that fails is named with its reason and the others go on.
 pub fn run(args: &EvalArgs) -> anyhow::Result<ExitCode> {
     check_concurrency(args.agents.concurrency)?;
+    // The results name the dataset's files and the output folder as text.
+    crate::fsutil::utf8_path("--dataset", &args.dataset)?;
+    crate::fsutil::utf8_path("--out", &args.out)?;
     let samples = args.agents.samples;
     if samples > 1 && args.from_dataset_plans {
         anyhow::bail!("--samples {samples} with --from-dataset-plans: the dataset holds one plan per task and approach, so there is nothing to sample; leave out --samples");
@@ -117,11 +132,7 @@ pub fn run(args: &EvalArgs) -> anyhow::Result<ExitCode> {
     let bad_tasks = bad_lines_of_shard(&bad_lines, shard);
     let dataset_tasks: Vec<String> = dataset.tasks.iter().map(|t| t.id.clone()).collect();
     dataset.tasks.retain(|task| shard.contains(&task.id));
-    let approaches = if args.approaches.is_empty() {
-        Approach::ALL.to_vec()
-    } else {
-        args.approaches.clone()
-    };
+    let approaches = args.approaches();
     let prompt_set = args.agents.prompt_set()?;
     let settings = args.pg2s.settings()?;
     let scorer = pg2s_scorer(args, settings)?;
@@ -381,7 +392,7 @@ fn score(result: &mut TaskResult, scorer: Option<&Pg2sScorer>) -> anyhow::Result
 /// and written as soon as it is made.
 fn make_plans(args: &EvalArgs, jobs: Vec<Job<'_>>, done: &mut Finished) -> anyhow::Result<()> {
     let mut ledger = args.agents.ledger()?;
-    let (runner, recording) = args.agents.runner()?;
+    let (runner, recording) = args.agents.runner(&args.approaches())?;
     let inputs: Vec<PlanInput> = jobs.iter().map(|job| plan_input(job.task)).collect();
     let billing = args.batch.billing();
     let estimate = estimate_plans(

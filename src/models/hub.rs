@@ -262,7 +262,13 @@ fn hub_error(hub: &HubRepo, file: &str, err: ApiError) -> ModelsError {
         },
         _ => ModelsError::HubFailed {
             repo: what,
-            detail: err.to_string(),
+            detail: match &err {
+                ApiError::RequestError(e) => format!(
+                    "{err}: {}",
+                    crate::agents::provider::connection_failure(e)
+                ),
+                _ => err.to_string(),
+            },
         },
     }
 }

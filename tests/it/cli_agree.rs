@@ -39,7 +39,7 @@ fn agree_on(items: &str, scores: &str, annotations: &str, extra: &[&str]) -> Out
 }
 
 /// `agree` on the golden items, scores and annotations, plus `extra`.
-fn agree_golden(extra: &[&str]) -> Output {
+pub(crate) fn agree_golden(extra: &[&str]) -> Output {
     agree_on(
         &golden("items.jsonl"),
         &golden("scores.jsonl"),

@@ -236,17 +236,7 @@ ls "$DISK/out/tasks" 2>/dev/null | grep -c json
 exit $rc"#;
     let run = tokio::task::spawn_blocking({
         let home = home.path().to_path_buf();
-        move || {
-            let mapvlm = mapvlm_command(&args, &home);
-            Command::new("unshare")
-                .args(["-rm", "sh", "-c", script, "sh"])
-                .arg(mapvlm.get_program())
-                .args(mapvlm.get_args())
-                .envs(mapvlm.get_envs().filter_map(|(k, v)| v.map(|v| (k, v))))
-                .env("DISK", &disk)
-                .output()
-                .unwrap_or_else(|e| panic!("unshare is needed for this test (util-linux): {e}"))
-        }
+        move || crate::common::in_own_mounts(&mapvlm_command(&args, &home), script, &disk)
     })
     .await
     .unwrap();

@@ -505,36 +505,48 @@ async fn a_plan_over_the_step_limit_keeps_the_first_1000_steps_and_says_so() {
     );
 }
 
-/// The peak resident set of `command`, in KiB, read from `wait4`'s
-/// `ru_maxrss` for that child alone; and its output.
-// The child is reaped by `wait4` (which `Child::wait` cannot do with the usage).
-#[allow(clippy::zombie_processes)]
-fn peak_rss(mut command: std::process::Command) -> (i64, std::process::ExitStatus, String) {
-    use std::os::unix::process::ExitStatusExt;
-    let child = command
+/// Runs its arguments as a child forked from this small process and writes
+/// the child's peak resident set (KiB, `wait4`'s `ru_maxrss`) to the file
+/// `$RSS_FILE`, exiting as the child did. A child of the test process
+/// itself would count the test process's pages: the kernel keeps the
+/// high-water mark of the memory a process had before `exec`.
+const MEASURE: &str = r#"import os, sys
+pid = os.fork()
+if pid == 0:
+    os.execvp(sys.argv[1], sys.argv[1:])
+_, status, usage = os.wait4(pid, 0)
+with open(os.environ["RSS_FILE"], "w") as out:
+    out.write(str(usage.ru_maxrss))
+sys.exit(os.waitstatus_to_exitcode(status) % 256)
+"#;
+
+/// The peak resident set of `command`, in KiB, measured by [`MEASURE`]
+/// (python3 is needed); its exit status and stderr.
+pub(crate) fn peak_rss(command: std::process::Command) -> (i64, std::process::ExitStatus, String) {
+    let dir = tempfile::tempdir().unwrap();
+    let file = dir.path().join("rss");
+    let mut measure = std::process::Command::new("python3");
+    for (key, value) in command.get_envs() {
+        match value {
+            Some(value) => measure.env(key, value),
+            None => measure.env_remove(key),
+        };
+    }
+    let out = measure
+        .args(["-c", MEASURE])
+        .arg(command.get_program())
+        .args(command.get_args())
+        .env("RSS_FILE", &file)
         .stdout(std::process::Stdio::null())
-        .stderr(std::process::Stdio::piped())
-        .spawn()
+        .output()
+        .unwrap_or_else(|e| panic!("python3 is needed to measure memory: {e}"));
+    let err = String::from_utf8_lossy(&out.stderr).into_owned();
+    let peak = std::fs::read_to_string(&file)
+        .unwrap_or_else(|e| panic!("no peak measured ({e}): {err}"))
+        .trim()
+        .parse()
         .unwrap();
-    let pid = child.id() as libc::pid_t;
-    let mut stderr = child.stderr.unwrap();
-    let reader = std::thread::spawn(move || {
-        let mut text = String::new();
-        std::io::Read::read_to_string(&mut stderr, &mut text).unwrap();
-        text
-    });
-    let mut status = 0;
-    // SAFETY: `rusage` is a plain C struct that wait4 fills in.
-    let mut usage: libc::rusage = unsafe { std::mem::zeroed() };
-    // SAFETY: waits for our own child, with valid pointers.
-    let waited = unsafe { libc::wait4(pid, &mut status, 0, &mut usage) };
-    assert_eq!(waited, pid);
-    let err = reader.join().unwrap();
-    (
-        usage.ru_maxrss,
-        std::process::ExitStatus::from_raw(status),
-        err,
-    )
+    (peak, out.status, err)
 }
 
 #[test]

@@ -54,14 +54,19 @@ async fn requests(server: &MockServer) -> usize {
 
 pub(crate) async fn planning_server() -> MockServer {
     let server = MockServer::start().await;
+    answer_plans(&server).await;
+    server
+}
+
+/// Mounts on `server` the streamed two-step plan of [`planning_server`].
+pub(crate) async fn answer_plans(server: &MockServer) {
     let provider = ProviderKind::Openai;
     let plan = streamed(
         provider,
         &["1. Walk to the sink.\n", "2. Wash the mug."],
         true,
     );
-    answer(&server, provider, PLANNER_MARK, plan).await;
-    server
+    answer(server, provider, PLANNER_MARK, plan).await;
 }
 
 #[tokio::test(flavor = "multi_thread")]

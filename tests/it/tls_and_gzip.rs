@@ -17,7 +17,7 @@ use wiremock::{Mock, MockServer, ResponseTemplate};
 
 /// A private CA and a certificate it signed for `localhost`: the CA's PEM
 /// (what a user puts in `SSL_CERT_FILE`) and the server's TLS settings.
-fn private_ca() -> (String, ServerConfig) {
+pub(crate) fn private_ca() -> (String, ServerConfig) {
     let ca_key = rcgen::KeyPair::generate().unwrap();
     let mut ca_params = rcgen::CertificateParams::new(Vec::<String>::new()).unwrap();
     ca_params.is_ca = rcgen::IsCa::Ca(rcgen::BasicConstraints::Unconstrained);
@@ -40,7 +40,7 @@ fn private_ca() -> (String, ServerConfig) {
 
 /// Ends TLS on a local port and passes each connection on to `backend`
 /// (a plain-HTTP mock server); the `https://localhost:PORT` it serves.
-async fn tls_front(config: ServerConfig, backend: &MockServer) -> String {
+pub(crate) async fn tls_front(config: ServerConfig, backend: &MockServer) -> String {
     let listener = TcpListener::bind("127.0.0.1:0").await.unwrap();
     let port = listener.local_addr().unwrap().port();
     let acceptor = TlsAcceptor::from(Arc::new(config));

@@ -125,3 +125,18 @@ pub fn files_under(dir: &std::path::Path) -> Vec<(PathBuf, Vec<u8>)> {
     }
     found
 }
+
+/// Runs `command` through `sh -c script` in a user and mount namespace of
+/// its own (`unshare -rm`), with `$DISK` set to `disk` and the command as
+/// `"$@"`: the script mounts what it needs (a small tmpfs for a full disk),
+/// and nothing is left mounted when it ends. Fails without `unshare`.
+pub fn in_own_mounts(command: &Command, script: &str, disk: &std::path::Path) -> Output {
+    Command::new("unshare")
+        .args(["-rm", "sh", "-c", script, "sh"])
+        .arg(command.get_program())
+        .args(command.get_args())
+        .envs(command.get_envs().filter_map(|(k, v)| v.map(|v| (k, v))))
+        .env("DISK", disk)
+        .output()
+        .unwrap_or_else(|e| panic!("unshare is needed for this test (util-linux): {e}"))
+}
