@@ -427,18 +427,23 @@ impl App {
 
     pub(crate) fn cycle_approach(&mut self) -> Vec<Cmd> {
         let has_table = self.work.task.table.is_some();
+        let published = &self.work.task.published;
         let start = APPROACH_CYCLE
             .iter()
             .position(|a| *a == self.work.approach)
             .unwrap_or(0);
         let next = (1..=4)
             .map(|k| APPROACH_CYCLE[(start + k) % 4])
-            .find(|a| has_table || a.uses_image())
+            .find(|a| has_table || a.uses_image() || published.contains_key(a.dataset_field()))
             .unwrap_or(Approach::MultiImage);
         self.set_approach(next);
         self.saving.session_dirty = true;
         let mut note = format!("approach: {next}");
-        if !has_table {
+        if !has_table && !next.uses_image() {
+            note.push_str(
+                " · this task has no table file: the paper's plan is shown as a reference, and r needs a table",
+            );
+        } else if !has_table {
             note.push_str(" (the table approaches need a task with a table)");
         }
         self.set_status(note, Severity::Info);

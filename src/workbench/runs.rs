@@ -294,6 +294,16 @@ impl App {
             self.set_status("a run is in flight: x cancels it", Severity::Warn);
             return Vec::new();
         }
+        if !self.work.approach.uses_image() && self.work.task.table.is_none() {
+            self.set_status(
+                format!(
+                    "the {} approach reads the task's environment table, and this task has none: give it a `table` file in tasks.jsonl, or press a for an image approach (the Plan pane shows the paper's plan as a reference)",
+                    self.work.approach
+                ),
+                Severity::Warn,
+            );
+            return Vec::new();
+        }
         if matches!(self.editing, Editing::Prompt) {
             self.panes.prompt.store_editor(self.work.approach);
         }

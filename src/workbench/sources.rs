@@ -104,7 +104,8 @@ impl App {
                 self.work.ground_truth_source = GroundTruthSource::Dataset {
                     task: task.id.clone(),
                 };
-                if !self.work.approach.uses_image() && self.work.task.table.is_none() {
+                let published = task.plans.contains_key(self.work.approach.dataset_field());
+                if !self.work.approach.uses_image() && task.table.is_none() && !published {
                     self.set_approach(Approach::MultiImage);
                 }
                 self.use_configured_providers();

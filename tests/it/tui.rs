@@ -1465,3 +1465,35 @@ fn undo_restores_edited_deleted_and_moved_steps_a_hundred_levels_deep() {
         GroundTruthSource::Demo { index: 0 }
     );
 }
+
+/// On a task without a table file, the table approaches show the paper's
+/// table plan, scored, as a reference titled so; `r` says what is missing
+/// and sends nothing, and no run enters the history.
+#[test]
+fn a_table_approach_without_a_table_file_shows_the_papers_plan_as_a_reference() {
+    use mapvlm::agents::Approach;
+    let root = concat!(env!("CARGO_MANIFEST_DIR"), "/../shared/data/alfred30");
+    let (dataset, _) = mapvlm::dataset::Dataset::load(std::path::Path::new(root)).unwrap();
+    let task = &dataset.tasks[0];
+    assert!(task.table.is_none(), "the first task has no table file");
+    let mut h = started(
+        AppInit {
+            dataset: Some(dataset.clone()),
+            ..AppInit::demo((200, 60), "no models in this test")
+        },
+        bag_of_words(),
+    );
+    while h.app.work.approach != Approach::MultiTable {
+        h.key(KeyCode::Char('a'));
+    }
+    assert_eq!(h.app.panes.plan.items, task.plans["multi_agent_table"]);
+    assert!(h.app.work.scores.is_some(), "the reference is scored");
+    let screen = h.screen();
+    assert!(screen.contains("the paper's multi-table plan"), "{screen}");
+    let runs = h.app.runs.history.len();
+    h.key(KeyCode::Char('r'));
+    assert!(h.app.runs.active.is_none());
+    assert_eq!(h.app.runs.history.len(), runs, "no run enters the history");
+    let screen = h.screen();
+    assert!(screen.contains("this task has none"), "{screen}");
+}

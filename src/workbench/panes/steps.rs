@@ -295,6 +295,17 @@ pub(crate) fn draw(frame: &mut Frame, app: &App, list: StepList, area: Rect) {
                         },
                     },
                 ),
+                PlanSource::Published { approach, .. }
+                    if !approach.uses_image() && app.work.task.table.is_none() =>
+                {
+                    Some(Span::styled(
+                        format!(
+                            "the paper's {} plan · a reference, no table file to run",
+                            approach.name()
+                        ),
+                        t.warn,
+                    ))
+                }
                 PlanSource::Published { approach, .. } => Some(Span::styled(
                     format!("published {}", approach.name()),
                     t.muted,
