@@ -25,7 +25,7 @@ use crate::workbench::panes::graph::GraphPane;
 use crate::workbench::panes::prompt::PromptPane;
 use crate::workbench::panes::scene::scene_image_area;
 use crate::workbench::panes::scene::ScenePane;
-use crate::workbench::panes::steps::{demo_ground_truth, StepList, Steps};
+use crate::workbench::panes::steps::{demo_ground_truth, StepList, StepUndo, Steps};
 use crate::workbench::panes::{Pane, Panes};
 use crate::workbench::persist::Persist;
 use crate::workbench::runs::Runs;
@@ -35,7 +35,6 @@ use crate::workbench::session::{
 };
 use crate::workbench::shared::Severity;
 use crate::workbench::theme::Theme;
-use crate::workbench::undo::StepUndo;
 
 /// The order the approaches cycle in.
 const APPROACH_CYCLE: [Approach; 4] = [

@@ -134,11 +134,12 @@ impl App {
         self.work.parked.push(s.current);
         let cmds = self.open_source(task);
         if let Some(id) = kept {
+            // A start notice, so that the demo's first run does not hide it.
             let opened = wanted.as_deref().unwrap_or("the demo");
-            self.set_status(
-                format!("{opened} opened; the session's task {id} and its runs are kept for when it is opened again"),
-                Severity::Info,
+            let text = format!(
+                "{opened} opened; the session's task {id} and its runs are kept for when it is opened again (Esc hides this)"
             );
+            self.messages.notice.get_or_insert((text, Severity::Info));
         }
         self.work.samples = s.samples;
         let draft = s.draft.filter(|_| same);

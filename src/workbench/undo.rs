@@ -1,40 +1,33 @@
-//! Taking back step edits: each edit, insertion, deletion or move of a
-//! plan or ground-truth step keeps the list as it was before, so `u` puts
-//! it back, one edit at a time, on the source it was made on.
+//! Taking back edits one at a time: a bounded stack of the states before
+//! each edit, newest last. A leaf module: the step lists keep their states
+//! in it ([`crate::workbench::panes::steps::StepsBefore`]), so that `u`
+//! puts a list back on the source it was edited on.
 
 use std::collections::VecDeque;
 
-use crate::workbench::panes::steps::{StepList, Steps};
-use crate::workbench::session::{GroundTruthSource, PlanSource};
-
-/// How many step edits `u` can take back on one source; the oldest goes
-/// when one more is made.
+/// How many edits `u` can take back on one source; the oldest goes when
+/// one more is made.
 pub const UNDO_LEVELS: usize = 200;
 
-/// A step list as it was before an edit, with where its steps came from.
+/// The states before the edits that can be taken back, newest last, at
+/// most [`UNDO_LEVELS`].
 #[derive(Debug, Clone, PartialEq)]
-pub struct StepsBefore {
-    /// Which list was edited.
-    pub list: StepList,
-    /// Its steps and selection.
-    pub steps: Steps,
-    /// The plan's origin then (an edit of the plan keeps it; a restored
-    /// one must say where its steps came from).
-    pub plan_source: PlanSource,
-    /// The ground truth's origin then (an edit makes it `typed`).
-    pub ground_truth_source: GroundTruthSource,
+pub struct Undo<T> {
+    done: VecDeque<T>,
 }
 
-/// The edits of one source that can be taken back, newest last.
-#[derive(Debug, Clone, Default, PartialEq)]
-pub struct StepUndo {
-    done: VecDeque<StepsBefore>,
+impl<T> Default for Undo<T> {
+    fn default() -> Self {
+        Undo {
+            done: VecDeque::new(),
+        }
+    }
 }
 
-impl StepUndo {
+impl<T> Undo<T> {
     /// Keeps `before` as the state the newest edit changed, forgetting the
     /// oldest beyond [`UNDO_LEVELS`].
-    pub fn push(&mut self, before: StepsBefore) {
+    pub fn push(&mut self, before: T) {
         if self.done.len() == UNDO_LEVELS {
             self.done.pop_front();
         }
@@ -42,7 +35,7 @@ impl StepUndo {
     }
 
     /// The state before the newest edit, taken off the stack.
-    pub fn pop(&mut self) -> Option<StepsBefore> {
+    pub fn pop(&mut self) -> Option<T> {
         self.done.pop_back()
     }
 
@@ -61,28 +54,19 @@ impl StepUndo {
 mod tests {
     use super::*;
 
-    fn before(n: usize) -> StepsBefore {
-        StepsBefore {
-            list: StepList::Plan,
-            steps: Steps::new(vec![format!("step {n}")]),
-            plan_source: PlanSource::None,
-            ground_truth_source: GroundTruthSource::Typed,
-        }
-    }
-
     #[test]
     fn the_newest_comes_back_first_and_the_oldest_goes_past_the_limit() {
-        let mut undo = StepUndo::default();
+        let mut undo = Undo::default();
         for n in 0..UNDO_LEVELS + 5 {
-            undo.push(before(n));
+            undo.push(n);
         }
         assert_eq!(undo.len(), UNDO_LEVELS);
-        assert_eq!(undo.pop(), Some(before(UNDO_LEVELS + 4)));
+        assert_eq!(undo.pop(), Some(UNDO_LEVELS + 4));
         let mut last = None;
         while let Some(b) = undo.pop() {
             last = Some(b);
         }
-        assert_eq!(last, Some(before(5)), "the five oldest were forgotten");
+        assert_eq!(last, Some(5), "the five oldest were forgotten");
         assert!(undo.is_empty());
     }
 }

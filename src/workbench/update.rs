@@ -13,13 +13,12 @@ use crate::workbench::message::{Cmd, Msg};
 use crate::workbench::overlays::actions::ActionsView;
 use crate::workbench::overlays::help::Help;
 use crate::workbench::overlays::Overlay;
-use crate::workbench::panes::steps::StepList;
+use crate::workbench::panes::steps::{StepList, StepsBefore};
 use crate::workbench::panes::{list_window, Pane};
 use crate::workbench::scoring::ModelSlot;
 use crate::workbench::scroll::{Motion, WHEEL_LINES};
 use crate::workbench::session::GroundTruthSource;
 use crate::workbench::shared::{single_line_editor, Severity};
-use crate::workbench::undo::StepsBefore;
 
 impl App {
     /// The top-level update: applies one message.

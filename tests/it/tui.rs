@@ -1302,6 +1302,10 @@ fn the_demo_and_a_dataset_task_keep_their_own_plans_and_runs() {
     let screen = back_to_demo.screen();
     assert!(screen.contains("PG2S 0.900"), "{screen}");
     assert!(
+        screen.contains("the session's task") && screen.contains("are kept"),
+        "the start says where the task went, after the demo's run too: {screen}"
+    );
+    assert!(
         back_to_demo
             .app
             .runs

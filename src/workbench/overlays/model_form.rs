@@ -115,12 +115,22 @@ impl ModelForm {
         }
     }
 
+    /// [`ModelForm::base_url`], checked when it is not the one the agent
+    /// already had (a URL from the config file is the config file's to
+    /// check; one typed here must be a URL without credentials).
+    fn checked_url(&self, provider: ProviderKind) -> Result<String, String> {
+        let base_url = self.base_url(provider);
+        if base_url != self.opened_with.base_url {
+            check_form_url(self.agent, &base_url)?;
+        }
+        Ok(base_url)
+    }
+
     /// Where a run with the typed fields sends its requests, or why the
     /// fields name no place yet.
     fn destination(&self) -> Result<String, String> {
         let provider = self.text(PROVIDER).parse::<ProviderKind>()?;
-        let base_url = self.base_url(provider);
-        check_form_url(self.agent, &base_url)?;
+        let base_url = self.checked_url(provider)?;
         Ok(match provider.request_path() {
             Some(path) => endpoint_url(&redact_url_credentials(&base_url), path),
             None => "nowhere: the demo's recording answers".to_string(),
@@ -136,8 +146,7 @@ impl ModelForm {
             return Err("provider and model must be set".into());
         }
         let provider = provider.parse::<ProviderKind>()?;
-        let base_url = self.base_url(provider);
-        check_form_url(self.agent, &base_url)?;
+        let base_url = self.checked_url(provider)?;
         let temperature = self
             .text(TEMPERATURE)
             .parse::<f64>()
@@ -555,6 +564,31 @@ mod tests {
         assert!(problem.contains("ANTHROPIC_API_KEY"), "{problem}");
         assert!(!problem.contains("sk-secret"), "{problem}");
         assert_eq!(planner_url(&app), "https://api.anthropic.com");
+        press(&mut app, KeyCode::Esc, KeyModifiers::NONE);
+
+        // A URL with credentials from the config file is shown redacted and
+        // kept as it is when the form saves without touching it.
+        let configured = AgentSettings {
+            base_url: "http://user:sk-secret@127.0.0.1:8000/v1".into(),
+            ..AgentSettings::new(ProviderKind::Openai, "gpt-4o", 0.0, 512)
+        };
+        app.runs
+            .agents
+            .get_mut(&AgentRole::Planner)
+            .unwrap()
+            .settings = configured.clone();
+        app.open_model_form();
+        let Some(Overlay::ModelForm(form)) = &app.overlay else {
+            panic!("not open");
+        };
+        assert_eq!(form.text(BASE_URL), "http://***@127.0.0.1:8000/v1");
+        assert_eq!(
+            form.destination(),
+            Ok("http://***@127.0.0.1:8000/v1/chat/completions".to_string())
+        );
+        press(&mut app, KeyCode::Enter, KeyModifiers::NONE);
+        assert!(app.overlay.is_none(), "saved");
+        assert_eq!(planner_url(&app), configured.base_url);
     }
 
     fn planner_url(app: &App) -> String {

@@ -21,9 +21,8 @@ use crate::workbench::app::App;
 use crate::workbench::panes::graph::GraphPane;
 use crate::workbench::panes::prompt::PromptPane;
 use crate::workbench::panes::scene::ScenePane;
-use crate::workbench::panes::steps::{StepList, Steps};
+use crate::workbench::panes::steps::{StepList, StepUndo, Steps};
 use crate::workbench::runs::{AgentStatus, AgentView};
-use crate::workbench::undo::StepUndo;
 
 /// The panes' own state: each pane's content and view.
 pub struct Panes {

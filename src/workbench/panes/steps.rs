@@ -15,7 +15,8 @@ use crate::workbench::keymap::Action;
 use crate::workbench::panes::{highlighted, list_window, pane_block, Pane};
 use crate::workbench::runs::AgentStatus;
 use crate::workbench::scoring::{Pg2sOutcome, ScoreOutcome};
-use crate::workbench::session::PlanSource;
+use crate::workbench::session::{GroundTruthSource, PlanSource};
+use crate::workbench::undo::Undo;
 
 /// Which step list an editor works on.
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
@@ -42,6 +43,24 @@ pub(crate) fn demo_ground_truth(index: usize) -> Vec<String> {
         demo::GROUND_TRUTH
     })
 }
+
+/// A step list as it was before an edit, with where its steps came from:
+/// what `u` puts back ([`StepUndo`]).
+#[derive(Debug, Clone, PartialEq)]
+pub struct StepsBefore {
+    /// Which list was edited.
+    pub list: StepList,
+    /// Its steps and selection.
+    pub steps: Steps,
+    /// The plan's origin then (a restored plan must say where its steps
+    /// came from).
+    pub plan_source: PlanSource,
+    /// The ground truth's origin then (an edit makes it `typed`).
+    pub ground_truth_source: GroundTruthSource,
+}
+
+/// The step edits `u` can take back on one source.
+pub type StepUndo = Undo<StepsBefore>;
 
 /// A list of steps with a selection: the plan or the ground truth. Both
 /// panes edit, move and search their steps through this one type.
@@ -324,14 +343,12 @@ pub(crate) fn draw(frame: &mut Frame, app: &App, list: StepList, area: Rect) {
         }
         StepList::GroundTruth => Some(Span::styled(
             match &app.work.ground_truth_source {
-                crate::workbench::session::GroundTruthSource::Demo { index } => {
+                GroundTruthSource::Demo { index } => {
                     format!("demo annotator {}", if *index == 1 { 'B' } else { 'A' })
                 }
-                crate::workbench::session::GroundTruthSource::Dataset { task } => task.clone(),
-                crate::workbench::session::GroundTruthSource::File { path } => {
-                    path.display().to_string()
-                }
-                crate::workbench::session::GroundTruthSource::Typed => "typed".to_string(),
+                GroundTruthSource::Dataset { task } => task.clone(),
+                GroundTruthSource::File { path } => path.display().to_string(),
+                GroundTruthSource::Typed => "typed".to_string(),
             },
             t.muted,
         )),
