@@ -5,7 +5,7 @@ use std::io::Cursor;
 use std::path::Path;
 
 use base64::Engine;
-use image::{ImageFormat, ImageReader};
+use image::{DynamicImage, ImageFormat, ImageReader};
 
 use super::provider::ImageInput;
 use super::{sha256_hex, AgentError};
@@ -13,7 +13,39 @@ use super::{sha256_hex, AgentError};
 /// The default longest edge, in pixels, of an image sent to a model.
 pub const DEFAULT_MAX_EDGE: u32 = 1024;
 
-/// Reads the image at `path`, checks it decodes, and downscales it so that
+/// Reads the image file at `path` within its size limit and decodes it:
+/// the bytes, their format and the picture, or why it cannot be used, in
+/// words for the user. The one reading of a scene image, so that what a
+/// provider is sent and what a screen shows are refused alike (an empty, cut
+/// or oversized file, a format not read).
+pub fn read_image(path: &Path) -> Result<(Vec<u8>, ImageFormat, DynamicImage), String> {
+    let bytes =
+        crate::limits::read_file(path, crate::limits::MAX_IMAGE_FILE_BYTES, "an image file")
+            .map_err(|err| err.to_string())?;
+    if bytes.is_empty() {
+        return Err("the file is empty (0 bytes): copy the image again".into());
+    }
+    let reader = ImageReader::new(Cursor::new(&bytes))
+        .with_guessed_format()
+        .map_err(|err| format!("cannot read it ({err})"))?;
+    let format = reader
+        .format()
+        .ok_or("not an image this program reads: use JPEG, PNG, WebP or GIF")?;
+    if format == ImageFormat::Jpeg && !jpeg_is_complete(&bytes) {
+        return Err(
+            "the JPEG file is truncated (its image data ends before the end-of-image marker): copy the image again".into(),
+        );
+    }
+    let decoded = reader
+        .decode()
+        .map_err(|err| format!("not a valid {format:?} image ({err})"))?;
+    if decoded.width() == 0 || decoded.height() == 0 {
+        return Err("the image is empty (0 pixels)".into());
+    }
+    Ok((bytes, format, decoded))
+}
+
+/// Reads the image at `path` ([`read_image`]), and downscales it so that
 /// neither edge exceeds `max_edge` (an image already small enough, in a
 /// format providers accept, is sent as it is).
 pub fn prepare_image(path: &Path, max_edge: u32) -> Result<ImageInput, AgentError> {
@@ -21,31 +53,7 @@ pub fn prepare_image(path: &Path, max_edge: u32) -> Result<ImageInput, AgentErro
         path: path.to_path_buf(),
         reason,
     };
-    let bytes =
-        crate::limits::read_file(path, crate::limits::MAX_IMAGE_FILE_BYTES, "an image file")
-            .map_err(|err| fail(err.to_string()))?;
-    if bytes.is_empty() {
-        return Err(fail(
-            "the file is empty (0 bytes): copy the image again".into(),
-        ));
-    }
-    let reader = ImageReader::new(Cursor::new(&bytes))
-        .with_guessed_format()
-        .map_err(|err| fail(format!("cannot read it ({err})")))?;
-    let format = reader.format().ok_or_else(|| {
-        fail("not an image this program reads: use JPEG, PNG, WebP or GIF".into())
-    })?;
-    if format == ImageFormat::Jpeg && !jpeg_is_complete(&bytes) {
-        return Err(fail(
-            "the JPEG file is truncated (its image data ends before the end-of-image marker): copy the image again".into(),
-        ));
-    }
-    let decoded = reader
-        .decode()
-        .map_err(|err| fail(format!("not a valid {format:?} image ({err})")))?;
-    if decoded.width() == 0 || decoded.height() == 0 {
-        return Err(fail("the image is empty (0 pixels)".into()));
-    }
+    let (bytes, format, decoded) = read_image(path).map_err(fail)?;
     let fits = decoded.width().max(decoded.height()) <= max_edge.max(1);
     let sendable = matches!(
         format,
@@ -60,7 +68,7 @@ pub fn prepare_image(path: &Path, max_edge: u32) -> Result<ImageInput, AgentErro
             decoded.resize(max_edge, max_edge, image::imageops::FilterType::Triangle)
         };
         let mut out = Vec::new();
-        image::DynamicImage::ImageRgb8(scaled.to_rgb8())
+        DynamicImage::ImageRgb8(scaled.to_rgb8())
             .write_to(&mut Cursor::new(&mut out), ImageFormat::Jpeg)
             .map_err(|err| fail(format!("cannot re-encode it ({err})")))?;
         (out, ImageFormat::Jpeg)

@@ -20,26 +20,28 @@ pub type Encoded = (Rect, Box<Drawing>);
 /// Why the scene image cannot be shown, in one line.
 #[derive(Debug, thiserror::Error)]
 pub enum SceneImageError {
-    /// The file could not be read or decoded.
-    #[error("{}: the scene image cannot be read ({error})", path.display())]
+    /// The file could not be read or decoded, or is cut short: refused as
+    /// a provider would be spared it.
+    #[error("{}: the scene image cannot be shown: {reason}", crate::sanitize::one_line(&path.display().to_string()))]
     Read {
         /// The image file.
         path: PathBuf,
-        /// What went wrong.
-        error: image::ImageError,
+        /// Why, in words for the user.
+        reason: String,
     },
     /// This terminal's graphics protocol cannot draw it.
     #[error(transparent)]
     Encode(#[from] ratatui_image::errors::Errors),
 }
 
-/// Reads a scene image (on a blocking task: decoding is slow).
+/// Reads a scene image (on a blocking task: decoding is slow), refused for
+/// the reasons a run refuses it ([`crate::agents::images::read_image`]).
 pub fn read(path: &Path) -> Result<Arc<DynamicImage>, SceneImageError> {
-    image::open(path)
-        .map(Arc::new)
-        .map_err(|error| SceneImageError::Read {
+    crate::agents::images::read_image(path)
+        .map(|(_, _, image)| Arc::new(image))
+        .map_err(|reason| SceneImageError::Read {
             path: path.to_path_buf(),
-            error,
+            reason,
         })
 }
 
@@ -74,5 +76,38 @@ pub fn draw(
             Paragraph::new(Span::styled(note, style)).wrap(Wrap { trim: true }),
             area,
         ),
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn a_cut_jpeg_is_refused_as_a_run_refuses_it_and_a_whole_one_is_read() {
+        let dir = tempfile::tempdir().unwrap();
+        let picture =
+            image::RgbImage::from_fn(64, 48, |x, y| image::Rgb([x as u8 * 4, y as u8 * 5, 90]));
+        let mut jpeg = Vec::new();
+        DynamicImage::ImageRgb8(picture)
+            .write_to(
+                &mut std::io::Cursor::new(&mut jpeg),
+                image::ImageFormat::Jpeg,
+            )
+            .unwrap();
+        let whole = dir.path().join("whole.jpg");
+        std::fs::write(&whole, &jpeg).unwrap();
+        assert_eq!(read(&whole).unwrap().width(), 64);
+        let cut = dir.path().join("cut.jpg");
+        std::fs::write(&cut, &jpeg[..jpeg.len() * 2 / 3]).unwrap();
+        let err = read(&cut).unwrap_err().to_string();
+        assert!(
+            err.contains("cut.jpg: the scene image cannot be shown: the JPEG file is truncated"),
+            "{err}"
+        );
+        let run = crate::agents::images::prepare_image(&cut, 1024)
+            .unwrap_err()
+            .to_string();
+        assert!(run.contains("the JPEG file is truncated"), "{run}");
     }
 }

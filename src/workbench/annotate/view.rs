@@ -958,7 +958,7 @@ mod tests {
             Err(crate::workbench::scene_image::read(gone).unwrap_err()),
         ));
         let text = drawn(&s, 120, 30);
-        assert!(text.contains("cannot be read"), "{text}");
+        assert!(text.contains("cannot be shown"), "{text}");
         assert!(image_area(ratatui::layout::Rect::new(0, 0, 120, 30), &s).is_some());
         press(&mut s, '5');
         assert_eq!(s.judged(), 1);
