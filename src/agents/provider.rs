@@ -532,8 +532,9 @@ impl HttpEndpoint {
     }
 }
 
-/// Gathers a streamed answer: the text so far, its pieces with their arrival
-/// times, and the usage once reported. The API key is removed from the text
+/// Gathers a streamed answer: its pieces with their arrival times (the text
+/// is joined from them once, at the end, so a long answer is held once while
+/// it streams), and the usage once reported. The API key is removed from the text
 /// before anything is passed on or kept, even when it arrives split across
 /// pieces: the end of the text that could be the start of the key is held
 /// back until the next piece tells.
@@ -542,8 +543,10 @@ pub struct Assembler<'a> {
     on_token: TokenSink<'a>,
     key: Option<Secret>,
     held: String,
-    text: String,
     chunks: Vec<Chunk>,
+    /// The bytes and characters passed on so far.
+    bytes: usize,
+    chars: usize,
     /// The usage reported so far.
     pub usage: Usage,
     /// The stop reason, when the provider said it cut the answer at the
@@ -561,8 +564,9 @@ impl<'a> Assembler<'a> {
             on_token,
             key,
             held: String::new(),
-            text: String::new(),
             chunks: Vec::new(),
+            bytes: 0,
+            chars: 0,
             usage: Usage::default(),
             cut: None,
             max_tokens: None,
@@ -584,7 +588,7 @@ impl<'a> Assembler<'a> {
         let Some(max_tokens) = self.max_tokens else {
             return Ok(());
         };
-        let bytes = self.text.len() + self.held.len();
+        let bytes = self.bytes + self.held.len();
         let limit = crate::limits::answer_bytes(max_tokens);
         if bytes > limit {
             return Err(AnswerError::PastByteLimit { limit, max_tokens });
@@ -626,7 +630,8 @@ impl<'a> Assembler<'a> {
             return;
         }
         (self.on_token)(&ready);
-        self.text.push_str(&ready);
+        self.bytes += ready.len();
+        self.chars += ready.chars().count();
         self.chunks.push(Chunk {
             at_ms: elapsed_ms(self.start),
             text: ready,
@@ -635,7 +640,7 @@ impl<'a> Assembler<'a> {
 
     /// How many characters have arrived.
     pub fn received(&self) -> usize {
-        self.text.chars().count() + self.held.chars().count()
+        self.chars + self.held.chars().count()
     }
 
     /// The finished answer; an empty or blank one is an error, and so is
@@ -648,17 +653,18 @@ impl<'a> Assembler<'a> {
                 provider,
                 model: model.to_string(),
                 reason,
-                received: self.text.chars().count(),
+                received: self.chars,
             });
         }
-        if self.text.trim().is_empty() {
+        let text: String = self.chunks.iter().map(|c| c.text.as_str()).collect();
+        if text.trim().is_empty() {
             return Err(AgentError::EmptyAnswer {
                 provider,
                 model: model.to_string(),
             });
         }
         Ok(Completion {
-            text: self.text,
+            text,
             usage: self.usage,
             chunks: self.chunks,
         })
