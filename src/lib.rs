@@ -16,6 +16,7 @@ pub mod demo;
 pub mod eval_record;
 pub mod fsutil;
 pub mod limits;
+pub mod locale;
 pub mod lock;
 pub mod metrics;
 pub mod models;

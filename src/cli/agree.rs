@@ -175,7 +175,10 @@ pub fn run(args: &AgreeArgs) -> anyhow::Result<ExitCode> {
     let text = match args.table {
         Some(format) => table::render(&agreement, format),
         None if args.json => format!("{:#}\n", json::to_json(&agreement)),
-        None => report::render(&agreement),
+        None => {
+            crate::locale::for_locale(&report::render(&agreement), crate::locale::utf8_locale())
+                .into_owned()
+        }
     };
     std::io::stdout().lock().write_all(text.as_bytes())?;
     Ok(if bad_lines == 0 {

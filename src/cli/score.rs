@@ -133,6 +133,7 @@ fn score_chunk(
     pairs: &[Pair],
     out: &mut impl std::io::Write,
 ) -> anyhow::Result<()> {
+    let utf8 = crate::locale::utf8_locale();
     if let Some(scorer) = scorer {
         warm_up(scorer, pairs)?;
     }
@@ -154,7 +155,10 @@ fn score_chunk(
         let text = if args.json {
             format!("{}\n", to_json(&scored))
         } else {
-            explain(&scored)
+            // The ids and steps come from the user's file: data, shown as
+            // such, in the characters the locale can show.
+            let text = crate::sanitize::for_terminal(&explain(&scored));
+            crate::locale::for_locale(&text, utf8).into_owned()
         };
         out.write_all(text.as_bytes())?;
     }

@@ -73,6 +73,9 @@ pub struct AppInit {
     pub samples: Option<u32>,
     /// Whether `NO_COLOR` is in force.
     pub no_color: bool,
+    /// Whether the locale cannot show UTF-8 (`LANG=C`): every frame is
+    /// folded to ASCII.
+    pub ascii: bool,
     /// The session to restore.
     pub session: Option<Session>,
     /// A message to show first.
@@ -104,6 +107,7 @@ impl AppInit {
             theme: None,
             samples: None,
             no_color: false,
+            ascii: false,
             session: None,
             notice: None,
             size,
@@ -191,6 +195,8 @@ pub struct Looks {
     pub themes: Vec<Theme>,
     /// Whether `NO_COLOR` is in force.
     pub no_color: bool,
+    /// Whether every frame is folded to ASCII (see [`AppInit::ascii`]).
+    pub ascii: bool,
 }
 
 /// The status line's messages.
@@ -302,6 +308,7 @@ impl App {
                 theme,
                 themes: init.themes,
                 no_color: init.no_color,
+                ascii: init.ascii,
             },
             messages: Messages {
                 status: None,

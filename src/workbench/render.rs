@@ -2,7 +2,7 @@
 
 use ratatui::layout::{Alignment, Rect};
 use ratatui::text::{Line, Span};
-use ratatui::widgets::{Block, Paragraph, Wrap};
+use ratatui::widgets::{Block, Paragraph};
 use ratatui::Frame;
 
 use crate::agents::ProviderKind;
@@ -13,7 +13,8 @@ use crate::workbench::layout::{pane_rects, Screen, MIN_HEIGHT, MIN_WIDTH};
 use crate::workbench::overlays::{self};
 use crate::workbench::panes::{self, Pane};
 use crate::workbench::scoring::ModelSlot;
-use crate::workbench::shared::Severity;
+use crate::workbench::scroll;
+use crate::workbench::shared::{fold_to_ascii, Severity};
 
 /// Draws the whole workbench.
 pub fn render(frame: &mut Frame, app: &App) {
@@ -26,17 +27,15 @@ pub fn render(frame: &mut Frame, app: &App) {
         panes,
     } = pane_rects(area, app.focus, app.panes.zoom)
     else {
-        let text = format!(
-            "mapvlm needs a terminal of at least {MIN_WIDTH}×{MIN_HEIGHT}; this one is {}×{}.\nEnlarge the window (q quits).",
-            area.width, area.height
-        );
         frame.render_widget(
-            Paragraph::new(text)
+            Paragraph::new(too_small_text(area))
                 .style(app.looks.theme.warn)
-                .wrap(Wrap { trim: true })
                 .alignment(Alignment::Center),
             area,
         );
+        if app.looks.ascii {
+            fold_to_ascii(frame.buffer_mut());
+        }
         return;
     };
     render_header(frame, app, header);
@@ -48,6 +47,30 @@ pub fn render(frame: &mut Frame, app: &App) {
     }
     render_status(frame, app, status);
     overlays::render_overlay(frame, app, area);
+    if app.looks.ascii {
+        fold_to_ascii(frame.buffer_mut());
+    }
+}
+
+/// What a terminal below the smallest size is told, wrapped to it: the
+/// longest wording whose lines all fit, so the sizes are never cut off
+/// (at 10×5 the full sentence needs nine lines and lost the size).
+fn too_small_text(area: Rect) -> Vec<Line<'static>> {
+    let (width, height) = (area.width, area.height);
+    let wordings = [
+        format!(
+            "mapvlm needs a terminal of at least {MIN_WIDTH}×{MIN_HEIGHT}; this one is {width}×{height}. Enlarge the window (q quits)."
+        ),
+        format!("Needs {MIN_WIDTH}×{MIN_HEIGHT}, this is {width}×{height}. q quits."),
+        format!("Needs {MIN_WIDTH}×{MIN_HEIGHT}, is {width}×{height}"),
+        format!("{MIN_WIDTH}×{MIN_HEIGHT} needed"),
+    ];
+    let wrap = |text: &str| scroll::wrap_hanging(&[], &[Span::raw(text.to_string())], width.into());
+    wordings
+        .iter()
+        .map(|text| wrap(text))
+        .find(|lines| lines.len() <= usize::from(height))
+        .unwrap_or_else(|| wrap(&wordings[wordings.len() - 1]))
 }
 
 fn render_header(frame: &mut Frame, app: &App, area: Rect) {

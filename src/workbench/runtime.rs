@@ -307,6 +307,7 @@ async fn run_async(mut options: Options) -> Result<(), TuiError> {
         theme: options.theme.clone(),
         samples: options.samples,
         no_color: theme::no_color_requested(),
+        ascii: !crate::locale::utf8_locale(),
         session: restored,
         notice,
         size: (size.width, size.height),

@@ -3,6 +3,7 @@
 //! editor. A leaf module, so that sharing these never makes an import
 //! circle.
 
+use ratatui::buffer::{Buffer, CellDiffOption};
 use ratatui_textarea::TextArea;
 
 /// How important a status message is.
@@ -54,4 +55,28 @@ pub fn unix_now() -> u64 {
     std::time::SystemTime::now()
         .duration_since(std::time::UNIX_EPOCH)
         .map_or(0, |d| d.as_secs())
+}
+
+/// Folds every drawn character of `buffer` to ASCII ([`crate::locale::ascii_of`])
+/// for a locale that cannot show UTF-8, leaving the cells a picture is made
+/// of alone: those holding a graphics protocol's escape sequence, the cells
+/// it covers, and kitty's placeholder characters.
+pub fn fold_to_ascii(buffer: &mut Buffer) {
+    /// The character kitty's Unicode placement draws a picture with.
+    const KITTY_PLACEHOLDER: char = '\u{10eeee}';
+    for cell in &mut buffer.content {
+        let symbol = cell.symbol();
+        if cell.diff_option == CellDiffOption::Skip
+            || symbol.is_ascii()
+            || symbol.starts_with(KITTY_PLACEHOLDER)
+        {
+            continue;
+        }
+        let folded: String = symbol
+            .chars()
+            .take(1)
+            .map(crate::locale::ascii_of)
+            .collect();
+        cell.set_symbol(&folded);
+    }
 }

@@ -133,6 +133,14 @@ impl App {
             self.quit = true;
             return Vec::new();
         }
+        if self.too_small() {
+            // Nothing is drawn but the request to enlarge the window: only
+            // the key it names acts, so nothing changes unseen.
+            if keymap::action(&self.pane_contexts(), &key) == Some(Action::Quit) {
+                self.quit = true;
+            }
+            return Vec::new();
+        }
         if !matches!(self.editing, Editing::None) {
             return self.on_editor_key(key);
         }
@@ -392,7 +400,16 @@ impl App {
         }
     }
 
+    /// Whether the terminal is below the smallest size the panes draw in.
+    fn too_small(&self) -> bool {
+        let screen = Rect::new(0, 0, self.size.0, self.size.1);
+        pane_rects(screen, self.focus, self.panes.zoom) == Screen::TooSmall
+    }
+
     pub(crate) fn on_mouse(&mut self, mouse: MouseEvent) -> Vec<Cmd> {
+        if self.too_small() {
+            return Vec::new();
+        }
         if self.overlay.is_some() || !matches!(self.editing, Editing::None) {
             if let Some(Overlay::Help(help)) = &mut self.overlay {
                 match mouse.kind {

@@ -197,6 +197,27 @@ fn the_report_of_the_golden_set() {
     let out = agree_golden(&[]);
     assert!(out.status.success(), "{}", text(&out.stderr));
     insta::assert_snapshot!("agree_report_golden", text(&out.stdout));
+    // Under a locale without UTF-8 the same report, its plot drawn in ASCII.
+    let c = common::mapvlm_command()
+        .env_remove("LC_ALL")
+        .env_remove("LC_CTYPE")
+        .env("LANG", "C")
+        .args([
+            "agree",
+            "--items",
+            &golden("items.jsonl"),
+            "--scores",
+            &golden("scores.jsonl"),
+        ])
+        .args(["--annotations", &golden("annotations.jsonl")])
+        .output()
+        .unwrap();
+    let (ascii, utf8) = (text(&c.stdout), text(&out.stdout));
+    assert!(
+        ascii.is_ascii() && ascii.contains(" |") && ascii.contains("+---"),
+        "{ascii}"
+    );
+    assert_eq!(ascii.lines().count(), utf8.lines().count());
     // The human column of the corruption table says which human score it
     // compares, as --aggregate makes it.
     let median = text(&agree_golden(&["--aggregate", "median", "--bootstrap", "10"]).stdout);

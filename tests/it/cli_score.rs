@@ -156,3 +156,51 @@ fn a_closed_pipe_ends_the_run_quietly_with_status_0() {
     assert_eq!(stderr(&out), "", "nothing is said of the closed pipe");
     assert_eq!(out.status.code(), Some(0));
 }
+
+#[test]
+fn the_explanation_shows_steps_as_data_in_the_characters_of_the_locale() {
+    let dir = tempfile::tempdir().unwrap_or_else(|e| panic!("{e}"));
+    let gt = write(
+        dir.path(),
+        "gt.txt",
+        "Walk to the sink.\nPick up the cup.\u{1b}]52;c;aGk=\u{7}\n".as_bytes(),
+    );
+    let pred = write(
+        dir.path(),
+        "pred.txt",
+        "1. Walk to the sink.\n2. Pick up the \u{202e}cup.\n3. Rinse the \u{9b}2Jcup.\n".as_bytes(),
+    );
+    let explain = |lang: &str| {
+        let out = common::mapvlm_command()
+            .env_remove("LC_ALL")
+            .env_remove("LC_CTYPE")
+            .env("LANG", lang)
+            .args(["score", "--gt", &gt, "--pred", &pred])
+            .output()
+            .unwrap_or_else(|e| panic!("{e}"));
+        assert!(out.status.success(), "{}", stderr(&out));
+        String::from_utf8(out.stdout).unwrap_or_else(|e| panic!("{e}"))
+    };
+    let utf8 = explain("en_GB.UTF-8");
+    assert!(
+        utf8.contains("✓ 1 → 1") && utf8.contains("S_plan"),
+        "{utf8}"
+    );
+    let ascii = explain("C");
+    assert!(
+        ascii.contains("+ 1 > 1") && ascii.contains("S_plan"),
+        "{ascii}"
+    );
+    assert!(ascii.is_ascii(), "{ascii}");
+    for text in [&utf8, &ascii] {
+        let unsafe_chars: Vec<char> = text
+            .chars()
+            .filter(|c| mapvlm::sanitize::is_unsafe(*c))
+            .collect();
+        assert!(unsafe_chars.is_empty(), "{unsafe_chars:?} in {text}");
+        assert!(
+            text.contains("\\u{1b}]52"),
+            "the escape shown as data: {text}"
+        );
+    }
+}

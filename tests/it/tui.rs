@@ -181,6 +181,51 @@ fn too_small_terminal_gets_a_message() {
     insta::assert_snapshot!("too_small_40x10", screen);
 }
 
+#[test]
+fn a_locale_without_utf8_gets_every_frame_in_ascii() {
+    let mut h = Harness::new((120, 40), None, false, unavailable());
+    let unicode = h.screen();
+    assert!(unicode.contains('│') && unicode.contains('─'), "{unicode}");
+    h.app.looks.ascii = true;
+    for keys in ["", "?", "\u{1b}g"] {
+        h.keys(keys);
+        let screen = h.screen();
+        let odd: String = screen.chars().filter(|c| !c.is_ascii()).collect();
+        assert!(odd.is_empty(), "after {keys:?}: {odd:?} in {screen}");
+    }
+    let screen = h.screen();
+    // The same frame, line for line, with its lines drawn in ASCII.
+    assert!(screen.contains("+-") && screen.contains('|'), "{screen}");
+    assert_eq!(screen.lines().count(), unicode.lines().count());
+}
+
+#[test]
+fn a_tiny_window_shows_both_sizes_and_keys_do_nothing_unseen() {
+    for size in [(10, 5), (20, 3), (49, 13), (6, 2)] {
+        let mut h = Harness::new(size, None, false, unavailable());
+        let screen: String = h.screen().split_whitespace().collect();
+        let (w, rows) = size;
+        let wanted = if rows >= 3 {
+            vec!["50×14".to_string(), format!("{w}×{rows}")]
+        } else {
+            vec!["50×14".to_string()]
+        };
+        for sizes in wanted {
+            assert!(screen.contains(&sizes), "{size:?}: {sizes} in {screen}");
+        }
+    }
+    let mut h = Harness::new((10, 5), None, false, unavailable());
+    let plan = h.app.panes.plan.items.clone();
+    // d deletes a step and Tab moves the focus on a screen that shows them.
+    h.keys("d");
+    h.key(KeyCode::Tab);
+    assert_eq!(h.app.panes.plan.items, plan);
+    assert_eq!(h.app.focus, Pane::Plan);
+    assert!(!h.app.quit);
+    h.keys("q");
+    assert!(h.app.quit, "q quits, as the message says");
+}
+
 /// The help pages of `h` from the top, scrolled with PgDn until nothing
 /// is below: every page's screen.
 fn help_pages(h: &mut Harness) -> Vec<String> {

@@ -264,12 +264,16 @@ async fn run_async(options: Options) -> Result<Outcome, TuiError> {
         execute(cmd, &mut failures);
     }
     let mut tick = tokio::time::interval(Duration::from_secs(1));
+    let ascii = !crate::locale::utf8_locale();
     loop {
         let area = terminal.get_frame().area();
         request_image(&mut screen, &graphics, area, &msg_tx);
         terminal.draw(|f| {
             let area = f.area();
             screen.draw(f, area, &theme);
+            if ascii {
+                crate::workbench::shared::fold_to_ascii(f.buffer_mut());
+            }
         })?;
         let msg = tokio::select! {
             msg = msg_rx.recv() => msg,
