@@ -250,6 +250,7 @@ pub struct Runner {
     answers: Option<(Arc<Recording>, Pace)>,
     images: Arc<Mutex<HashMap<PathBuf, ImageInput>>>,
     fresh: bool,
+    token_events: bool,
 }
 
 /// The encoded bytes of prepared images a runner keeps (see
@@ -276,7 +277,17 @@ impl Runner {
             answers: None,
             images: Arc::default(),
             fresh: false,
+            token_events: true,
         }
+    }
+
+    /// Sends no [`AgentEvent::Token`]: for a caller that shows no text as
+    /// it streams (`plan`, `eval`), so a copy of every piece does not wait
+    /// in the event queue for a reader that drops it (an endless stream
+    /// once held two copies of the answer there under load).
+    pub fn without_token_events(mut self) -> Self {
+        self.token_events = false;
+        self
     }
 
     /// Reads and writes answers in `cache` (ignored when replaying).
@@ -570,10 +581,12 @@ impl Runner {
         let start = Instant::now();
         let _ = events.send(AgentEvent::Started { role });
         let sink = |text: &str| {
-            let _ = events.send(AgentEvent::Token {
-                role,
-                text: text.to_string(),
-            });
+            if self.token_events {
+                let _ = events.send(AgentEvent::Token {
+                    role,
+                    text: text.to_string(),
+                });
+            }
         };
         let hit = self.cached(&key);
         let recorded = self

@@ -166,7 +166,8 @@ impl AgentArgs {
             }
             None => Source::Live,
         };
-        let mut runner = Runner::new(settings, prompts, source);
+        // The command line shows no text as it streams.
+        let mut runner = Runner::new(settings, prompts, source).without_token_events();
         if !self.no_cache {
             if let Some(dir) = self.cache_dir.clone().or_else(ResponseCache::default_dir) {
                 runner = runner.with_cache(ResponseCache::new(dir));
