@@ -4,6 +4,7 @@ use ratatui::layout::{Alignment, Rect};
 use ratatui::text::{Line, Span};
 use ratatui::widgets::{Block, Paragraph};
 use ratatui::Frame;
+use unicode_width::UnicodeWidthStr;
 
 use crate::agents::ProviderKind;
 use crate::workbench::app::App;
@@ -148,6 +149,21 @@ fn render_tabs(frame: &mut Frame, app: &App, area: Rect) {
     frame.render_widget(Paragraph::new(Line::from(spans)).style(t.base), area);
 }
 
+/// `text` cut to `room` columns, a `…` where it was cut.
+fn shortened(text: &str, room: usize) -> String {
+    if text.width() <= room {
+        return text.to_string();
+    }
+    let mut out = String::new();
+    for c in text.chars() {
+        if out.width() + c.to_string().width() + 1 > room {
+            break;
+        }
+        out.push(c);
+    }
+    format!("{}…", out.trim_end())
+}
+
 fn render_status(frame: &mut Frame, app: &App, area: Rect) {
     let t = &app.looks.theme;
     let context = app.key_context();
@@ -156,17 +172,33 @@ fn render_status(frame: &mut Frame, app: &App, area: Rect) {
         Some(mode) => format!("{mode}: {hints}"),
         None => hints,
     };
-    let mut spans = vec![Span::styled(format!(" {mode} "), t.accent)];
-    if let Editing::Search(_) = &app.editing {
-        spans.push(Span::styled(format!("/{}", app.panes.search), t.highlight));
-    }
-    let shown = app
+    let search = match &app.editing {
+        Editing::Search(_) => Some(Span::styled(format!("/{}", app.panes.search), t.highlight)),
+        _ => None,
+    };
+    let shown: Vec<(String, Severity)> = app
         .messages
         .notice
         .as_ref()
         .map(|(text, severity)| (format!("{text} (Esc dismisses)"), *severity))
         .into_iter()
-        .chain(app.messages.status.clone());
+        .chain(app.messages.status.clone())
+        .collect();
+    let width = usize::from(area.width);
+    let messages_width: usize = shown.iter().map(|(text, _)| text.width() + 2).sum();
+    let search_width = search.as_ref().map_or(0, Span::width);
+    // A message the hints would push past the edge wins over them: the
+    // hints are in the help (?), the message is said once.
+    let hints = if mode.width() + 2 + search_width + messages_width > width && !shown.is_empty() {
+        context
+            .mode()
+            .map_or("? keys".to_string(), |m| format!("{m}: ? keys"))
+    } else {
+        mode
+    };
+    let mut spans = vec![Span::styled(format!(" {hints} "), t.accent)];
+    spans.extend(search);
+    let mut room = width.saturating_sub(spans.iter().map(Span::width).sum());
     for (text, severity) in shown {
         let style = match severity {
             Severity::Info => t.muted,
@@ -174,6 +206,9 @@ fn render_status(frame: &mut Frame, app: &App, area: Rect) {
             Severity::Error => t.bad,
         };
         spans.push(Span::styled("│ ", t.border));
+        // Still too long: cut where it shows, with a mark that it was.
+        let text = shortened(&text, room.saturating_sub(2));
+        room = room.saturating_sub(text.width() + 2);
         spans.push(Span::styled(text, style));
     }
     frame.render_widget(Paragraph::new(Line::from(spans)).style(t.base), area);

@@ -261,6 +261,11 @@ pub struct Scroll {
 }
 
 impl Scroll {
+    /// A view from line `offset` down (kept inside the text when drawn).
+    pub fn at(offset: usize) -> Scroll {
+        Scroll { offset }
+    }
+
     /// The first line shown.
     pub fn offset(self) -> usize {
         self.offset
@@ -420,6 +425,14 @@ pub fn markers(offset: usize, total: usize, viewport: usize) -> (Option<String>,
         (offset > 0).then(|| format!("↑ {offset} more")),
         (below > 0).then(|| format!("↓ {below} more")),
     )
+}
+
+/// `text` wrapped by words to `width` columns, line by line (blank lines
+/// kept): how a pane of running text fits it before [`render`] scrolls it.
+pub fn wrap_text(text: &[Line<'_>], width: usize) -> Vec<Line<'static>> {
+    text.iter()
+        .flat_map(|line| wrap_hanging(&[], &line.spans, width))
+        .collect()
 }
 
 /// Draws `lines` in `block` over `area`, from line `scroll.offset()`, with

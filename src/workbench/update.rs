@@ -4,6 +4,7 @@
 use crossterm::event::{KeyEvent, KeyEventKind, MouseButton, MouseEvent, MouseEventKind};
 use ratatui::layout::{Position, Rect};
 
+use crate::agents::AgentRole;
 use crate::plan::parse_steps;
 use crate::workbench::app::App;
 use crate::workbench::editing::Editing;
@@ -13,8 +14,8 @@ use crate::workbench::message::{Cmd, Msg};
 use crate::workbench::overlays::actions::ActionsView;
 use crate::workbench::overlays::help::Help;
 use crate::workbench::overlays::Overlay;
-use crate::workbench::panes::steps::{StepList, StepsBefore};
-use crate::workbench::panes::{list_window, Pane};
+use crate::workbench::panes::steps::{self, StepList, StepsBefore};
+use crate::workbench::panes::{self, Pane};
 use crate::workbench::scoring::ModelSlot;
 use crate::workbench::scroll::{Motion, WHEEL_LINES};
 use crate::workbench::session::GroundTruthSource;
@@ -197,7 +198,7 @@ impl App {
             | Action::GraphStep(_)
             | Action::GraphZoom(_)
             | Action::GraphMode => self.panes.graph.on_action(action),
-            Action::PromptStep(step) => self.move_selection(Pane::Prompt, step),
+            Action::PromptStep(step) => self.step_prompt_agent(step),
             Action::EditPrompt => {
                 self.panes
                     .prompt
@@ -211,9 +212,7 @@ impl App {
             }
             Action::PromptOf(position) => {
                 if let Some(&agent) = self.work.approach.roles().get(position) {
-                    self.panes.prompt.store_editor(self.work.approach);
-                    self.panes.prompt.agent = agent;
-                    self.panes.prompt.load_editor(self.work.approach);
+                    self.show_prompt_of(agent);
                 }
             }
             Action::Run => return self.start_run(false),
@@ -354,6 +353,28 @@ impl App {
         self.focus = Pane::ALL[i];
     }
 
+    /// Shows the prompt of the next (`step` > 0) or previous agent of the
+    /// approach, from its top.
+    fn step_prompt_agent(&mut self, step: isize) {
+        let shown = self.work.approach.roles();
+        let idx = shown
+            .iter()
+            .position(|a| *a == self.panes.prompt.agent)
+            .unwrap_or(0);
+        let to = (idx as isize + step).clamp(0, shown.len().saturating_sub(1) as isize) as usize;
+        self.show_prompt_of(shown[to]);
+    }
+
+    /// Shows `agent`'s prompt in the Prompt pane, from its top.
+    fn show_prompt_of(&mut self, agent: AgentRole) {
+        if agent != self.panes.prompt.agent {
+            self.panes.prompt.store_editor(self.work.approach);
+            self.panes.prompt.agent = agent;
+            self.panes.prompt.load_editor(self.work.approach);
+            self.panes.scroll.remove(&Pane::Prompt);
+        }
+    }
+
     pub(crate) fn move_selection(&mut self, pane: Pane, delta: isize) {
         let moved = |sel: usize, len: usize| -> usize {
             (sel as isize + delta).clamp(0, len.saturating_sub(1) as isize) as usize
@@ -370,23 +391,32 @@ impl App {
                 )
             }
             Pane::Graph => self.panes.graph.move_neighbour(delta),
-            Pane::Prompt => {
-                let shown = self.work.approach.roles();
-                let idx = shown
-                    .iter()
-                    .position(|a| *a == self.panes.prompt.agent)
-                    .unwrap_or(0);
-                let next = shown[moved(idx, shown.len())];
-                if next != self.panes.prompt.agent {
-                    self.panes.prompt.store_editor(self.work.approach);
-                    self.panes.prompt.agent = next;
-                    self.panes.prompt.load_editor(self.work.approach);
-                }
-            }
-            Pane::Scene | Pane::Description | Pane::Scores => {
+            Pane::Scene | Pane::Description | Pane::Scores | Pane::Prompt => {
+                // A text pane scrolls within its text where its length is
+                // known (drawn where it is now), so the way back is never
+                // longer than the way there.
+                let limit = self
+                    .pane_rect(pane)
+                    .map(|area| match pane {
+                        Pane::Prompt => panes::prompt::scroll_limit(self, area),
+                        Pane::Description => panes::description::scroll_limit(self, area),
+                        _ => 500,
+                    })
+                    .unwrap_or(500);
                 let s = self.panes.scroll.entry(pane).or_insert(0);
-                *s = (i64::from(*s) + delta as i64).clamp(0, 500) as u16;
+                *s = (i64::from(*s) + delta as i64).clamp(0, limit.min(500) as i64) as u16;
             }
+        }
+    }
+
+    /// Where `pane` is drawn at the terminal's size now, if it is shown.
+    fn pane_rect(&self, pane: Pane) -> Option<Rect> {
+        let screen = Rect::new(0, 0, self.size.0, self.size.1);
+        match pane_rects(screen, self.focus, self.panes.zoom) {
+            Screen::Panes { panes, .. } => panes
+                .into_iter()
+                .find_map(|(p, r)| (p == pane).then_some(r)),
+            Screen::TooSmall => None,
         }
     }
 
@@ -428,35 +458,15 @@ impl App {
             MouseEventKind::Down(MouseButton::Left) => {
                 self.focus = pane;
                 let row = mouse.row.saturating_sub(rect.y + 1) as usize;
-                let height = rect.height.saturating_sub(2) as usize;
-                match pane {
-                    Pane::Plan => {
-                        let first = list_window(
-                            self.panes.plan.selected,
-                            self.panes.plan.items.len(),
-                            2,
-                            height,
-                        )
-                        .0;
-                        let target = first + row / 2;
-                        if target < self.panes.plan.items.len() {
-                            self.panes.plan.selected = target;
-                        }
+                let list = match pane {
+                    Pane::Plan => Some(StepList::Plan),
+                    Pane::GroundTruth => Some(StepList::GroundTruth),
+                    _ => None,
+                };
+                if let Some(list) = list {
+                    if let Some(target) = steps::step_at(self, list, rect, row) {
+                        self.panes.steps_mut(list).selected = target;
                     }
-                    Pane::GroundTruth => {
-                        let first = list_window(
-                            self.panes.ground_truth.selected,
-                            self.panes.ground_truth.items.len(),
-                            2,
-                            height,
-                        )
-                        .0;
-                        let target = first + row / 2;
-                        if target < self.panes.ground_truth.items.len() {
-                            self.panes.ground_truth.selected = target;
-                        }
-                    }
-                    _ => {}
                 }
             }
             MouseEventKind::ScrollDown => self.move_selection(pane, 1),

@@ -24,6 +24,7 @@ use mapvlm::workbench::snapshot::SNAPSHOT_EVERY;
 use mapvlm::workbench::theme::{load_themes, Theme};
 use mapvlm::workbench::{prepare_image, render};
 use ratatui::backend::TestBackend;
+use ratatui::layout::Rect;
 use ratatui::Terminal;
 
 /// A stand-in sentence encoder for tests: hashed bags of lowercase words,
@@ -181,6 +182,152 @@ fn too_small_terminal_gets_a_message() {
     insta::assert_snapshot!("too_small_40x10", screen);
 }
 
+/// The screen's text with every run of blanks and frame lines made one
+/// blank, so that wrapped text reads as one line.
+fn collapsed(screen: &str, columns: std::ops::Range<usize>) -> String {
+    let rows: Vec<String> = screen
+        .lines()
+        .map(|l| {
+            let cells: Vec<char> = l.trim_matches('"').chars().collect();
+            cells[columns.start.min(cells.len())..columns.end.min(cells.len())]
+                .iter()
+                .collect()
+        })
+        .collect();
+    rows.join(" ")
+        .replace(['│', '┃'], " ")
+        .split_whitespace()
+        .collect::<Vec<_>>()
+        .join(" ")
+}
+
+#[test]
+fn long_steps_wrap_whole_in_their_pane_and_a_click_selects_the_step_drawn_there() {
+    use crossterm::event::{MouseButton, MouseEvent, MouseEventKind};
+    use mapvlm::workbench::layout::{pane_rects, Screen};
+    let mut h = Harness::new((120, 40), None, false, unavailable());
+    let long = "Walk over to the kitchen counter beside the sink, pick up the blue mug \
+                with the chipped handle and carry it carefully to the coffee machine \
+                without spilling the water that is still inside it";
+    h.app.panes.plan.items[1] = long.to_string();
+    let screen = h.screen();
+    let Screen::Panes { panes, .. } = pane_rects(Rect::new(0, 0, 120, 40), h.app.focus, false)
+    else {
+        panic!("no panes at 120x40")
+    };
+    let plan = panes.iter().find(|(p, _)| *p == Pane::Plan).unwrap().1;
+    let columns = usize::from(plan.x)..usize::from(plan.x + plan.width);
+    let rows: Vec<&str> = screen.lines().collect();
+    let pane_text = collapsed(
+        &rows[usize::from(plan.y)..usize::from(plan.y + plan.height)].join("\n"),
+        columns,
+    );
+    let long_words = long.split_whitespace().collect::<Vec<_>>().join(" ");
+    assert!(
+        pane_text.contains(&format!("2. {long_words}")),
+        "{pane_text}"
+    );
+    // The ground truth's marks say which plan step KAS compared.
+    assert!(screen.contains("vs plan 1"), "{screen}");
+    // A click on the last line of the wrapped step selects it; one on the
+    // step after it selects that one.
+    // The row where the Plan pane shows `needle` (the Ground Truth beside
+    // it has steps of the same words).
+    let row_of = |needle: &str| {
+        rows.iter()
+            .position(|r| {
+                let cells: String = r.chars().skip(usize::from(plan.x) + 1).collect();
+                cells
+                    .chars()
+                    .take(usize::from(plan.width))
+                    .collect::<String>()
+                    .contains(needle)
+            })
+            .unwrap_or_else(|| panic!("{needle} not in the Plan pane"))
+    };
+    let click = |h: &mut Harness, row: usize| {
+        h.app.update(Msg::Mouse(MouseEvent {
+            kind: MouseEventKind::Down(MouseButton::Left),
+            column: plan.x + 5,
+            row: row as u16,
+            modifiers: KeyModifiers::NONE,
+        }));
+    };
+    click(&mut h, row_of("without spilling"));
+    assert_eq!(h.app.panes.plan.selected, 1);
+    let third = format!(" 3. {}", h.app.panes.plan.items[2]);
+    let third_row = row_of(&third[..third.len().min(20)]);
+    click(&mut h, third_row);
+    assert_eq!(h.app.panes.plan.selected, 2);
+}
+
+#[test]
+fn the_prompt_pane_scrolls_to_its_last_line_and_says_what_is_out_of_sight() {
+    let mut h = Harness::new((80, 24), None, false, unavailable());
+    for _ in 0..10 {
+        if h.app.focus == Pane::Prompt {
+            break;
+        }
+        h.key(KeyCode::Tab);
+    }
+    assert_eq!(h.app.focus, Pane::Prompt);
+    h.keys("3");
+    let prompt = h.app.panes.prompt.editor.lines().join("\n");
+    let last = prompt
+        .lines()
+        .rev()
+        .find(|l| l.split_whitespace().count() >= 2)
+        .unwrap()
+        .to_string();
+    let tail: String = last
+        .split_whitespace()
+        .take(2)
+        .collect::<Vec<_>>()
+        .join(" ");
+    let first = h.screen();
+    assert!(first.contains("↓") && first.contains("more"), "{first}");
+    assert!(
+        !collapsed(&first, 0..80).contains(&tail),
+        "{tail} is in view at once"
+    );
+    for _ in 0..60 {
+        h.key(KeyCode::PageDown);
+    }
+    let end = h.screen();
+    assert!(
+        collapsed(&end, 0..80).contains(&tail),
+        "{tail} never in view:\n{end}"
+    );
+    assert!(end.contains("↑") && end.contains("more"), "{end}");
+    // The way back is as long as the text, not as the presses.
+    h.key(KeyCode::PageUp);
+    assert_ne!(h.screen(), end, "PgUp after the end moved nothing");
+}
+
+#[test]
+fn a_status_message_longer_than_the_hints_leave_room_for_shows_whole_or_marked_cut() {
+    let mut h = Harness::new((120, 40), None, false, unavailable());
+    let message =
+        "SKM has no provider: press m to set SKM's provider and model (e.g. openai, gpt-4o)";
+    h.app.messages.status = Some((
+        message.to_string(),
+        mapvlm::workbench::shared::Severity::Warn,
+    ));
+    let status = h.screen().lines().last().unwrap().to_string();
+    assert!(status.contains(message), "{status}");
+    assert!(status.contains("? keys"), "{status}");
+    let mut narrow = Harness::new((60, 24), None, false, unavailable());
+    narrow.app.messages.status = Some((
+        message.to_string(),
+        mapvlm::workbench::shared::Severity::Warn,
+    ));
+    let status = narrow.screen().lines().last().unwrap().to_string();
+    assert!(
+        status.contains("SKM has no provider") && status.contains('…'),
+        "{status}"
+    );
+}
+
 #[test]
 fn a_locale_without_utf8_gets_every_frame_in_ascii() {
     let mut h = Harness::new((120, 40), None, false, unavailable());
@@ -230,18 +377,18 @@ fn a_tiny_window_shows_both_sizes_and_keys_do_nothing_unseen() {
 /// is below: every page's screen.
 fn help_pages(h: &mut Harness) -> Vec<String> {
     h.key(KeyCode::Char('?'));
+    // PgDn until a page repeats: the end (the panes behind the help have
+    // markers of their own, so the help's "↓ N more" is not looked for).
     let mut pages = vec![h.screen()];
-    let more_below = |page: &String| {
-        page.split("↓ ")
-            .skip(1)
-            .any(|rest| rest.starts_with(|c: char| c.is_ascii_digit()))
-    };
-    while pages.last().is_some_and(more_below) {
+    loop {
         assert!(pages.len() < 20, "the help does not end");
         h.key(KeyCode::PageDown);
-        pages.push(h.screen());
+        let page = h.screen();
+        if pages.last() == Some(&page) {
+            return pages;
+        }
+        pages.push(page);
     }
-    pages
 }
 
 /// Every key of the key table is in the help, whole, at 120×40 and at

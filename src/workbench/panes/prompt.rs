@@ -15,6 +15,7 @@ use crate::workbench::agents;
 use crate::workbench::app::App;
 use crate::workbench::editing::Editing;
 use crate::workbench::panes::{agent_badge, highlighted, pane_block, Pane};
+use crate::workbench::scroll;
 
 /// The Prompt pane's state: every template's text, the agent shown and
 /// its editor.
@@ -116,7 +117,6 @@ pub(crate) fn draw(frame: &mut Frame, app: &App, area: Rect) {
         Some(agent_badge(app, app.panes.prompt.agent)),
     );
     let inner = block.inner(area);
-    frame.render_widget(block, area);
     let mut tabs = Vec::new();
     for (i, agent) in app.work.approach.roles().iter().enumerate() {
         let style = if *agent == app.panes.prompt.agent {
@@ -143,27 +143,33 @@ pub(crate) fn draw(frame: &mut Frame, app: &App, area: Rect) {
     }
     let note = app.provider_note();
     let changed = app.agent_changed(app.panes.prompt.agent);
-    let footer_height = if note.is_some() { 3 } else { 1 };
-    let [tab_row, body, footer] = Layout::vertical([
-        Constraint::Length(1),
-        Constraint::Min(1),
-        Constraint::Length(footer_height),
-    ])
-    .areas(inner);
-    frame.render_widget(Paragraph::new(Line::from(tabs)), tab_row);
+    let [tab_row, body, footer] = parts(app, inner);
     if matches!(app.editing, Editing::Prompt) {
+        frame.render_widget(block, area);
         frame.render_widget(&app.panes.prompt.editor, body);
     } else {
-        let text: Vec<Line> = app
-            .panes
-            .prompt
-            .editor
-            .lines()
-            .iter()
-            .map(|l| Line::from(highlighted(l, &app.panes.search, t.base, t.highlight)))
-            .collect();
-        frame.render_widget(Paragraph::new(text).wrap(Wrap { trim: false }), body);
+        // The prompt wrapped to the body and scrolled by the pane's keys,
+        // its markers on the pane's frame.
+        let lines = body_lines(app, body);
+        let viewport = usize::from(body.height);
+        let wanted = app.panes.scroll.get(&Pane::Prompt).copied().unwrap_or(0);
+        let offset = usize::from(wanted).min(lines.len().saturating_sub(viewport));
+        let (up, down) = scroll::markers(offset, lines.len(), viewport);
+        let mut block = block;
+        for (marker, top) in [(up, true), (down, false)] {
+            let Some(marker) = marker else { continue };
+            let title = Line::from(Span::styled(format!(" {marker} "), t.accent)).right_aligned();
+            block = if top {
+                block.title_top(title)
+            } else {
+                block.title_bottom(title)
+            };
+        }
+        frame.render_widget(block, area);
+        let shown: Vec<Line> = lines.into_iter().skip(offset).take(viewport).collect();
+        frame.render_widget(Paragraph::new(shown), body);
     }
+    frame.render_widget(Paragraph::new(Line::from(tabs)), tab_row);
     let mut footer_lines = vec![Line::from(Span::styled(
         if matches!(app.editing, Editing::Prompt) {
             "editing · Esc done · Ctrl-R run"
@@ -181,6 +187,42 @@ pub(crate) fn draw(frame: &mut Frame, app: &App, area: Rect) {
         Paragraph::new(footer_lines).wrap(Wrap { trim: true }),
         footer,
     );
+}
+
+/// The pane's inside cut into the agent tabs, the prompt's body and the
+/// footer (three lines when there is a provider note).
+fn parts(app: &App, inner: Rect) -> [Rect; 3] {
+    let footer_height = if app.provider_note().is_some() { 3 } else { 1 };
+    Layout::vertical([
+        Constraint::Length(1),
+        Constraint::Min(1),
+        Constraint::Length(footer_height),
+    ])
+    .areas(inner)
+}
+
+/// The prompt shown, wrapped to `body`'s width, search hits highlighted.
+fn body_lines(app: &App, body: Rect) -> Vec<Line<'static>> {
+    let t = &app.looks.theme;
+    let text: Vec<Line> = app
+        .panes
+        .prompt
+        .editor
+        .lines()
+        .iter()
+        .map(|l| Line::from(highlighted(l, &app.panes.search, t.base, t.highlight)))
+        .collect();
+    scroll::wrap_text(&text, body.width.into())
+}
+
+/// The furthest the prompt scrolls in a pane drawn in `area`: its last
+/// line at the bottom of the body, never a blank page past it.
+pub(crate) fn scroll_limit(app: &App, area: Rect) -> usize {
+    let inner = pane_block(app, Pane::Prompt, None).inner(area);
+    let [_, body, _] = parts(app, inner);
+    body_lines(app, body)
+        .len()
+        .saturating_sub(usize::from(body.height))
 }
 
 #[cfg(test)]

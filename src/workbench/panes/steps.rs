@@ -12,9 +12,10 @@ use crate::plan::parse_steps;
 use crate::workbench::app::App;
 use crate::workbench::editing::Editing;
 use crate::workbench::keymap::Action;
-use crate::workbench::panes::{highlighted, list_window, pane_block, Pane};
+use crate::workbench::panes::{highlighted, pane_block, Pane};
 use crate::workbench::runs::AgentStatus;
 use crate::workbench::scoring::{Pg2sOutcome, ScoreOutcome};
+use crate::workbench::scroll::{self, Scroll, Wrapped};
 use crate::workbench::session::{GroundTruthSource, PlanSource};
 use crate::workbench::undo::Undo;
 
@@ -249,7 +250,9 @@ pub(crate) fn unmatched_plan_reason(report: &Pg2sReport, index: usize) -> String
 /// The mark under a ground-truth step: the plan step that matched it, or why none.
 pub(crate) fn ground_truth_mark(app: &App, index: usize) -> Line<'static> {
     let t = &app.looks.theme;
-    let (scores, kas) = match step_scores(app, index, |k| format!(" · KAS {k:.2}")) {
+    let (scores, kas) = match step_scores(app, index, |k| {
+        format!(" · KAS {k:.2} vs plan {}", index + 1)
+    }) {
         Ok(found) => found,
         Err(line) => return line,
     };
@@ -355,7 +358,6 @@ pub(crate) fn draw(frame: &mut Frame, app: &App, list: StepList, area: Rect) {
     };
     let block = pane_block(app, pane, extra);
     let inner = block.inner(area);
-    frame.render_widget(block, area);
     let items = &app.panes.steps(list).items;
     if items.is_empty() {
         let hint = match list {
@@ -365,44 +367,94 @@ pub(crate) fn draw(frame: &mut Frame, app: &App, list: StepList, area: Rect) {
             StepList::GroundTruth => "No ground truth: g chooses one, o types one.",
         };
         frame.render_widget(
-            Paragraph::new(Span::styled(hint, t.muted)).wrap(Wrap { trim: true }),
-            inner,
+            Paragraph::new(Span::styled(hint, t.muted))
+                .wrap(Wrap { trim: true })
+                .block(block),
+            area,
         );
         return;
     }
-    let (first, count) = list_window(selected, items.len(), 2, inner.height as usize);
-    let mut lines: Vec<Line> = Vec::with_capacity(count * 2);
-    let mut cursor_row = None;
-    for (i, step) in items.iter().enumerate().skip(first).take(count) {
+    let viewport = usize::from(inner.height);
+    let (wrapped, edited) = wrapped_steps(app, list, usize::from(inner.width));
+    let view = Scroll::default().following(&wrapped, selected, viewport);
+    scroll::render(frame, area, block, wrapped.lines(), view, t.accent);
+    if let (Some((i, indent)), Editing::Step { editor, .. }) = (edited, &app.editing) {
+        let row = wrapped.span(i).start;
+        if (view.offset()..view.offset() + viewport).contains(&row) {
+            let at = Rect {
+                x: inner.x + indent as u16,
+                y: inner.y + (row - view.offset()) as u16,
+                width: inner.width.saturating_sub(indent as u16),
+                height: 1,
+            };
+            frame.render_widget(editor, at);
+        }
+    }
+}
+
+/// The steps of `list` as the pane draws them at `width` columns, each
+/// wrapped under its number and followed by its wrapped mark, and which
+/// step is being edited (with the editor's indent): shared by drawing and
+/// by the mouse, so a click lands on the step drawn where it is.
+fn wrapped_steps(app: &App, list: StepList, width: usize) -> (Wrapped, Option<(usize, usize)>) {
+    let t = &app.looks.theme;
+    let steps = app.panes.steps(list);
+    let pane = match list {
+        StepList::Plan => Pane::Plan,
+        StepList::GroundTruth => Pane::GroundTruth,
+    };
+    let mut edited = None;
+    // Each step wrapped under its number, then its mark wrapped under its
+    // indent: nothing is cut at the pane's edge.
+    let wrapped = Wrapped::new(steps.items.iter().enumerate().map(|(i, step)| {
         let number = Span::styled(format!("{:>2}. ", i + 1), t.accent);
         let editing_this = matches!(&app.editing,
             Editing::Step { list: l, index, .. } if *l == list && *index == i);
-        if editing_this {
-            cursor_row = Some((lines.len(), number.width()));
-            lines.push(Line::from(number));
+        let mut lines = if editing_this {
+            edited = Some((i, number.width()));
+            vec![Line::from(number)]
         } else {
-            let base = if i == selected && app.focus == pane {
+            let base = if i == steps.selected && app.focus == pane {
                 t.selection
             } else {
                 t.base
             };
-            let mut spans = vec![number];
-            spans.extend(highlighted(step, &app.panes.search, base, t.highlight));
-            lines.push(Line::from(spans));
-        }
-        lines.push(match list {
+            let body = highlighted(step, &app.panes.search, base, t.highlight);
+            scroll::wrap_hanging(&[number], &body, width)
+        };
+        let mark = match list {
             StepList::Plan => plan_mark(app, i),
             StepList::GroundTruth => ground_truth_mark(app, i),
-        });
-    }
-    frame.render_widget(Paragraph::new(lines), inner);
-    if let (Some((row, indent)), Editing::Step { editor, .. }) = (cursor_row, &app.editing) {
-        let at = Rect {
-            x: inner.x + indent as u16,
-            y: inner.y + row as u16,
-            width: inner.width.saturating_sub(indent as u16),
-            height: 1,
         };
-        frame.render_widget(editor, at);
+        lines.extend(wrap_mark(mark, width));
+        lines
+    }));
+    (wrapped, edited)
+}
+
+/// The step of `list` drawn on `row` (counted inside the frame) of a pane
+/// drawn in `area`, if any.
+pub(crate) fn step_at(app: &App, list: StepList, area: Rect, row: usize) -> Option<usize> {
+    let (width, viewport) = (
+        usize::from(area.width.saturating_sub(2)),
+        usize::from(area.height.saturating_sub(2)),
+    );
+    let (wrapped, _) = wrapped_steps(app, list, width);
+    let view = Scroll::default().following(&wrapped, app.panes.steps(list).selected, viewport);
+    let line = view.offset() + row;
+    (row < viewport && line < wrapped.total()).then(|| wrapped.item_at(line))
+}
+
+/// A step's mark wrapped to `width` under its own leading blanks, so a long
+/// reason (`✗ unmatched: nearest GT 3 at cos 0.512 ≤ 0.6 · KAS 0.33 vs GT
+/// 4`) goes on below instead of past the pane's edge.
+fn wrap_mark(mark: Line<'static>, width: usize) -> Vec<Line<'static>> {
+    let mut spans = mark.spans;
+    let indent = spans
+        .first()
+        .map_or(0, |s| s.content.len() - s.content.trim_start().len());
+    if let Some(first) = spans.first_mut() {
+        first.content = first.content.trim_start().to_string().into();
     }
+    scroll::wrap_hanging(&[Span::raw(" ".repeat(indent))], &spans, width)
 }
