@@ -5,6 +5,9 @@ use criterion::{criterion_group, criterion_main, Criterion, Throughput};
 use mapvlm::models::{models_dir, EN_CORE_WEB_SM};
 use mapvlm::nlp::en::EnPipeline;
 
+#[path = "support/mod.rs"]
+mod support;
+
 const SENTENCES: &str = concat!(
     env!("CARGO_MANIFEST_DIR"),
     "/../shared/golden/sentences.dev.txt"
@@ -12,15 +15,10 @@ const SENTENCES: &str = concat!(
 
 fn bench(c: &mut Criterion) {
     let dir = models_dir(None).join(EN_CORE_WEB_SM);
-    let Ok(nlp) = EnPipeline::load(&dir) else {
-        eprintln!("skipping: no model at {}", dir.display());
-        return;
-    };
-    let Ok(text) = std::fs::read_to_string(SENTENCES) else {
-        eprintln!("skipping: no {SENTENCES}");
-        return;
-    };
-    let sentences: Vec<&str> = text.lines().collect();
+    let nlp = EnPipeline::load(&dir).unwrap_or_else(|e| panic!("{}: {e}", dir.display()));
+    let text = std::fs::read_to_string(SENTENCES).unwrap_or_else(|e| panic!("{SENTENCES}: {e}"));
+    let all: Vec<&str> = text.lines().collect();
+    let sentences = &all[..support::count(all.len(), 20)];
     let words: usize = sentences.iter().map(|s| nlp.analyse(s).len()).sum();
     let mut group = c.benchmark_group("en_parse");
     group.sample_size(10);

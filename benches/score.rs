@@ -23,6 +23,9 @@ use mapvlm::nlp::mpnet::{MpnetEncoder, MpnetOptions};
 use mapvlm::nlp::wordvec::WordVectorTable;
 use mapvlm::store::DiskStore;
 
+#[path = "support/mod.rs"]
+mod support;
+
 struct Models {
     dir: PathBuf,
     goal: GoalModels,
@@ -160,7 +163,7 @@ fn bench(c: &mut Criterion) {
         },
     );
     pair.finish();
-    let forty = &pairs[..40];
+    let forty = &pairs[..support::count(40, 4)];
     let mut group = c.benchmark_group("score 40 golden pairs");
     group.sample_size(10);
     group.bench_function("batched and cached, models loaded", |b| {
