@@ -29,6 +29,12 @@ use sha2::{Digest, Sha256};
 #[derive(Clone, PartialEq, Eq)]
 pub struct Secret(String);
 
+/// The shortest key that text is searched for, to remove it. A shorter one
+/// is a placeholder for a server that checks none (`EMPTY`, `x`, `none`
+/// for a local OpenAI-compatible server), not a secret: removing every `x`
+/// from a model's plan would change the plan and its score.
+pub const MIN_SECRET_CHARS: usize = 8;
+
 impl Secret {
     /// Wraps a key; an empty string is no key.
     pub fn new(key: impl Into<String>) -> Option<Self> {
@@ -42,8 +48,18 @@ impl Secret {
         &self.0
     }
 
-    /// Removes every occurrence of the key from `text`.
+    /// Whether the key is shorter than [`MIN_SECRET_CHARS`]: a placeholder,
+    /// sent as given but not searched for in text.
+    pub fn is_placeholder(&self) -> bool {
+        self.0.chars().count() < MIN_SECRET_CHARS
+    }
+
+    /// Removes every occurrence of the key from `text` (a placeholder key
+    /// leaves it as it is).
     pub fn redact(&self, text: &str) -> String {
+        if self.is_placeholder() {
+            return text.to_string();
+        }
         text.replace(&self.0, "[redacted]")
     }
 }
@@ -502,6 +518,34 @@ pub fn sha256_hex(bytes: &[u8]) -> String {
         .iter()
         .map(|b| format!("{b:02x}"))
         .collect()
+}
+
+#[cfg(test)]
+mod secret_tests {
+    use super::provider::Assembler;
+    use super::Secret;
+
+    #[test]
+    fn a_placeholder_key_leaves_text_whole_and_a_real_one_is_removed() {
+        let text = "Walk to the box, then pick up the next box.";
+        for placeholder in ["x", "EMPTY", "none", "sk-1234"] {
+            let key = Secret::new(placeholder).unwrap();
+            assert!(key.is_placeholder(), "{placeholder}");
+            assert_eq!(key.redact(text), text);
+            let seen = std::sync::Mutex::new(String::new());
+            let sink = |piece: &str| seen.lock().unwrap().push_str(piece);
+            let mut answer = Assembler::new(&sink, Some(key));
+            for piece in ["Walk to the bo", "x, then pick up the ne", "xt box."] {
+                answer.push(piece);
+            }
+            let done = answer.finish("openai", "m").unwrap();
+            assert_eq!(done.text, text);
+            assert_eq!(*seen.lock().unwrap(), text);
+        }
+        let key = Secret::new("sk-abcdefgh").unwrap();
+        assert!(!key.is_placeholder());
+        assert_eq!(key.redact("key sk-abcdefgh here"), "key [redacted] here");
+    }
 }
 
 /// Properties both providers' stream decoders share (here, where both
