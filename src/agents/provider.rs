@@ -532,6 +532,10 @@ impl HttpEndpoint {
     }
 }
 
+/// The most timed pieces an answer keeps (a real answer has a few thousand;
+/// a replay plays them back as they came).
+const MAX_CHUNKS: usize = 65_536;
+
 /// Gathers a streamed answer: its pieces with their arrival times (the text
 /// is joined from them once, at the end, so a long answer is held once while
 /// it streams), and the usage once reported. The API key is removed from the text
@@ -562,7 +566,8 @@ impl<'a> Assembler<'a> {
         Self {
             start: Instant::now(),
             on_token,
-            key,
+            // A placeholder key is not looked for (see `Secret::redact`).
+            key: key.filter(|k| !k.is_placeholder()),
             held: String::new(),
             chunks: Vec::new(),
             bytes: 0,
@@ -632,10 +637,16 @@ impl<'a> Assembler<'a> {
         (self.on_token)(&ready);
         self.bytes += ready.len();
         self.chars += ready.chars().count();
-        self.chunks.push(Chunk {
-            at_ms: elapsed_ms(self.start),
-            text: ready,
-        });
+        let full = self.chunks.len() >= MAX_CHUNKS;
+        match self.chunks.last_mut() {
+            // Past this many pieces the rest join the last one: a stream of
+            // tiny events would otherwise cost far more to keep than its text.
+            Some(last) if full => last.text.push_str(&ready),
+            _ => self.chunks.push(Chunk {
+                at_ms: elapsed_ms(self.start),
+                text: ready,
+            }),
+        }
     }
 
     /// How many characters have arrived.
@@ -960,6 +971,21 @@ mod tests {
                 },
             ]
         );
+    }
+
+    #[test]
+    fn a_stream_of_tiny_pieces_keeps_at_most_max_chunks_and_all_its_text() {
+        let sink = |_: &str| {};
+        let mut answer = Assembler::new(&sink, None);
+        let pieces = MAX_CHUNKS + 1000;
+        for _ in 0..pieces {
+            answer.push("a");
+        }
+        let done = answer.finish("openai", "m").unwrap();
+        assert_eq!(done.chunks.len(), MAX_CHUNKS);
+        assert_eq!(done.text.len(), pieces);
+        let joined: String = done.chunks.iter().map(|c| c.text.as_str()).collect();
+        assert_eq!(joined, done.text);
     }
 
     #[test]
