@@ -265,8 +265,9 @@ pub fn render_table(path: &Path) -> Result<String, AgentError> {
         path: path.to_path_buf(),
         reason,
     };
-    let text =
-        std::fs::read_to_string(path).map_err(|err| fail(format!("cannot read it ({err})")))?;
+    let bytes = crate::limits::read_file(path, crate::limits::MAX_TEXT_FILE_BYTES, "a table file")
+        .map_err(|err| fail(err.to_string()))?;
+    let text = String::from_utf8(bytes).map_err(|_| fail("not UTF-8 text".into()))?;
     let mut lines = text.lines().map(|l| l.trim_end_matches('\r'));
     let header: Vec<&str> = lines
         .next()

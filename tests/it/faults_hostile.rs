@@ -583,6 +583,32 @@ fn unbounded_inputs_cost_no_more_memory_than_their_limits() {
             "{device}: {peak} KiB against {normal} KiB"
         );
     }
+    // A table file is read within the same limit, before any request.
+    let table = |path: &str| {
+        let args = strings(&[
+            "plan",
+            "--task",
+            "Wash the mug",
+            "--table",
+            path,
+            "--approach",
+            "single-table",
+            "--base-url",
+            unreachable,
+            "--no-cache",
+        ]);
+        mapvlm_command(&args, home.path())
+    };
+    let (peak, status, err) = peak_rss(table("/dev/zero"));
+    assert!(!status.success(), "{err}");
+    assert!(
+        err.contains("longer than the limit of 64 MiB") && err.contains("a table file"),
+        "{err}"
+    );
+    assert!(
+        peak <= normal + 2 * image_limit,
+        "--table /dev/zero: {peak} KiB against {normal} KiB"
+    );
     let gt = home.path().join("gt.txt");
     std::fs::write(&gt, "Walk to the sink.\n").unwrap();
     let score = |pred: &str| {
