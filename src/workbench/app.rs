@@ -504,9 +504,24 @@ impl App {
             .text_of(self.work.approach, agent, editing)
     }
 
+    /// Whether the Scene pane shows the task's table instead of its
+    /// picture: on a table approach, for a task with a table file.
+    pub fn shows_table(&self) -> bool {
+        !self.work.approach.uses_image() && self.work.task.table.is_some()
+    }
+
     pub(crate) fn load_scene(&mut self) -> Vec<Cmd> {
         self.panes.scene.protocol = None;
         self.panes.scene.requested = None;
+        self.panes.scene.table = None;
+        let table: Vec<Cmd> = self
+            .work
+            .task
+            .table
+            .iter()
+            .cloned()
+            .map(Cmd::LoadTable)
+            .collect();
         if let Some(message) = self.panes.scene.message.take() {
             if self
                 .messages
@@ -517,7 +532,7 @@ impl App {
                 self.messages.status = None;
             }
         }
-        match &self.work.task.image {
+        let image = match &self.work.task.image {
             Some(path) => {
                 self.panes.scene.image = None;
                 vec![Cmd::LoadImage(path.clone())]
@@ -531,12 +546,13 @@ impl App {
                 self.panes.scene.image = None;
                 Vec::new()
             }
-        }
+        };
+        image.into_iter().chain(table).collect()
     }
 
     /// The terminal area the scene image is shown in now, when it is.
     pub fn image_area(&self) -> Option<Rect> {
-        if !self.panes.scene.enabled || self.panes.scene.image.is_none() {
+        if !self.panes.scene.enabled || self.panes.scene.image.is_none() || self.shows_table() {
             return None;
         }
         let screen = Rect::new(0, 0, self.size.0, self.size.1);

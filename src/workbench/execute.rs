@@ -95,6 +95,10 @@ pub fn execute(cmd: Cmd, app: &mut App, carrier: &mut dyn Carrier) {
             let text = read_step_file(&path);
             vec![Msg::StepFile(path, text)]
         })),
+        Cmd::LoadTable(path) => carrier.spawn(Box::new(move || {
+            let rendered = crate::agents::prompts::render_table(&path).map_err(|e| e.to_string());
+            vec![Msg::Table(path, rendered)]
+        })),
         Cmd::LoadImage(path) => carrier.spawn(Box::new(move || {
             vec![Msg::SceneImage(scene_image::read(&path))]
         })),

@@ -54,7 +54,8 @@ impl<'a> Headless<'a> {
     /// Carries out `cmds` and every command their messages lead to, each
     /// message shown to `seen` (which may change it, e.g. to fix timings)
     /// before `app` gets it. A cancel has nothing to stop: runs end before
-    /// the next command.
+    /// the next command. Of the score requests queued together only the
+    /// last is carried out, as in the loop.
     pub fn run(&self, app: &mut App, cmds: Vec<Cmd>, seen: &mut dyn FnMut(&mut Msg)) {
         let mut queue = VecDeque::from(cmds);
         let mut here = HereAndNow {
@@ -62,6 +63,13 @@ impl<'a> Headless<'a> {
             answers: Vec::new(),
         };
         while let Some(cmd) = queue.pop_front() {
+            // A score request with a later one queued is out of date: as
+            // the loop's latest-only channel does, only the last is scored.
+            let outdated = matches!(cmd, Cmd::Score(_))
+                && queue.iter().any(|later| matches!(later, Cmd::Score(_)));
+            if outdated {
+                continue;
+            }
             execute(cmd, app, &mut here);
             for mut msg in std::mem::take(&mut here.answers) {
                 seen(&mut msg);

@@ -53,6 +53,9 @@ pub enum Msg {
     StepFile(PathBuf, Result<String, ReadError>),
     /// The scene image was read.
     SceneImage(Result<Arc<DynamicImage>, SceneImageError>),
+    /// The task's table file was rendered as its agents read it, or why it
+    /// could not be.
+    Table(PathBuf, Result<String, String>),
     /// The scene image was encoded for this area of the terminal.
     ImageReady(Rect, Result<Box<Drawing>, SceneImageError>),
     /// The session was saved, or why not.
@@ -84,6 +87,8 @@ pub enum Cmd {
     ReadStepFile(PathBuf),
     /// Read the scene image.
     LoadImage(PathBuf),
+    /// Read and render the task's table file.
+    LoadTable(PathBuf),
     /// Corrupt the plan into a new run.
     Corrupt(CorruptRequest),
     /// Save `set` as the prompt set `name` under the folder `root`.

@@ -76,6 +76,13 @@ impl App {
                     Vec::new()
                 }
             },
+            Msg::Table(path, rendered) => {
+                // A table read for a task since left is dropped.
+                if self.work.task.table.as_ref() == Some(&path) {
+                    self.panes.scene.table = Some((path, rendered));
+                }
+                Vec::new()
+            }
             Msg::SceneImage(result) => {
                 match result {
                     Ok(img) => self.panes.scene.image = Some(img),
@@ -400,6 +407,7 @@ impl App {
                     .map(|area| match pane {
                         Pane::Prompt => panes::prompt::scroll_limit(self, area),
                         Pane::Description => panes::description::scroll_limit(self, area),
+                        Pane::Scene => panes::scene::scroll_limit(self, area),
                         _ => 500,
                     })
                     .unwrap_or(500);

@@ -1693,3 +1693,50 @@ fn a_table_approach_without_a_table_file_shows_the_papers_plan_as_a_reference() 
     let screen = h.screen();
     assert!(screen.contains("this task has none"), "{screen}");
 }
+
+/// On a task with a table file a table approach's Scene pane shows the
+/// table as its agents read it, scrollable to its last row, and the
+/// picture again on an image approach.
+#[test]
+fn the_scene_pane_shows_the_table_a_table_approach_reads() {
+    use mapvlm::agents::Approach;
+    let root = concat!(env!("CARGO_MANIFEST_DIR"), "/../shared/data/alfred30");
+    let (mut dataset, _) = mapvlm::dataset::Dataset::load(std::path::Path::new(root)).unwrap();
+    dataset.tasks.retain(|t| t.table.is_some());
+    let table = dataset.tasks[0].table.clone().unwrap();
+    let rendered = mapvlm::agents::prompts::render_table(&table).unwrap();
+    let mut h = started(
+        AppInit {
+            dataset: Some(dataset),
+            ..AppInit::demo((120, 40), "no models in this test")
+        },
+        bag_of_words(),
+    );
+    assert!(
+        h.app.image_area().is_some(),
+        "an image approach shows the picture"
+    );
+    while h.app.work.approach != Approach::MultiTable {
+        h.key(KeyCode::Char('a'));
+    }
+    assert!(h.app.image_area().is_none(), "no picture over the table");
+    let first_row = rendered.lines().next().unwrap();
+    let last_row = rendered.lines().last().unwrap();
+    let screen = h.screen();
+    let head: String = first_row.chars().take(20).collect();
+    assert!(screen.contains(&head), "{head} in\n{screen}");
+    assert!(screen.contains("↓") && screen.contains("more"), "{screen}");
+    while h.app.focus != Pane::Scene {
+        h.key(KeyCode::Tab);
+    }
+    for _ in 0..200 {
+        h.key(KeyCode::PageDown);
+    }
+    let end = h.screen();
+    let tail: String = last_row.chars().take(20).collect();
+    assert!(end.contains(&tail), "{tail} never in view:\n{end}");
+    while !h.app.work.approach.uses_image() {
+        h.key(KeyCode::Char('a'));
+    }
+    assert!(h.app.image_area().is_some(), "the picture is back");
+}

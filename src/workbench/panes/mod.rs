@@ -243,6 +243,36 @@ pub(crate) fn highlighted<'a>(
 }
 
 /// The bordered block of a pane, with its title and the focus border.
+/// Draws `block` over `area` and `lines` in `body` from `pane`'s scroll
+/// offset (kept inside them), with `↑ N more` / `↓ N more` on the block's
+/// frame: for a pane whose scrolled text is only part of what it draws.
+pub(crate) fn draw_scrolled(
+    frame: &mut Frame,
+    app: &App,
+    pane: Pane,
+    block: Block<'_>,
+    area: Rect,
+    body: Rect,
+    lines: Vec<Line<'static>>,
+) {
+    let viewport = usize::from(body.height);
+    let wanted = app.panes.scroll.get(&pane).copied().unwrap_or(0);
+    let offset = usize::from(wanted).min(lines.len().saturating_sub(viewport));
+    let (up, down) = crate::workbench::scroll::markers(offset, lines.len(), viewport);
+    let style = app.looks.theme.accent;
+    let mut block = block;
+    if let Some(up) = up {
+        block = block.title_top(Line::from(Span::styled(format!(" {up} "), style)).right_aligned());
+    }
+    if let Some(down) = down {
+        block = block
+            .title_bottom(Line::from(Span::styled(format!(" {down} "), style)).right_aligned());
+    }
+    frame.render_widget(block, area);
+    let shown: Vec<Line> = lines.into_iter().skip(offset).take(viewport).collect();
+    frame.render_widget(ratatui::widgets::Paragraph::new(shown), body);
+}
+
 pub(crate) fn pane_block<'a>(app: &App, pane: Pane, extra: Option<Span<'a>>) -> Block<'a> {
     let focused = app.focus == pane;
     let mut title = vec![Span::styled(

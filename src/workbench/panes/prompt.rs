@@ -14,7 +14,7 @@ use crate::agents::{AgentRole, Approach};
 use crate::workbench::agents;
 use crate::workbench::app::App;
 use crate::workbench::editing::Editing;
-use crate::workbench::panes::{agent_badge, highlighted, pane_block, Pane};
+use crate::workbench::panes::{agent_badge, draw_scrolled, highlighted, pane_block, Pane};
 use crate::workbench::scroll;
 
 /// The Prompt pane's state: every template's text, the agent shown and
@@ -151,23 +151,7 @@ pub(crate) fn draw(frame: &mut Frame, app: &App, area: Rect) {
         // The prompt wrapped to the body and scrolled by the pane's keys,
         // its markers on the pane's frame.
         let lines = body_lines(app, body);
-        let viewport = usize::from(body.height);
-        let wanted = app.panes.scroll.get(&Pane::Prompt).copied().unwrap_or(0);
-        let offset = usize::from(wanted).min(lines.len().saturating_sub(viewport));
-        let (up, down) = scroll::markers(offset, lines.len(), viewport);
-        let mut block = block;
-        for (marker, top) in [(up, true), (down, false)] {
-            let Some(marker) = marker else { continue };
-            let title = Line::from(Span::styled(format!(" {marker} "), t.accent)).right_aligned();
-            block = if top {
-                block.title_top(title)
-            } else {
-                block.title_bottom(title)
-            };
-        }
-        frame.render_widget(block, area);
-        let shown: Vec<Line> = lines.into_iter().skip(offset).take(viewport).collect();
-        frame.render_widget(Paragraph::new(shown), body);
+        draw_scrolled(frame, app, Pane::Prompt, block, area, body, lines);
     }
     frame.render_widget(Paragraph::new(Line::from(tabs)), tab_row);
     let mut footer_lines = vec![Line::from(Span::styled(

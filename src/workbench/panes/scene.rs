@@ -1,17 +1,19 @@
 //! The Scene pane: the task's image, read and encoded off the loop.
 
+use std::path::PathBuf;
 use std::sync::Arc;
 
 use image::DynamicImage;
 use ratatui::layout::Rect;
-use ratatui::text::Line;
+use ratatui::text::{Line, Span};
 use ratatui::widgets::{Block, Paragraph};
 use ratatui::Frame;
 
 use crate::demo;
 use crate::workbench::app::App;
-use crate::workbench::panes::{highlighted, pane_block, Pane};
+use crate::workbench::panes::{draw_scrolled, highlighted, pane_block, Pane};
 use crate::workbench::scene_image::{self, Encoded};
+use crate::workbench::scroll;
 
 /// The Scene pane's state: the image and its encoding for the terminal.
 pub struct ScenePane {
@@ -21,6 +23,9 @@ pub struct ScenePane {
     pub image: Option<Arc<DynamicImage>>,
     /// The image encoded for an area of the terminal.
     pub protocol: Option<Encoded>,
+    /// The task's table as its agents read it (or why it cannot be read),
+    /// shown in place of the picture on a table approach.
+    pub table: Option<(PathBuf, Result<String, String>)>,
     /// The area an encoding is under way for, off the loop.
     pub requested: Option<Rect>,
     /// How the image is drawn on this terminal and why, as the header says
@@ -42,6 +47,7 @@ impl ScenePane {
             enabled: true,
             image: Some(Arc::new(DynamicImage::ImageRgb8(demo::scene_image()))),
             protocol: None,
+            table: None,
             requested: None,
             graphics: String::new(),
             message: None,
@@ -50,11 +56,47 @@ impl ScenePane {
     }
 }
 
+/// The table's lines as the Scene pane shows them in `body`: wrapped, the
+/// search's hits highlighted; what is wrong with the file, or that it is
+/// being read.
+fn table_lines(app: &App, body: Rect) -> Vec<Line<'static>> {
+    let t = &app.looks.theme;
+    let text: Vec<Line> = match &app.panes.scene.table {
+        Some((_, Ok(table))) => table
+            .lines()
+            .map(|l| Line::from(highlighted(l, &app.panes.search, t.base, t.highlight)))
+            .collect(),
+        Some((_, Err(why))) => vec![Line::from(Span::styled(why.clone(), t.warn))],
+        None => vec![Line::from(Span::styled("reading the table…", t.muted))],
+    };
+    scroll::wrap_text(&text, body.width.into())
+}
+
+/// The furthest the Scene pane scrolls in `area`: through the table when it
+/// shows one, not at all over a picture.
+pub(crate) fn scroll_limit(app: &App, area: Rect) -> usize {
+    if !app.shows_table() {
+        return 0;
+    }
+    let body = scene_image_area(area);
+    table_lines(app, body)
+        .len()
+        .saturating_sub(usize::from(body.height))
+}
+
 pub(crate) fn draw(frame: &mut Frame, app: &App, area: Rect) {
     let t = &app.looks.theme;
     let block = pane_block(app, Pane::Scene, None);
     let inner = block.inner(area);
-    frame.render_widget(block, area);
+    let image_area = scene_image_area(area);
+    if app.shows_table() {
+        // A table approach reads the table, not the picture: shown as the
+        // agents get it, scrolled with the pane's keys.
+        let lines = table_lines(app, image_area);
+        draw_scrolled(frame, app, Pane::Scene, block, area, image_area, lines);
+    } else {
+        frame.render_widget(block, area);
+    }
     let caption = Line::from(highlighted(
         &app.work.task.text,
         &app.panes.search,
@@ -62,7 +104,9 @@ pub(crate) fn draw(frame: &mut Frame, app: &App, area: Rect) {
         t.highlight,
     ));
     frame.render_widget(Paragraph::new(caption), Rect { height: 1, ..inner });
-    let image_area = scene_image_area(area);
+    if app.shows_table() {
+        return;
+    }
     let (encoded, note) = if !app.panes.scene.enabled {
         (None, "image off (i shows it)")
     } else if app.panes.scene.image.is_none() {
