@@ -9,6 +9,7 @@ use unicode_width::UnicodeWidthStr;
 use crate::agents::ProviderKind;
 use crate::workbench::app::App;
 use crate::workbench::editing::Editing;
+use crate::workbench::graph_layout::truncate;
 use crate::workbench::keymap::{self};
 use crate::workbench::layout::{pane_rects, Screen, MIN_HEIGHT, MIN_WIDTH};
 use crate::workbench::overlays::{self};
@@ -149,21 +150,6 @@ fn render_tabs(frame: &mut Frame, app: &App, area: Rect) {
     frame.render_widget(Paragraph::new(Line::from(spans)).style(t.base), area);
 }
 
-/// `text` cut to `room` columns, a `…` where it was cut.
-fn shortened(text: &str, room: usize) -> String {
-    if text.width() <= room {
-        return text.to_string();
-    }
-    let mut out = String::new();
-    for c in text.chars() {
-        if out.width() + c.to_string().width() + 1 > room {
-            break;
-        }
-        out.push(c);
-    }
-    format!("{}…", out.trim_end())
-}
-
 fn render_status(frame: &mut Frame, app: &App, area: Rect) {
     let t = &app.looks.theme;
     let context = app.key_context();
@@ -207,7 +193,7 @@ fn render_status(frame: &mut Frame, app: &App, area: Rect) {
         };
         spans.push(Span::styled("│ ", t.border));
         // Still too long: cut where it shows, with a mark that it was.
-        let text = shortened(&text, room.saturating_sub(2));
+        let text = truncate(&text, room.saturating_sub(2));
         room = room.saturating_sub(text.width() + 2);
         spans.push(Span::styled(text, style));
     }

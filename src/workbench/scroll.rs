@@ -435,6 +435,31 @@ pub fn wrap_text(text: &[Line<'_>], width: usize) -> Vec<Line<'static>> {
         .collect()
 }
 
+/// `block` with the [`markers`] of a view `offset` lines down a text of
+/// `total` lines showing `viewport` on its top and bottom edges, right
+/// aligned in `marker_style`: what [`render`] draws, for a pane whose
+/// scrolled text is only part of what it shows.
+pub fn framed<'a>(
+    block: Block<'a>,
+    offset: usize,
+    total: usize,
+    viewport: usize,
+    marker_style: Style,
+) -> Block<'a> {
+    let (up, down) = markers(offset, total, viewport);
+    let mut block = block;
+    if let Some(up) = up {
+        block = block
+            .title_top(Line::from(Span::styled(format!(" {up} "), marker_style)).right_aligned());
+    }
+    if let Some(down) = down {
+        block = block.title_bottom(
+            Line::from(Span::styled(format!(" {down} "), marker_style)).right_aligned(),
+        );
+    }
+    block
+}
+
 /// Draws `lines` in `block` over `area`, from line `scroll.offset()`, with
 /// the markers ([`markers`]) on the frame's top and bottom edges, right
 /// aligned in `marker_style`. The lines must be wrapped for the inner
@@ -451,17 +476,7 @@ pub fn render(
     let viewport = usize::from(inner.height);
     let mut scroll = scroll;
     scroll.clamp(lines.len(), viewport);
-    let (up, down) = markers(scroll.offset, lines.len(), viewport);
-    let mut block = block;
-    if let Some(up) = up {
-        block = block
-            .title_top(Line::from(Span::styled(format!(" {up} "), marker_style)).right_aligned());
-    }
-    if let Some(down) = down {
-        block = block.title_bottom(
-            Line::from(Span::styled(format!(" {down} "), marker_style)).right_aligned(),
-        );
-    }
+    let block = framed(block, scroll.offset, lines.len(), viewport, marker_style);
     let shown: Vec<Line<'static>> = lines
         .iter()
         .skip(scroll.offset)

@@ -258,16 +258,13 @@ pub(crate) fn draw_scrolled(
     let viewport = usize::from(body.height);
     let wanted = app.panes.scroll.get(&pane).copied().unwrap_or(0);
     let offset = usize::from(wanted).min(lines.len().saturating_sub(viewport));
-    let (up, down) = crate::workbench::scroll::markers(offset, lines.len(), viewport);
-    let style = app.looks.theme.accent;
-    let mut block = block;
-    if let Some(up) = up {
-        block = block.title_top(Line::from(Span::styled(format!(" {up} "), style)).right_aligned());
-    }
-    if let Some(down) = down {
-        block = block
-            .title_bottom(Line::from(Span::styled(format!(" {down} "), style)).right_aligned());
-    }
+    let block = crate::workbench::scroll::framed(
+        block,
+        offset,
+        lines.len(),
+        viewport,
+        app.looks.theme.accent,
+    );
     frame.render_widget(block, area);
     let shown: Vec<Line> = lines.into_iter().skip(offset).take(viewport).collect();
     frame.render_widget(ratatui::widgets::Paragraph::new(shown), body);
