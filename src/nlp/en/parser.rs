@@ -6,7 +6,7 @@ use std::path::Path;
 
 use serde_json::Value as Json;
 
-use super::layers::{argmax, matmul_transposed, Linear};
+use super::layers::{add_into, argmax, matmul_transposed, Linear};
 use super::tok2vec::WIDTH;
 use super::weights::{as_text, get, read_msgpack, ThincModel};
 use super::EnError;
@@ -150,12 +150,9 @@ impl Parser {
                     let start = (id as usize * N_FEATS + f) * width;
                     &cached[start..start + width]
                 };
-                unmaxed.iter_mut().zip(feature).for_each(|(u, v)| *u += v);
+                add_into(&mut unmaxed, feature);
             }
-            unmaxed
-                .iter_mut()
-                .zip(&self.lower_bias)
-                .for_each(|(u, b)| *u += b);
+            add_into(&mut unmaxed, &self.lower_bias);
             for (h, pieces) in hidden.iter_mut().zip(unmaxed.chunks_exact(PIECES)) {
                 *h = pieces[argmax(pieces)];
             }

@@ -3,7 +3,7 @@
 
 use std::path::Path;
 
-use super::layers::MaxoutNorm;
+use super::layers::{add_into, MaxoutNorm};
 use super::strings::thinc_hash;
 use super::weights::ThincModel;
 use super::EnError;
@@ -103,7 +103,7 @@ impl Tok2Vec {
                 for h in thinc_hash(key, embed.seed) {
                     let r = (h as usize) % embed.rows;
                     let src = &embed.table[r * WIDTH..(r + 1) * WIDTH];
-                    out.iter_mut().zip(src).for_each(|(o, s)| *o += s);
+                    add_into(out, src);
                 }
             }
         }
@@ -129,10 +129,7 @@ impl Tok2Vec {
                 }
             }
             encoder.apply_rows(&windows, rows, &mut y);
-            x[lo * WIDTH..hi * WIDTH]
-                .iter_mut()
-                .zip(&y)
-                .for_each(|(a, b)| *a += b);
+            add_into(&mut x[lo * WIDTH..hi * WIDTH], &y);
         }
         x[PAD * WIDTH..(PAD + n) * WIDTH].to_vec()
     }
