@@ -24,6 +24,7 @@ use mapvlm::workbench::snapshot::SNAPSHOT_EVERY;
 use mapvlm::workbench::theme::{load_themes, Theme};
 use mapvlm::workbench::{prepare_image, render};
 use ratatui::backend::TestBackend;
+use ratatui::buffer::Buffer;
 use ratatui::layout::Rect;
 use ratatui::Terminal;
 
@@ -708,10 +709,33 @@ impl Harness {
     /// text or its colours) changed, commands were asked for, or the app quits.
     fn press_changes(&mut self, key: KeyEvent) -> bool {
         let before = self.terminal().backend().buffer().clone();
+        self.press_changes_from(&before, key)
+    }
+
+    /// [`Harness::press_changes`] against `before`, the screen as it was
+    /// drawn before the key: a loop over keys that must change nothing draws
+    /// it once, not once a key.
+    fn press_changes_from(&mut self, before: &Buffer, key: KeyEvent) -> bool {
         let cmds = self.app.update(Msg::Key(key));
         let asked = !cmds.is_empty();
         self.run(cmds);
-        asked || self.app.quit || *self.terminal().backend().buffer() != before
+        asked || self.app.quit || self.terminal().backend().buffer() != before
+    }
+}
+
+/// Presses each key in `keys` that the key table does not bind in
+/// `contexts` and fails on the first that does something; the screen before
+/// is drawn once, since a key that changes nothing leaves it as it was.
+fn assert_unbound_keys_do_nothing(h: &mut Harness, contexts: &[Context], what: &str) {
+    let before = h.terminal().backend().buffer().clone();
+    for key in mapvlm::workbench::keymap::pressable_keys() {
+        if keymap::action(contexts, &key).is_some() {
+            continue;
+        }
+        assert!(
+            !h.press_changes_from(&before, key),
+            "{key:?} does something in {what} but is not in the key table"
+        );
     }
 }
 
@@ -724,15 +748,7 @@ fn a_key_missing_from_the_key_table_does_nothing_in_any_pane() {
             .into_iter()
             .chain(h.app.pane_contexts())
             .collect();
-        for key in mapvlm::workbench::keymap::pressable_keys() {
-            if keymap::action(&contexts, &key).is_some() {
-                continue;
-            }
-            assert!(
-                !h.press_changes(key),
-                "{key:?} does something in {pane:?} but is not in the key table"
-            );
-        }
+        assert_unbound_keys_do_nothing(&mut h, &contexts, &format!("{pane:?}"));
     }
 }
 
@@ -854,15 +870,11 @@ fn a_key_missing_from_the_key_table_does_nothing_in_an_overlay() {
     ] {
         let mut h = Harness::new((200, 60), None, false, unavailable());
         open_overlay(&mut h, context, false);
-        for key in mapvlm::workbench::keymap::pressable_keys() {
-            if keymap::action(&[Context::Always, context], &key).is_some() {
-                continue;
-            }
-            assert!(
-                !h.press_changes(key),
-                "{key:?} does something in {context:?} but is not in the key table"
-            );
-        }
+        assert_unbound_keys_do_nothing(
+            &mut h,
+            &[Context::Always, context],
+            &format!("{context:?}"),
+        );
     }
 }
 
