@@ -16,6 +16,7 @@ use crate::agents::cache::ResponseCache;
 use crate::agents::config::{
     AgentLayer, AgentSettings, ConfigError, ConfigFile, FlagLayers, Settings,
 };
+use crate::agents::cost::{estimate_plans, Billing, Estimate, PriceTable};
 use crate::agents::pipeline::{AgentEvent, PlanInput, Runner, Source};
 use crate::agents::prompts::{template_name, PromptSet, Template};
 use crate::agents::replay::{Pace, Recording};
@@ -137,6 +138,49 @@ pub trait Pipeline: Send + Sync {
         request: RunRequest,
         events: UnboundedSender<(u64, AgentEvent)>,
     ) -> JoinHandle<()>;
+    /// A job that prices `request` with `prices` before anything is sent
+    /// (what `R` says before it asks every agent afresh): it reads the
+    /// scene, so the carrier runs it off the loop.
+    fn estimate(&self, request: &RunRequest, prices: &PriceTable) -> EstimateJob;
+}
+
+/// The pricing of a run, to be run off the loop (see [`Pipeline::estimate`]).
+pub type EstimateJob = Box<dyn FnOnce() -> Result<Estimate, RunError> + Send>;
+
+/// What a run of a request is made of: its settings and prompts (resolved
+/// on the loop), the cache and the demo's answers; turned into a runner and
+/// its input off the loop, since the demo's scene is a file. A run and its
+/// estimate are made of the same parts, so the estimate prices what is sent.
+struct RunParts {
+    settings: Settings,
+    prompts: PromptSet,
+    cache: Option<ResponseCache>,
+    answers: (Arc<Recording>, Pace),
+}
+
+impl RunParts {
+    /// The runner of `request` (fresh when it asks every agent afresh) and
+    /// the task, scene and table it plans from.
+    fn runner(self, request: &RunRequest) -> Result<(Runner, PlanInput), RunError> {
+        let image = match (request.demo, request.approach.uses_image()) {
+            (true, true) => Some(demo_scene_file()?),
+            _ => request.image.clone(),
+        };
+        let mut runner = Runner::new(self.settings, self.prompts, Source::Live)
+            .with_answers(self.answers.0, self.answers.1);
+        if let Some(cache) = self.cache {
+            runner = runner.with_cache(cache);
+        }
+        if request.fresh {
+            runner = runner.fresh();
+        }
+        let input = PlanInput {
+            task: request.task.clone(),
+            image,
+            table: request.table.clone(),
+        };
+        Ok((runner, input))
+    }
 }
 
 /// How many of a run's later samples are asked for at once, beside the
@@ -324,6 +368,16 @@ impl AgentsPipeline {
         Ok(set)
     }
 
+    /// The parts of a run of `request`, resolved now (see [`RunParts`]).
+    fn parts(&self, request: &RunRequest) -> Result<RunParts, RunError> {
+        Ok(RunParts {
+            settings: self.settings(request)?,
+            prompts: Self::prompts(request)?,
+            cache: self.cache.clone(),
+            answers: (self.demo.clone(), self.pace),
+        })
+    }
+
     fn check_replay(request: &RunRequest, role: AgentRole) -> Result<(), RunError> {
         let why = if !request.demo {
             "the replay provider only has the demo's recording, not this task".to_string()
@@ -406,11 +460,7 @@ impl Pipeline for AgentsPipeline {
         request: RunRequest,
         events: UnboundedSender<(u64, AgentEvent)>,
     ) -> JoinHandle<()> {
-        let prepared = self
-            .settings(&request)
-            .and_then(|settings| Ok((settings, Self::prompts(&request)?)));
-        let cache = self.cache.clone();
-        let answers = (self.demo.clone(), self.pace);
+        let prepared = self.parts(&request);
         tokio::spawn(async move {
             let run = request.run;
             let first = request.approach.roles()[0];
@@ -424,29 +474,9 @@ impl Pipeline for AgentsPipeline {
                     },
                 ));
             };
-            let (settings, prompts) = match prepared {
-                Ok(parts) => parts,
+            let (runner, input) = match prepared.and_then(|parts| parts.runner(&request)) {
+                Ok(made) => made,
                 Err(error) => return fail(error),
-            };
-            let image = match (request.demo, request.approach.uses_image()) {
-                (true, true) => match demo_scene_file() {
-                    Ok(path) => Some(path),
-                    Err(error) => return fail(error),
-                },
-                _ => request.image.clone(),
-            };
-            let mut runner =
-                Runner::new(settings, prompts, Source::Live).with_answers(answers.0, answers.1);
-            if let Some(cache) = cache {
-                runner = runner.with_cache(cache);
-            }
-            if request.fresh {
-                runner = runner.fresh();
-            }
-            let input = PlanInput {
-                task: request.task.clone(),
-                image,
-                table: request.table.clone(),
             };
             let cancel = CancellationToken::new();
             let _cancel_on_abort = cancel.clone().drop_guard();
@@ -491,6 +521,21 @@ impl Pipeline for AgentsPipeline {
             if let Err(error) = result {
                 fail(error.into());
             }
+        })
+    }
+
+    fn estimate(&self, request: &RunRequest, prices: &PriceTable) -> EstimateJob {
+        let prepared = self.parts(request);
+        let (request, prices) = (request.clone(), prices.clone());
+        Box::new(move || {
+            let (runner, input) = prepared?.runner(&request)?;
+            let plans = (0..request.samples).map(|sample| (request.approach, &input, sample));
+            Ok(estimate_plans(
+                &runner,
+                plans,
+                Billing::Interactive,
+                &prices,
+            ))
         })
     }
 }

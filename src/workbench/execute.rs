@@ -82,6 +82,12 @@ pub fn execute(cmd: Cmd, app: &mut App, carrier: &mut dyn Carrier) {
                 app.run_refused(run, reason);
             }
         }
+        Cmd::PriceFreshRun(request) => {
+            let price = carrier.pipeline().estimate(&request, &app.work.prices);
+            carrier.spawn(Box::new(move || {
+                vec![Msg::FreshRunPriced(price().map_err(|e| e.to_string()))]
+            }));
+        }
         Cmd::CancelRun(run) => carrier.cancel_run(run),
         Cmd::Score(request) => carrier.score(request),
         Cmd::ScoreSamples(request) => {

@@ -8,6 +8,7 @@ use crossterm::event::{KeyEvent, MouseEvent};
 use image::DynamicImage;
 use ratatui::layout::Rect;
 
+use crate::agents::cost::Estimate;
 use crate::agents::pipeline::AgentEvent;
 use crate::agents::prompt_sets::PromptSetError;
 use crate::agents::prompts::PromptSet;
@@ -68,6 +69,9 @@ pub enum Msg {
     PromptSets(Result<Vec<String>, PromptSetError>),
     /// The prompt set of this name was read, or why not.
     PromptSetLoaded(String, Result<PromptSet, PromptSetError>),
+    /// What asking every agent afresh (`R`) would cost, or why it could
+    /// not be priced.
+    FreshRunPriced(Result<Estimate, String>),
     /// The process was asked to stop (a signal).
     Quit,
 }
@@ -77,6 +81,8 @@ pub enum Msg {
 pub enum Cmd {
     /// Start a run.
     StartRun(RunRequest),
+    /// Price a run of every agent afresh before it is started (`R`).
+    PriceFreshRun(RunRequest),
     /// Cancel a run.
     CancelRun(u64),
     /// Score the plan against the ground truth.

@@ -2,9 +2,11 @@
 //! cancelling, and keeping each run's scores in its record.
 
 use std::collections::BTreeMap;
+use std::fmt::Write as _;
 use std::time::{Duration, Instant};
 
 use crate::agents::config::AgentSettings;
+use crate::agents::cost::Estimate;
 use crate::agents::pipeline::{AgentEvent, AgentRecord, PlanRecord};
 use crate::agents::prompts::{prompt_hash, template_name};
 use crate::agents::provider::RetryNotice;
@@ -190,6 +192,21 @@ pub struct Runs {
     pub active: Option<ActiveRun>,
     /// A finished run waiting for its scores: (index in `history`, generation).
     pub awaiting_scores: Option<(usize, u64)>,
+    /// Where `R` stands: priced first, sent at once when free, else on a
+    /// second `R`.
+    pub fresh: FreshRun,
+}
+
+/// Where a run of every agent afresh (`R`) stands.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Default)]
+pub enum FreshRun {
+    /// Nothing asked.
+    #[default]
+    Idle,
+    /// Its estimate is being made.
+    Pricing,
+    /// Its estimate is on the status line; `R` again sends it.
+    Confirm,
 }
 
 impl Runs {
@@ -200,6 +217,7 @@ impl Runs {
             history: Vec::new(),
             active: None,
             awaiting_scores: None,
+            fresh: FreshRun::Idle,
         }
     }
 }
@@ -289,10 +307,83 @@ impl App {
         .then(|| agents::provider_needed(agent, why).to_string())
     }
 
+    /// `r` (`all` false: the agents whose inputs changed) or a run of
+    /// every agent afresh that was priced and, if it costs anything,
+    /// confirmed (see [`App::price_fresh_run`]).
     pub(crate) fn start_run(&mut self, all: bool) -> Vec<Cmd> {
+        match self.run_request(all) {
+            Some(request) => self.launch_run(request),
+            None => Vec::new(),
+        }
+    }
+
+    /// `R`: prices asking every agent afresh first; the answer
+    /// ([`App::on_fresh_run_priced`]) starts the run, or asks for a second
+    /// `R` when it costs something.
+    pub(crate) fn price_fresh_run(&mut self) -> Vec<Cmd> {
+        match self.run_request(true) {
+            Some(request) => {
+                self.runs.fresh = FreshRun::Pricing;
+                self.set_status("R: pricing a run of every agent afresh…", Severity::Info);
+                vec![Cmd::PriceFreshRun(request)]
+            }
+            None => Vec::new(),
+        }
+    }
+
+    /// What asking every agent afresh would cost arrived: nothing to pay
+    /// (every answer recorded, or free) starts the run; otherwise the
+    /// estimate is shown and a second `R` sends it. Ignored when another
+    /// key came between (the user moved on).
+    pub(crate) fn on_fresh_run_priced(&mut self, priced: Result<Estimate, String>) -> Vec<Cmd> {
+        if self.runs.fresh != FreshRun::Pricing {
+            return Vec::new();
+        }
+        self.runs.fresh = FreshRun::Idle;
+        let estimate = match priced {
+            Ok(estimate) => estimate,
+            // The run fails the same way, and says so where runs do.
+            Err(_) => return self.start_run(true),
+        };
+        let unpriced: Vec<&str> = estimate.unpriced.iter().map(String::as_str).collect();
+        if estimate.usd <= 0.0 {
+            let cmds = self.start_run(true);
+            if let Some((text, _)) = self
+                .messages
+                .status
+                .as_mut()
+                .filter(|_| !cmds.is_empty() && !unpriced.is_empty())
+            {
+                let _ = write!(
+                    text,
+                    " · {} requests afresh, no price for {} (add [prices.PROVIDER.\"MODEL\"] to the config file)",
+                    estimate.requests,
+                    unpriced.join(", ")
+                );
+            }
+            return cmds;
+        }
+        self.runs.fresh = FreshRun::Confirm;
+        let also = match unpriced.as_slice() {
+            [] => String::new(),
+            names => format!(" plus the unpriced {}", names.join(", ")),
+        };
+        self.set_status(
+            format!(
+                "R asks every agent afresh, past the cache: {} requests, ~${:.4}{also}; R again sends them, any other key keeps the cache",
+                estimate.requests, estimate.usd
+            ),
+            Severity::Warn,
+        );
+        Vec::new()
+    }
+
+    /// The request of a run (`all`: every agent, afresh), or `None` with
+    /// the reason on the status line.
+    fn run_request(&mut self, all: bool) -> Option<RunRequest> {
         if self.runs.active.is_some() {
             self.set_status("a run is in flight: x cancels it", Severity::Warn);
-            return Vec::new();
+            return None;
         }
         if !self.work.approach.uses_image() && self.work.task.table.is_none() {
             self.set_status(
@@ -302,7 +393,7 @@ impl App {
                 ),
                 Severity::Warn,
             );
-            return Vec::new();
+            return None;
         }
         if matches!(self.editing, Editing::Prompt) {
             self.panes.prompt.store_editor(self.work.approach);
@@ -320,7 +411,7 @@ impl App {
                 "nothing changed since the last run: R re-runs every agent",
                 Severity::Info,
             );
-            return Vec::new();
+            return None;
         }
         let id = self.runs.history.iter().map(|r| r.id).max().unwrap_or(0) + 1;
         let approach_agents = self.work.approach.roles();
@@ -328,7 +419,7 @@ impl App {
             run: id,
             approach: self.work.approach,
             task: self.work.task.text.clone(),
-            agents: to_run.clone(),
+            agents: to_run,
             prompts: approach_agents
                 .iter()
                 .map(|a| (*a, self.prompt_of(*a)))
@@ -343,6 +434,13 @@ impl App {
             samples: self.work.samples,
             fresh: all,
         };
+        Some(request)
+    }
+
+    /// Marks the request's agents waiting and the run in flight, keeping
+    /// the plan it may replace, and asks for it to start.
+    fn launch_run(&mut self, request: RunRequest) -> Vec<Cmd> {
+        let (id, to_run) = (request.run, request.agents.clone());
         for &agent in &to_run {
             if let Some(v) = self.runs.agents.get_mut(&agent) {
                 v.status = AgentStatus::Waiting;

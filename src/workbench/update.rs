@@ -16,6 +16,7 @@ use crate::workbench::overlays::help::Help;
 use crate::workbench::overlays::Overlay;
 use crate::workbench::panes::steps::{self, StepList, StepsBefore};
 use crate::workbench::panes::{self, Pane};
+use crate::workbench::runs::FreshRun;
 use crate::workbench::scoring::ModelSlot;
 use crate::workbench::scroll::{Motion, WHEEL_LINES};
 use crate::workbench::session::GroundTruthSource;
@@ -41,6 +42,7 @@ impl App {
                 self.on_scored(outcome);
                 Vec::new()
             }
+            Msg::FreshRunPriced(priced) => self.on_fresh_run_priced(priced),
             Msg::SamplesScored(run, scores) => {
                 self.on_samples_scored(run, scores);
                 Vec::new()
@@ -162,6 +164,12 @@ impl App {
         let Some(action) = keymap::action(&self.pane_contexts(), &key) else {
             return Vec::new();
         };
+        // A priced `R` waits for the next key only: `R` sends it, any other
+        // key keeps the cache.
+        let fresh = std::mem::take(&mut self.runs.fresh);
+        if fresh == FreshRun::Confirm && action != Action::RunAll {
+            self.set_status("R: nothing sent, the cache kept", Severity::Info);
+        }
         let list = match self.focus {
             Pane::Plan => StepList::Plan,
             _ => StepList::GroundTruth,
@@ -223,7 +231,11 @@ impl App {
                 }
             }
             Action::Run => return self.start_run(false),
-            Action::RunAll => return self.start_run(true),
+            Action::RunAll => match fresh {
+                FreshRun::Confirm => return self.start_run(true),
+                FreshRun::Pricing => self.runs.fresh = FreshRun::Pricing,
+                FreshRun::Idle => return self.price_fresh_run(),
+            },
             Action::CancelRun => return self.cancel_run(),
             Action::ChooseGroundTruth => self.open_ground_truth_picker(),
             Action::NextApproach => return self.cycle_approach(),

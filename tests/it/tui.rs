@@ -1185,10 +1185,16 @@ fn readme_capture_is_the_demo_as_drawn() {
 /// the app the pipeline's `events` for it instead (what a provider that
 /// fails would make the pipeline send); returns the run's id.
 fn run_with_events(h: &mut Harness, events: Vec<AgentEvent>) -> u64 {
-    let started = h.app.update(Msg::Key(KeyEvent::new(
+    let priced = h.app.update(Msg::Key(KeyEvent::new(
         KeyCode::Char('R'),
         KeyModifiers::NONE,
     )));
+    assert!(
+        matches!(priced.first(), Some(Cmd::PriceFreshRun(_))),
+        "R priced no run"
+    );
+    // The demo's answers are recorded: nothing to pay, so the run starts.
+    let started = h.app.update(Msg::FreshRunPriced(Ok(Default::default())));
     let Some(Cmd::StartRun(request)) = started.into_iter().next() else {
         panic!("R started no run");
     };

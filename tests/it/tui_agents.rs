@@ -372,14 +372,69 @@ fn a_live_run_streams_into_the_panes_and_an_edited_planner_prompt_asks_once() {
 }
 
 /// The settings of every multi-agent role pointing at a live server.
-fn go_live(app: &mut App) {
-    for role in [AgentRole::Skm, AgentRole::Gkm, AgentRole::Planner] {
-        app.runs.agents.get_mut(&role).unwrap().settings = live_settings();
-    }
+/// `R` on live agents whose model has a price: the estimate is on the
+/// status line before anything is sent, a second `R` sends every agent's
+/// request once, and any other key in between sends nothing.
+#[test]
+fn a_priced_fresh_run_shows_its_estimate_and_sends_only_on_a_second_r() {
+    use mapvlm::agents::config::Price;
+    use mapvlm::agents::cost::PriceTable;
+
+    let (runtime, server) = numbered_server();
+    let cache_dir = tempfile::tempdir().unwrap();
+    let pipeline = live_pipeline(&server, cache_dir.path());
+    let (mut app, cmds) = App::new(AppInit::demo((200, 60), "no models in this test"));
+    run_cmds(&mut app, &pipeline, cmds);
+    let requests = || runtime.block_on(server.received_requests()).unwrap().len();
+    go_live(&mut app);
+    let price = Price {
+        input_per_million: 2.5,
+        output_per_million: 10.0,
+        batch_input_per_million: None,
+        batch_output_per_million: None,
+    };
+    let models = BTreeMap::from([("test-model".to_string(), price)]);
+    app.work.prices =
+        PriceTable::from_config(&BTreeMap::from([("openai".to_string(), models)])).unwrap();
+    let status = |app: &App| {
+        app.messages
+            .status
+            .as_ref()
+            .map(|(text, _)| text.clone())
+            .unwrap_or_default()
+    };
+
+    let cmds = key(&mut app, KeyCode::Char('R'));
+    run_cmds(&mut app, &pipeline, cmds);
+    assert_eq!(requests(), 0, "nothing is sent before the second R");
+    assert!(app.runs.active.is_none());
+    let shown = status(&app);
+    assert!(
+        shown.contains("3 requests, ~$0.0") && shown.contains("R again sends"),
+        "{shown}"
+    );
+
+    let cmds = key(&mut app, KeyCode::Char('j'));
+    run_cmds(&mut app, &pipeline, cmds);
+    let cmds = key(&mut app, KeyCode::Char('R'));
+    run_cmds(&mut app, &pipeline, cmds);
+    assert_eq!(requests(), 0, "a key between the two R sends nothing");
+    assert!(status(&app).contains("R again sends"), "priced again");
+
+    let cmds = key(&mut app, KeyCode::Char('R'));
+    run_cmds(&mut app, &pipeline, cmds);
+    assert_eq!(requests(), 3, "the second R asks each agent once");
+    let run = app.runs.history.last().unwrap();
+    assert!(
+        run.agents.iter().all(|a| !a.cached),
+        "every answer fresh: {:?}",
+        run.agents
+    );
 }
 
-#[test]
-fn samples_ask_each_agent_n_times_keep_every_sample_and_reuse_them() {
+/// A local server answering every request with [`Numbered`], on a runtime
+/// of its own.
+fn numbered_server() -> (tokio::runtime::Runtime, MockServer) {
     let runtime = tokio::runtime::Runtime::new().unwrap();
     let server = runtime.block_on(async {
         let server = MockServer::start().await;
@@ -389,6 +444,18 @@ fn samples_ask_each_agent_n_times_keep_every_sample_and_reuse_them() {
             .await;
         server
     });
+    (runtime, server)
+}
+
+fn go_live(app: &mut App) {
+    for role in [AgentRole::Skm, AgentRole::Gkm, AgentRole::Planner] {
+        app.runs.agents.get_mut(&role).unwrap().settings = live_settings();
+    }
+}
+
+#[test]
+fn samples_ask_each_agent_n_times_keep_every_sample_and_reuse_them() {
+    let (runtime, server) = numbered_server();
     let cache_dir = tempfile::tempdir().unwrap();
     let pipeline = live_pipeline(&server, cache_dir.path());
     let (mut app, cmds) = App::new(AppInit::demo((200, 60), "no models in this test"));
@@ -398,8 +465,8 @@ fn samples_ask_each_agent_n_times_keep_every_sample_and_reuse_them() {
     key(&mut app, KeyCode::Char('S'));
     assert_eq!(app.work.samples, 3);
     let cmds = key(&mut app, KeyCode::Char('R'));
-    let Some(Cmd::StartRun(request)) = cmds.first() else {
-        panic!("no run: {:?}", app.messages.status)
+    let Some(Cmd::PriceFreshRun(request)) = cmds.first() else {
+        panic!("no run priced: {:?}", app.messages.status)
     };
     let refused = pipeline.check(request).unwrap_err().to_string();
     assert!(

@@ -40,7 +40,7 @@ pub(super) const WORKBENCH: &[Binding] = &[
             C::Panes,
             &[(ch('r'), A::Run), (ch('R'), A::RunAll)],
             "r, R",
-            "run the agents whose inputs changed; re-run all, no cache",
+            "run the agents whose inputs changed; all afresh, priced first",
         ),
         "r",
         "run",
