@@ -359,19 +359,26 @@ impl Estimate {
         names.join(", ")
     }
 
+    /// ` plus the unpriced MODELS (add … to the config file)`, or nothing
+    /// when every model to be paid for has a price: what an estimate's
+    /// dollars leave out, wherever the estimate is shown.
+    pub fn unpriced_suffix(&self) -> String {
+        if self.unpriced.is_empty() {
+            return String::new();
+        }
+        format!(
+            " plus the unpriced {} (add [prices.PROVIDER.\"MODEL\"] to the config file)",
+            self.unpriced_names()
+        )
+    }
+
     /// One line for stderr that says it is an estimate and how it was made.
     pub fn line(&self) -> String {
         let mut line = format!(
             "estimate (rough: ~{CHARS_PER_TOKEN} characters a token, {TOKENS_PER_IMAGE} tokens an image, output at max_tokens): {} requests to send, {} cached; ~{} tokens in, at most {} out; ~${:.4}",
             self.requests, self.cached, self.usage.input_tokens, self.usage.output_tokens, self.usd
         );
-        if !self.unpriced.is_empty() {
-            let _ = write!(
-                line,
-                " plus the unpriced {} (add [prices.PROVIDER.\"MODEL\"] to the config file)",
-                self.unpriced_names()
-            );
-        }
+        line.push_str(&self.unpriced_suffix());
         line
     }
 

@@ -345,33 +345,30 @@ impl App {
             // The run fails the same way, and says so where runs do.
             Err(_) => return self.start_run(true),
         };
-        let unpriced: Vec<&str> = estimate.unpriced.iter().map(String::as_str).collect();
         if estimate.usd <= 0.0 {
             let cmds = self.start_run(true);
             if let Some((text, _)) = self
                 .messages
                 .status
                 .as_mut()
-                .filter(|_| !cmds.is_empty() && !unpriced.is_empty())
+                .filter(|_| !cmds.is_empty() && !estimate.unpriced.is_empty())
             {
                 let _ = write!(
                     text,
-                    " · {} requests afresh, no price for {} (add [prices.PROVIDER.\"MODEL\"] to the config file)",
+                    " · {} requests afresh{}",
                     estimate.requests,
-                    unpriced.join(", ")
+                    estimate.unpriced_suffix()
                 );
             }
             return cmds;
         }
         self.runs.fresh = FreshRun::Confirm;
-        let also = match unpriced.as_slice() {
-            [] => String::new(),
-            names => format!(" plus the unpriced {}", names.join(", ")),
-        };
         self.set_status(
             format!(
-                "R asks every agent afresh, past the cache: {} requests, ~${:.4}{also}; R again sends them, any other key keeps the cache",
-                estimate.requests, estimate.usd
+                "R asks every agent afresh, past the cache: {} requests, ~${:.4}{}; R again sends them, any other key keeps the cache",
+                estimate.requests,
+                estimate.usd,
+                estimate.unpriced_suffix()
             ),
             Severity::Warn,
         );

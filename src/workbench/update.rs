@@ -165,9 +165,10 @@ impl App {
             return Vec::new();
         };
         // A priced `R` waits for the next key only: `R` sends it, any other
-        // key keeps the cache.
+        // key keeps the cache (also while the price is still being made, so
+        // that "pricing…" is not left on the status line).
         let fresh = std::mem::take(&mut self.runs.fresh);
-        if fresh == FreshRun::Confirm && action != Action::RunAll {
+        if fresh != FreshRun::Idle && action != Action::RunAll {
             self.set_status("R: nothing sent, the cache kept", Severity::Info);
         }
         let list = match self.focus {
