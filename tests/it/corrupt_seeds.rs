@@ -237,7 +237,14 @@ fn insert_takes_a_step_of_another_trial_and_another_goal() {
 #[test]
 fn duplicate_and_reorder_never_work_on_navigation_alone() {
     let parser = &run().parser;
-    let navigation = |s: &str| is_navigation_only(parser, s);
+    // The sources' steps repeat across seeds: each is parsed once.
+    let seen = std::cell::RefCell::new(std::collections::HashMap::new());
+    let navigation = |s: &str| {
+        *seen
+            .borrow_mut()
+            .entry(s.to_string())
+            .or_insert_with(|| is_navigation_only(parser, s))
+    };
     for (seed, source, item) in corrupted("duplicate") {
         let c = item.corruption.as_ref().unwrap();
         let e = &c.edits[0];

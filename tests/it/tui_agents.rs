@@ -569,3 +569,90 @@ fn samples_ask_each_agent_n_times_keep_every_sample_and_reuse_them() {
         4
     );
 }
+
+/// The Prompt pane's footer says what the selected agent's last run on
+/// this task was: a dataset task's configured agents, before anything ran,
+/// are "not run yet" (not "changed"); after a run its keys; after an edit
+/// "changed"; after a refused request "failed".
+#[test]
+fn the_prompt_footer_names_the_agents_last_run_never_a_change_before_one() {
+    let root = concat!(env!("CARGO_MANIFEST_DIR"), "/../shared/data/alfred30");
+    let (dataset, _) = mapvlm::dataset::Dataset::load(std::path::Path::new(root)).unwrap();
+    let (runtime, server) = numbered_server();
+    let cache_dir = tempfile::tempdir().unwrap();
+    let pipeline = live_pipeline(&server, cache_dir.path());
+    let configured = [AgentRole::Skm, AgentRole::Gkm, AgentRole::Planner]
+        .into_iter()
+        .map(|role| (role, live_settings()))
+        .collect();
+    let (mut app, cmds) = App::new(AppInit {
+        dataset: Some(dataset),
+        configured,
+        ..AppInit::demo((200, 60), "no models in this test")
+    });
+    run_cmds(&mut app, &pipeline, cmds);
+    while app.focus != Pane::Prompt {
+        key(&mut app, KeyCode::Tab);
+    }
+    key(&mut app, KeyCode::Char('3'));
+    let footer = |app: &mut App| {
+        let screen = screen_of(app);
+        let said = [
+            "not run yet on this task",
+            "changed since its last run",
+            "its last run failed",
+            "Enter edits · ←/→ agent",
+        ];
+        let found: Vec<&str> = said.into_iter().filter(|s| screen.contains(s)).collect();
+        assert_eq!(
+            found.len(),
+            1,
+            "one state in the footer: {found:?}\n{screen}"
+        );
+        found[0]
+    };
+    assert_eq!(footer(&mut app), "not run yet on this task");
+
+    let cmds = key(&mut app, KeyCode::Char('r'));
+    run_cmds(&mut app, &pipeline, cmds);
+    let requests = || runtime.block_on(server.received_requests()).unwrap().len();
+    assert_eq!(
+        requests(),
+        3,
+        "r ran every agent: {:?}",
+        app.messages.status
+    );
+    assert_eq!(footer(&mut app), "Enter edits · ←/→ agent");
+
+    edit_planner_prompt(&mut app);
+    assert_eq!(footer(&mut app), "changed since its last run");
+
+    runtime.block_on(async {
+        server.reset().await;
+        wiremock::Mock::given(wiremock::matchers::method("POST"))
+            .respond_with(ResponseTemplate::new(401).set_body_string("no"))
+            .mount(&server)
+            .await;
+    });
+    let cmds = key(&mut app, KeyCode::Char('r'));
+    run_cmds(&mut app, &pipeline, cmds);
+    assert!(matches!(
+        app.runs.agents[&AgentRole::Planner].status,
+        AgentStatus::Failed(_)
+    ));
+    assert_eq!(footer(&mut app), "its last run failed");
+}
+
+/// The workbench drawn as text at its size.
+fn screen_of(app: &mut App) -> String {
+    use mapvlm::workbench::graphics::Graphics;
+    use mapvlm::workbench::headless::prepare_image;
+    use ratatui::{backend::TestBackend, Terminal};
+    let (w, h) = app.size;
+    prepare_image(app, &Graphics::halfblocks());
+    let mut terminal = Terminal::new(TestBackend::new(w, h)).unwrap();
+    terminal
+        .draw(|f| mapvlm::workbench::render::render(f, app))
+        .unwrap();
+    terminal.backend().to_string()
+}

@@ -15,6 +15,7 @@ use crate::workbench::agents;
 use crate::workbench::app::App;
 use crate::workbench::editing::Editing;
 use crate::workbench::panes::{agent_badge, draw_scrolled, highlighted, pane_block, Pane};
+use crate::workbench::runs::AgentStatus;
 use crate::workbench::scroll;
 
 /// The Prompt pane's state: every template's text, the agent shown and
@@ -142,7 +143,6 @@ pub(crate) fn draw(frame: &mut Frame, app: &App, area: Rect) {
         ));
     }
     let note = app.provider_note();
-    let changed = app.agent_changed(app.panes.prompt.agent);
     let [tab_row, body, footer] = parts(app, inner);
     if matches!(app.editing, Editing::Prompt) {
         frame.render_widget(block, area);
@@ -154,15 +154,14 @@ pub(crate) fn draw(frame: &mut Frame, app: &App, area: Rect) {
         draw_scrolled(frame, app, Pane::Prompt, block, area, body, lines);
     }
     frame.render_widget(Paragraph::new(Line::from(tabs)), tab_row);
+    let (state, warn) = if matches!(app.editing, Editing::Prompt) {
+        ("editing · Esc done · Ctrl-R run", false)
+    } else {
+        run_state(app)
+    };
     let mut footer_lines = vec![Line::from(Span::styled(
-        if matches!(app.editing, Editing::Prompt) {
-            "editing · Esc done · Ctrl-R run"
-        } else if changed {
-            "changed since its last run · r runs what changed · Enter edits"
-        } else {
-            "Enter edits · ←/→ agent · m provider and model"
-        },
-        if changed { t.warn } else { t.muted },
+        state,
+        if warn { t.warn } else { t.muted },
     ))];
     if let Some(note) = note {
         footer_lines.push(Line::from(Span::styled(note, t.warn)));
@@ -172,6 +171,30 @@ pub(crate) fn draw(frame: &mut Frame, app: &App, area: Rect) {
         footer,
     );
 }
+
+/// What the footer says of the selected agent's last run on this task, and
+/// whether it is a warning: a prompt that never ran is not "changed", and a
+/// failed or cancelled run is not an output the prompt made.
+fn run_state(app: &App) -> (&'static str, bool) {
+    let agent = app.panes.prompt.agent;
+    let Some(view) = app.runs.agents.get(&agent) else {
+        return (IDLE_HINTS, false);
+    };
+    match view.status {
+        AgentStatus::Waiting | AgentStatus::Running => ("running · x cancels · Enter edits", false),
+        AgentStatus::Failed(_) => ("its last run failed · r runs it again · Enter edits", true),
+        AgentStatus::Cancelled => ("its last run was cancelled · r runs it · Enter edits", true),
+        AgentStatus::Idle => ("not run yet on this task · r runs it · Enter edits", false),
+        AgentStatus::Done if app.agent_changed(agent) => (
+            "changed since its last run · r runs what changed · Enter edits",
+            true,
+        ),
+        AgentStatus::Done => (IDLE_HINTS, false),
+    }
+}
+
+/// The footer of an agent whose output is its prompt's: the pane's keys.
+const IDLE_HINTS: &str = "Enter edits · ←/→ agent · m provider and model";
 
 /// The pane's inside cut into the agent tabs, the prompt's body and the
 /// footer (three lines when there is a provider note).
