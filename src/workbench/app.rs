@@ -29,6 +29,7 @@ use crate::workbench::panes::steps::{demo_ground_truth, StepList, StepUndo, Step
 use crate::workbench::panes::{Pane, Panes};
 use crate::workbench::persist::Persist;
 use crate::workbench::runs::Runs;
+use crate::workbench::scene_image::ImageRequest;
 use crate::workbench::scoring::{ModelSlot, ScoreOutcome, ScoreRequest};
 use crate::workbench::session::{
     GroundTruthSource, PlanSource, Session, SessionError, SourceState,
@@ -589,13 +590,18 @@ impl App {
     }
 
     /// Notes that the scene is being encoded for `area` and returns what the
-    /// encoding needs, when the image is wanted in an area it is not
-    /// encoded (or being encoded) for: the loop hands it to a task.
-    pub fn request_image(&mut self) -> Option<(Rect, Arc<DynamicImage>)> {
+    /// encoding needs (the area, the image, the theme's background for the
+    /// cells it does not fill), when the image is wanted in an area it is
+    /// not encoded (or being encoded) for: the loop hands it to a task.
+    pub fn request_image(&mut self) -> Option<ImageRequest> {
         let area = self.image_area_wanted()?;
         let image = self.panes.scene.image.clone()?;
         self.panes.scene.requested = Some(area);
-        Some((area, image))
+        Some(ImageRequest {
+            area,
+            image,
+            background: self.looks.theme.picture_background(),
+        })
     }
 
     /// Whether an editor (step, prompt or search) has the keyboard.

@@ -19,8 +19,10 @@ use super::scoring::{score_now, ModelSlot, ScoreRequest};
 /// Encodes the scene image for the area the app wants it in, if any, here
 /// and now (the loop hands this to a task).
 pub fn prepare_image(app: &mut App, graphics: &Graphics) {
-    if let Some((area, image)) = app.request_image() {
-        let encoded = scene_image::encode(graphics, &image, area).map(|(_, protocol)| protocol);
+    if let Some(request) = app.request_image() {
+        let area = request.area;
+        let encoded = scene_image::encode(graphics, &request.image, area, request.background)
+            .map(|(_, protocol)| protocol);
         app.update(Msg::ImageReady(area, encoded));
     }
 }

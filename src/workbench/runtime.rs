@@ -34,7 +34,7 @@ use super::execute::{execute, Carrier, Job, Models};
 use super::graphics::{self, Graphics, Kind, Request};
 use super::message::Msg;
 use super::saver::{self, NumberedCopy, SessionFile};
-use super::scene_image;
+use super::scene_image::{self, ImageRequest};
 use super::{render, terminal_query, theme, Options, TuiError, SCORE_DEBOUNCE};
 use super::{scoring, session};
 
@@ -82,14 +82,19 @@ pub(crate) fn setup_terminal(
 /// wants it in an area it is not encoded for; the task answers with
 /// [`Msg::ImageReady`], so the loop never resizes or encodes an image.
 fn request_image(app: &mut App, graphics: &Graphics, msgs: &mpsc::UnboundedSender<Msg>) {
-    let Some((area, image)) = app.request_image() else {
+    let Some(request) = app.request_image() else {
         return;
     };
     let (graphics, msgs) = (graphics.clone(), msgs.clone());
     tokio::task::spawn_blocking(move || {
+        let ImageRequest {
+            area,
+            image,
+            background,
+        } = request;
         let _ = msgs.send(Msg::ImageReady(
             area,
-            scene_image::encode(&graphics, &image, area).map(|(_, drawing)| drawing),
+            scene_image::encode(&graphics, &image, area, background).map(|(_, drawing)| drawing),
         ));
     });
 }

@@ -45,14 +45,28 @@ pub fn read(path: &Path) -> Result<Arc<DynamicImage>, SceneImageError> {
         })
 }
 
+/// What encoding the workbench's scene needs, handed from the app to the
+/// task that encodes it.
+pub struct ImageRequest {
+    /// The cells it is drawn in.
+    pub area: Rect,
+    /// The decoded scene.
+    pub image: Arc<DynamicImage>,
+    /// The theme's background, for the cells the picture does not fill
+    /// ([`crate::workbench::theme::Theme::picture_background`]).
+    pub background: Option<[u8; 3]>,
+}
+
 /// Resizes and encodes `image` to fill `area` with the terminal's graphics
-/// protocol: the slow part of showing it, done on a blocking task.
+/// protocol, the cells it leaves padded with `background`: the slow part
+/// of showing it, done on a blocking task.
 pub fn encode(
     graphics: &Graphics,
     image: &DynamicImage,
     area: Rect,
+    background: Option<[u8; 3]>,
 ) -> Result<Encoded, SceneImageError> {
-    let drawing = graphics.encode(image, area)?;
+    let drawing = graphics.encode(image, area, background)?;
     Ok((area, Box::new(drawing)))
 }
 

@@ -118,6 +118,19 @@ impl Theme {
         })
     }
 
+    /// The background as a pixel, when the theme names it exactly
+    /// (`#rrggbb`): a picture that does not fill its cells is padded with
+    /// it, so the padding is the pane's colour whatever the terminal's own
+    /// background is (a sixel's unpainted pixels take the terminal's
+    /// current background, which inside tmux is the outer terminal's
+    /// default: a white strip in xterm).
+    pub fn picture_background(&self) -> Option<[u8; 3]> {
+        match self.base.bg {
+            Some(Color::Rgb(r, g, b)) => Some([r, g, b]),
+            _ => None,
+        }
+    }
+
     /// The theme for `NO_COLOR`: the terminal's own colours, with bold,
     /// reverse and underline carrying the meaning colour would.
     pub fn no_color() -> Theme {

@@ -266,7 +266,13 @@ impl App {
                         .iter()
                         .position(|t| t.name == self.looks.theme.name)
                         .map_or(0, |i| (i + 1) % self.looks.themes.len());
+                    let background = self.looks.theme.picture_background();
                     self.looks.theme = self.looks.themes[i].clone();
+                    if self.looks.theme.picture_background() != background {
+                        // Encoded again, padded with the new background.
+                        self.panes.scene.protocol = None;
+                        self.panes.scene.requested = None;
+                    }
                     self.saving.kept.theme = None;
                     self.saving.session_dirty = true;
                     self.set_status(format!("theme: {}", self.looks.theme.name), Severity::Info);

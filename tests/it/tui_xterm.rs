@@ -429,13 +429,13 @@ fn scene_pane(zoom: bool) -> Rect {
 /// Where the picture is drawn in `pane` (its pixels) and what it must look
 /// like there: `image` scaled to fit the pane's image area (and the
 /// largest graphic, `max` pixels), at the area's top left, as the
-/// workbench scales it.
+/// workbench scales it; and the pixels of the cells it is drawn in.
 fn expected_picture(
     image: &DynamicImage,
     pane: Rect,
     cell: (u32, u32),
     max: (u32, u32),
-) -> (Pixels, RgbImage) {
+) -> (Pixels, RgbImage, Pixels) {
     let area = scene_image_area(pane);
     let within = |cells: u16, limit: u32, px: u32| cells.min((limit / px) as u16);
     let available = Size::new(
@@ -459,7 +459,47 @@ fn expected_picture(
             ..at
         },
         picture,
+        Pixels {
+            width: bw,
+            height: bh,
+            ..at
+        },
     )
+}
+
+/// The dark theme's background, which the workbench starts with.
+const BACKGROUND: [u8; 3] = [0x1b, 0x1d, 0x23];
+
+/// Whether the pixels of `cells` that the picture at `at` leaves are the
+/// theme's background (not the terminal's own, which shows through a
+/// sixel's unpainted pixels: white in xterm inside tmux), or how many are
+/// not.
+fn padding_is_background(shot: &RgbImage, cells: Pixels, at: Pixels) -> Result<(), String> {
+    let inside = |x: u32, y: u32| {
+        (at.x..at.x + at.width).contains(&x) && (at.y..at.y + at.height).contains(&y)
+    };
+    let mut padding = 0;
+    let mut wrong = Vec::new();
+    for y in cells.y..cells.y + cells.height {
+        for x in cells.x..cells.x + cells.width {
+            if inside(x, y) {
+                continue;
+            }
+            padding += 1;
+            let pixel = shot.get_pixel(x, y).0;
+            // A sixel's colours are percentages: within 3 of each channel.
+            if pixel.iter().zip(BACKGROUND).any(|(p, b)| p.abs_diff(b) > 3) {
+                wrong.push((x, y, pixel));
+            }
+        }
+    }
+    match wrong.first() {
+        None => Ok(()),
+        Some((x, y, pixel)) => Err(format!(
+            "{} of the {padding} pixels around the picture are not the background {BACKGROUND:?} (the first at ({x}, {y}) is {pixel:?})",
+            wrong.len()
+        )),
+    }
 }
 
 /// Luminance, 0 to 255.
@@ -499,8 +539,12 @@ fn is_picture(shot: &RgbImage, at: Pixels, picture: &RgbImage) -> Result<(f64, f
 fn picture_then_help(term: &Xterm, image: &DynamicImage, label: &str) {
     let cell = term.font.cell;
     let pane = scene_pane(false);
-    let (at, picture) = expected_picture(image, pane, cell, largest_graphic(cell));
-    let (spread, r) = term.wait_for(label, |shot| is_picture(shot, at, &picture));
+    let (at, picture, cells) = expected_picture(image, pane, cell, largest_graphic(cell));
+    let (spread, r) = term.wait_for(label, |shot| {
+        let seen = is_picture(shot, at, &picture)?;
+        padding_is_background(shot, cells, at)?;
+        Ok(seen)
+    });
     eprintln!("{label}: spread {spread:.1}/255, correlation {r:.3}");
     let pane_pixels = Pixels::of(pane, cell);
     let before = pane_pixels.crop(&term.shot());
@@ -583,7 +627,7 @@ fn inside_tmux_in_xterm_the_scene_pane_is_the_picture_before_and_after_the_help(
 fn the_zoomed_scene_is_a_picture_within_xterms_default_largest_graphic() {
     let (mut term, _x, _home, image) = directly_in_xterm(&LARGE);
     let cell = LARGE.cell;
-    let (at, picture) = expected_picture(&image, scene_pane(false), cell, largest_graphic(cell));
+    let (at, picture, _) = expected_picture(&image, scene_pane(false), cell, largest_graphic(cell));
     term.wait_for("zoom-grid", |shot| is_picture(shot, at, &picture));
     // From the Plan pane, where the workbench starts, back to the Scene.
     term.send(b"\x1b[Z\x1b[Z\x1b[Z");
@@ -593,7 +637,7 @@ fn the_zoomed_scene_is_a_picture_within_xterms_default_largest_graphic() {
         u32::from(scene_image_area(zoomed).width) * cell.0 > XTERM_MAX_GRAPHIC,
         "the zoomed pane is wider than xterm's largest graphic"
     );
-    let (at, picture) = expected_picture(&image, zoomed, cell, largest_graphic(cell));
+    let (at, picture, _) = expected_picture(&image, zoomed, cell, largest_graphic(cell));
     assert!(at.width <= XTERM_MAX_GRAPHIC && at.width > 900, "{at:?}");
     let (spread, r) = term.wait_for("zoomed", |shot| is_picture(shot, at, &picture));
     eprintln!("zoomed: spread {spread:.1}/255, correlation {r:.3}, {at:?}");

@@ -154,10 +154,12 @@ fn read_events(msgs: &mpsc::UnboundedSender<Msg>, resized: &mpsc::UnboundedSende
 /// Asks for the scene image to be encoded for the area the screen shows it
 /// in, once per image and area, on a blocking task (resizing and encoding
 /// are slow; the loop keeps reading keys): the result comes back as a
-/// message naming the image file.
+/// message naming the image file. The cells the picture leaves are padded
+/// with `theme`'s background.
 fn request_image(
     screen: &mut Judging,
     graphics: &Graphics,
+    theme: &Theme,
     area: Rect,
     msgs: &mpsc::UnboundedSender<Msg>,
 ) {
@@ -177,8 +179,9 @@ fn request_image(
     screen.requested = Some(request);
     let (graphics, image, path, msgs) =
         (graphics.clone(), image.clone(), path.clone(), msgs.clone());
+    let background = theme.picture_background();
     tokio::task::spawn_blocking(move || {
-        let msg = match scene_image::encode(&graphics, &image, wanted) {
+        let msg = match scene_image::encode(&graphics, &image, wanted, background) {
             Ok(encoded) => Msg::ImageReady(path, encoded),
             Err(e) => Msg::ImageUndrawable(path, e.to_string()),
         };
@@ -267,7 +270,7 @@ async fn run_async(options: Options) -> Result<Outcome, TuiError> {
     let ascii = !crate::locale::utf8_locale();
     loop {
         let area = terminal.get_frame().area();
-        request_image(&mut screen, &graphics, area, &msg_tx);
+        request_image(&mut screen, &graphics, &theme, area, &msg_tx);
         terminal.draw(|f| {
             let area = f.area();
             screen.draw(f, area, &theme);

@@ -547,6 +547,7 @@ mod tests {
                 &crate::workbench::graphics::Graphics::halfblocks(),
                 &image,
                 area,
+                None,
             )
             .unwrap()
         };

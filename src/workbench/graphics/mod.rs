@@ -16,7 +16,7 @@ use std::num::NonZeroU16;
 use std::sync::atomic::{AtomicU32, Ordering};
 
 use base64::Engine;
-use image::DynamicImage;
+use image::{DynamicImage, Rgba};
 use ratatui::buffer::{Buffer, CellDiffOption};
 use ratatui::layout::{Rect, Size};
 use ratatui::widgets::Widget;
@@ -133,9 +133,15 @@ impl Graphics {
     }
 
     /// Resizes `image` to fit `area` (and, for an escape-drawn picture, the
-    /// terminal's largest graphic) and encodes it: the slow part of drawing
-    /// it, done on a blocking task.
-    pub fn encode(&self, image: &DynamicImage, area: Rect) -> Result<Drawing, Errors> {
+    /// terminal's largest graphic) and encodes it, the cells it does not
+    /// fill padded with `background` (transparent without one): the slow
+    /// part of drawing it, done on a blocking task.
+    pub fn encode(
+        &self,
+        image: &DynamicImage,
+        area: Rect,
+        background: Option<[u8; 3]>,
+    ) -> Result<Drawing, Errors> {
         let mut available = area.as_size();
         if self.kind.by_escape() {
             let cells = |pixels: u32, cell: u16| {
@@ -153,7 +159,8 @@ impl Graphics {
         if size.width == 0 || size.height == 0 {
             return Ok(Drawing::Text(Vec::new()));
         }
-        let picture = resize.resize(image, self.font, size, None);
+        let background = background.map(|[r, g, b]| Rgba([r, g, b, u8::MAX]));
+        let picture = resize.resize(image, self.font, size, background);
         let escape = |bytes: String| Drawing::Escape {
             bytes: if self.tmux { tmux::wrap(&bytes) } else { bytes },
             size,
@@ -321,10 +328,10 @@ mod tests {
     fn a_sixel_for_tmux_is_one_well_formed_pass_through_of_the_plain_sixel() {
         let area = Rect::new(0, 0, 8, 3);
         let plain = graphics(Kind::Sixel, false)
-            .encode(&picture(), area)
+            .encode(&picture(), area, None)
             .unwrap();
         let wrapped = graphics(Kind::Sixel, true)
-            .encode(&picture(), area)
+            .encode(&picture(), area, None)
             .unwrap();
         let (Drawing::Escape { bytes: plain, .. }, Drawing::Escape { bytes, .. }) =
             (&plain, &wrapped)
@@ -339,7 +346,7 @@ mod tests {
     fn kitty_for_tmux_is_nothing_but_well_formed_pass_throughs() {
         let area = Rect::new(0, 0, 8, 3);
         for kind in [Kind::KittyPlaceholders, Kind::KittyDirect] {
-            let drawing = graphics(kind, true).encode(&picture(), area).unwrap();
+            let drawing = graphics(kind, true).encode(&picture(), area, None).unwrap();
             let bytes: String = written(&drawing, area)
                 .chars()
                 .filter(|c| *c == '\x1b' || !(c.is_whitespace() || *c >= '\u{300}'))
@@ -362,7 +369,8 @@ mod tests {
         let wide = DynamicImage::ImageRgb8(RgbImage::new(1600, 400));
         let mut g = graphics(Kind::Sixel, false);
         g.max_pixels = (1000, 1000);
-        let Ok(Drawing::Escape { size, .. }) = g.encode(&wide, Rect::new(0, 0, 200, 50)) else {
+        let Ok(Drawing::Escape { size, .. }) = g.encode(&wide, Rect::new(0, 0, 200, 50), None)
+        else {
             panic!("a sixel");
         };
         assert!(u32::from(size.width) * 8 <= 1000, "{size:?}");
@@ -370,10 +378,33 @@ mod tests {
     }
 
     #[test]
+    fn the_cells_a_picture_does_not_fill_are_padded_with_the_background_given() {
+        // 64×40 at 16 px rows fills 3 rows and 77 of 10 cells' 80 columns.
+        let red = DynamicImage::ImageRgb8(RgbImage::from_pixel(64, 40, Rgb([255, 0, 0])));
+        let area = Rect::new(0, 0, 20, 3);
+        let sixel = |background| match graphics(Kind::Sixel, false).encode(&red, area, background) {
+            Ok(Drawing::Escape { bytes, size }) => (bytes, size),
+            _ => panic!("a sixel"),
+        };
+        let (padded, size) = sixel(Some([0, 0, 255]));
+        assert_eq!((size.width, size.height), (10, 3));
+        assert!(
+            padded.contains(";2;0;0;100"),
+            "blue in the palette: {padded:.80}"
+        );
+        assert!(
+            padded.contains(";2;100;0;0"),
+            "red in the palette: {padded:.80}"
+        );
+        let (transparent, _) = sixel(None);
+        assert!(!transparent.contains(";2;0;0;100"), "{transparent:.80}");
+    }
+
+    #[test]
     fn a_held_escape_picture_sends_nothing_and_skips_its_cells() {
         let area = Rect::new(0, 0, 8, 3);
         let drawing = graphics(Kind::Sixel, false)
-            .encode(&picture(), area)
+            .encode(&picture(), area, None)
             .unwrap();
         let mut buf = Buffer::empty(area);
         drawing.render(area, &mut buf, true);
