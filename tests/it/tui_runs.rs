@@ -26,6 +26,22 @@ fn point_at(home: &UserHome, server: &LocalServer, retries: u32) {
 /// The good plan's step the screen must keep showing.
 const GOOD_STEP: &str = "Wet the sponge under the faucet.";
 
+/// The Plan pane's title on `screen`, without its border.
+fn plan_title(screen: &str) -> String {
+    let line = screen
+        .lines()
+        .find(|l| l.contains("┏ Plan ") || l.contains("┌ Plan "))
+        .unwrap_or_else(|| panic!("no Plan pane: {screen}"));
+    let start = line.find(" Plan ").unwrap();
+    let end = line[start..]
+        .find(['┓', '┐'])
+        .map_or(line.len(), |e| start + e);
+    line[start..end]
+        .trim_end_matches(['━', '─'])
+        .trim()
+        .to_string()
+}
+
 #[test]
 fn a_500_and_a_dropped_stream_are_failed_runs_unscored_and_the_good_plan_stays() {
     let server = LocalServer::start();
@@ -48,6 +64,11 @@ fn a_500_and_a_dropped_stream_are_failed_runs_unscored_and_the_good_plan_stays()
         s.contains("run 2 failed: Planner:") && s.contains(GOOD_STEP) && !s.contains("scoring…")
     });
     assert!(failed.contains("500"), "{failed}");
+    let title = plan_title(&failed);
+    assert!(
+        title.contains("run 2 failed") && title.ends_with('…'),
+        "the failure in the Plan pane's title, cut with an ellipsis: {title:?}"
+    );
     assert_eq!(
         score_on(&failed, "KAS"),
         kas,

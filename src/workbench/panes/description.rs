@@ -35,7 +35,7 @@ fn lines(app: &App, width: u16) -> Vec<Line<'static>> {
 
 /// The furthest the description scrolls in a pane drawn in `area`.
 pub(crate) fn scroll_limit(app: &App, area: Rect) -> usize {
-    let inner = pane_block(app, Pane::Description, None).inner(area);
+    let inner = pane_block(app, Pane::Description, None, area.width).inner(area);
     lines(app, inner.width)
         .len()
         .saturating_sub(usize::from(inner.height))
@@ -47,6 +47,7 @@ pub(crate) fn draw(frame: &mut Frame, app: &App, area: Rect) {
         app,
         Pane::Description,
         Some(agent_badge(app, AgentRole::Gkm)),
+        area.width,
     );
     let offset = app
         .panes

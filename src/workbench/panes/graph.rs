@@ -130,7 +130,12 @@ impl GraphPane {
 pub(crate) fn draw(frame: &mut Frame, app: &App, area: Rect) {
     let t = &app.looks.theme;
     let g = &app.panes.graph.kg;
-    let block = pane_block(app, Pane::Graph, Some(agent_badge(app, AgentRole::Skm)));
+    let block = pane_block(
+        app,
+        Pane::Graph,
+        Some(agent_badge(app, AgentRole::Skm)),
+        area.width,
+    );
     let inner = block.inner(area);
     frame.render_widget(block, area);
     if g.nodes.is_empty() {

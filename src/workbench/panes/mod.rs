@@ -18,6 +18,7 @@ use ratatui::Frame;
 
 use crate::agents::AgentRole;
 use crate::workbench::app::App;
+use crate::workbench::graph_layout::{text_width, truncate};
 use crate::workbench::panes::graph::GraphPane;
 use crate::workbench::panes::prompt::PromptPane;
 use crate::workbench::panes::scene::ScenePane;
@@ -270,14 +271,25 @@ pub(crate) fn draw_scrolled(
     frame.render_widget(ratatui::widgets::Paragraph::new(shown), body);
 }
 
-pub(crate) fn pane_block<'a>(app: &App, pane: Pane, extra: Option<Span<'a>>) -> Block<'a> {
+/// The frame of `pane`, `width` columns wide: its name, then `extra` (the
+/// agent's state, the plan's source, a run's failure) cut with `…` where
+/// the top border is too short for it, never cut silently.
+pub(crate) fn pane_block<'a>(
+    app: &App,
+    pane: Pane,
+    extra: Option<Span<'a>>,
+    width: u16,
+) -> Block<'a> {
     let focused = app.focus == pane;
-    let mut title = vec![Span::styled(
-        format!(" {} ", pane.title()),
-        app.looks.theme.title,
-    )];
+    let name = format!(" {} ", pane.title());
+    // Within the corners (the space after `extra` may go).
+    let room = usize::from(width)
+        .saturating_sub(2)
+        .saturating_sub(text_width(&name));
+    let mut title = vec![Span::styled(name, app.looks.theme.title)];
     if let Some(extra) = extra {
-        title.push(extra);
+        let cut = truncate(&extra.content, room);
+        title.push(Span::styled(cut, extra.style));
         title.push(Span::styled(" ", app.looks.theme.title));
     }
     Block::default()

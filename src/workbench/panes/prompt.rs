@@ -116,6 +116,7 @@ pub(crate) fn draw(frame: &mut Frame, app: &App, area: Rect) {
         app,
         Pane::Prompt,
         Some(agent_badge(app, app.panes.prompt.agent)),
+        area.width,
     );
     let inner = block.inner(area);
     let mut tabs = Vec::new();
@@ -225,7 +226,7 @@ fn body_lines(app: &App, body: Rect) -> Vec<Line<'static>> {
 /// The furthest the prompt scrolls in a pane drawn in `area`: its last
 /// line at the bottom of the body, never a blank page past it.
 pub(crate) fn scroll_limit(app: &App, area: Rect) -> usize {
-    let inner = pane_block(app, Pane::Prompt, None).inner(area);
+    let inner = pane_block(app, Pane::Prompt, None, area.width).inner(area);
     let [_, body, _] = parts(app, inner);
     body_lines(app, body)
         .len()

@@ -86,7 +86,7 @@ pub(crate) fn scroll_limit(app: &App, area: Rect) -> usize {
 
 pub(crate) fn draw(frame: &mut Frame, app: &App, area: Rect) {
     let t = &app.looks.theme;
-    let block = pane_block(app, Pane::Scene, None);
+    let block = pane_block(app, Pane::Scene, None, area.width);
     let inner = block.inner(area);
     let image_area = scene_image_area(area);
     if app.shows_table() {

@@ -131,7 +131,7 @@ pub(crate) fn draw(frame: &mut Frame, app: &App, area: Rect) {
                 .as_ref()
                 .map(|s| Span::styled(format!("{:.1} ms", s.millis), t.muted))
         });
-    let block = pane_block(app, Pane::Scores, extra);
+    let block = pane_block(app, Pane::Scores, extra, area.width);
     let inner = block.inner(area);
     frame.render_widget(block, area);
     let mut lines = Vec::new();

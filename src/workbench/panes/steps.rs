@@ -356,7 +356,7 @@ pub(crate) fn draw(frame: &mut Frame, app: &App, list: StepList, area: Rect) {
             t.muted,
         )),
     };
-    let block = pane_block(app, pane, extra);
+    let block = pane_block(app, pane, extra, area.width);
     let inner = block.inner(area);
     let items = &app.panes.steps(list).items;
     if items.is_empty() {
