@@ -584,6 +584,16 @@ impl App {
         let Some(active) = self.runs.active.take() else {
             return Vec::new();
         };
+        // Whatever had not answered is dropped with the run (a miner's
+        // failure stops the other): its pane says so, not "waiting".
+        for agent in &active.agents {
+            if let Some(v) = self.runs.agents.get_mut(agent) {
+                if matches!(v.status, AgentStatus::Running | AgentStatus::Waiting) {
+                    v.status = AgentStatus::Cancelled;
+                    v.retry = None;
+                }
+            }
+        }
         let failed = active.agents.iter().any(|a| {
             self.runs
                 .agents
@@ -852,11 +862,6 @@ impl App {
             self.set_status("no run in flight", Severity::Info);
             return Vec::new();
         };
-        for v in self.runs.agents.values_mut() {
-            if matches!(v.status, AgentStatus::Running | AgentStatus::Waiting) {
-                v.status = AgentStatus::Cancelled;
-            }
-        }
         let mut cmds = vec![Cmd::CancelRun(id)];
         cmds.extend(self.finish_run(true));
         cmds

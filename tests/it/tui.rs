@@ -1218,6 +1218,45 @@ fn planner_writes(text: &str) -> Vec<AgentEvent> {
     ]
 }
 
+/// The SKM refused while the GKM is still waiting for its answer: the run
+/// fails and the GKM's request is dropped with it, so its pane says it was
+/// cancelled (not "no answer yet" counting on after the run), and nothing
+/// wakes the screen to count a silence that is over.
+#[test]
+fn a_miners_failure_ends_the_other_miners_wait_in_its_pane_too() {
+    use mapvlm::workbench::runs::AgentStatus;
+    use mapvlm::workbench::session::RunState;
+
+    let mut h = Harness::new((200, 60), None, false, bag_of_words());
+    let events = vec![
+        AgentEvent::Started {
+            role: AgentRole::Skm,
+        },
+        AgentEvent::Started {
+            role: AgentRole::Gkm,
+        },
+        AgentEvent::Failed {
+            role: AgentRole::Skm,
+            error: "openai answered HTTP 500".into(),
+            elapsed_ms: 73,
+        },
+    ];
+    run_with_events(&mut h, events);
+    assert_eq!(h.app.runs.history.last().unwrap().state, RunState::Failed);
+    assert_eq!(
+        h.app.runs.agents[&AgentRole::Gkm].status,
+        AgentStatus::Cancelled
+    );
+    assert_eq!(h.app.countdown_wake(Instant::now()), None);
+    let screen = h.screen();
+    let gkm = screen
+        .lines()
+        .find(|l| l.contains("Grounded Description (GKM)"))
+        .unwrap();
+    assert!(gkm.contains("(GKM) cancelled"), "{gkm}");
+    assert!(!screen.contains("no answer yet"), "{screen}");
+}
+
 /// A Planner whose answer breaks off after two steps: the run is kept as
 /// failed with the partial plan marked and unscored, the Plan pane keeps
 /// the last good plan and says why the new run failed, and the history,
