@@ -1241,7 +1241,7 @@ fn a_miners_failure_ends_the_other_miners_wait_in_its_pane_too() {
             elapsed_ms: 73,
         },
     ];
-    run_with_events(&mut h, events);
+    let run = run_with_events(&mut h, events);
     assert_eq!(h.app.runs.history.last().unwrap().state, RunState::Failed);
     assert_eq!(
         h.app.runs.agents[&AgentRole::Gkm].status,
@@ -1255,6 +1255,15 @@ fn a_miners_failure_ends_the_other_miners_wait_in_its_pane_too() {
         .unwrap();
     assert!(gkm.contains("(GKM) cancelled"), "{gkm}");
     assert!(!screen.contains("no answer yet"), "{screen}");
+    // Its plan, loaded from the history, is none (not "partial").
+    h.key(KeyCode::Char('H'));
+    h.key(KeyCode::Enter);
+    assert!(h.app.panes.plan.items.is_empty());
+    let screen = h.screen();
+    assert!(
+        screen.contains(&format!("run {run} · failed, no plan, not scored")),
+        "{screen}"
+    );
 }
 
 /// A Planner whose answer breaks off after two steps: the run is kept as

@@ -310,7 +310,15 @@ pub(crate) fn draw(frame: &mut Frame, app: &App, list: StepList, area: Rect) {
                         ),
                         _ => match app.shown_run() {
                             Some(r) if !r.state.is_scored() => Span::styled(
-                                format!("run {run} · {}, partial plan, not scored", r.state.word()),
+                                format!(
+                                    "run {run} · {}, {}, not scored",
+                                    r.state.word(),
+                                    if r.plan.is_empty() {
+                                        "no plan"
+                                    } else {
+                                        "partial plan"
+                                    }
+                                ),
                                 t.bad,
                             ),
                             _ => Span::styled(format!("run {run}"), t.muted),
