@@ -19,6 +19,7 @@ pub mod execute;
 pub mod graph_layout;
 pub mod graph_view;
 pub mod graphics;
+pub mod header;
 pub mod headless;
 pub mod keymap;
 pub mod layout;

@@ -10,6 +10,7 @@ use crate::agents::ProviderKind;
 use crate::workbench::app::App;
 use crate::workbench::editing::Editing;
 use crate::workbench::graph_layout::truncate;
+use crate::workbench::header::Header;
 use crate::workbench::keymap::{self};
 use crate::workbench::layout::{pane_rects, Screen, MIN_HEIGHT, MIN_WIDTH};
 use crate::workbench::overlays::{self};
@@ -86,26 +87,18 @@ fn render_header(frame: &mut Frame, app: &App, area: Rect) {
         ModelSlot::Loading(p) => Span::styled(format!("models loading: {p}"), t.warn),
         ModelSlot::Unavailable(_) => Span::styled("PG2S models missing", t.warn),
     };
-    let mut spans = vec![
-        Span::styled(" mapvlm ", t.title),
-        Span::styled("│ ", t.border),
-        Span::styled(source, t.accent),
-        Span::styled(" │ ", t.border),
-    ];
-    if !app.panes.scene.graphics.is_empty() {
-        spans.push(Span::styled(app.panes.scene.graphics.clone(), t.muted));
-        spans.push(Span::styled(" │ ", t.border));
-    }
-    spans.extend([
-        Span::styled(app.work.task.text.clone(), t.base),
-        Span::styled(" │ ", t.border),
-        Span::styled(app.work.approach.name(), t.accent),
-        Span::styled(" │ ", t.border),
-        Span::styled(providers_in_use(app), t.accent),
-        Span::styled(" │ ", t.border),
+    let graphics = &app.panes.scene.graphics;
+    let header = Header {
+        name: Span::styled(" mapvlm ", t.title),
+        source: Span::styled(source, t.accent),
+        graphics: (!graphics.is_empty()).then(|| Span::styled(graphics.clone(), t.muted)),
+        task: Span::styled(app.work.task.text.clone(), t.base),
+        approach: Span::styled(app.work.approach.name(), t.accent),
+        providers: Span::styled(providers_in_use(app), t.accent),
         models,
-    ]);
-    frame.render_widget(Paragraph::new(Line::from(spans)).style(t.base), area);
+        border: t.border,
+    };
+    frame.render_widget(Paragraph::new(header.line(area.width)).style(t.base), area);
 }
 
 /// Which provider each agent of the approach runs on, short: agents in a

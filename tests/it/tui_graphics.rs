@@ -29,10 +29,14 @@ fn contains(haystack: &[u8], needle: &str) -> bool {
         .any(|w| w == needle.as_bytes())
 }
 
+/// Columns enough for the header to give the graphics' reason whole (at
+/// 120 it gives way to the providers and models).
+const WIDE: u16 = 160;
+
 #[test]
 fn an_answer_after_600_ms_falls_back_saying_why_and_keys_typed_meanwhile_arrows_too_count() {
     let dir = tempfile::tempdir().unwrap();
-    let mut pty = Pty::start(dir.path());
+    let mut pty = Pty::start_wide(dir.path(), "", &[], WIDE);
     pty.wait_for("the graphics query", "\x1b[5n");
     // The ground-truth picker, down to annotator B, chosen: typed before
     // the terminal answers.
@@ -56,7 +60,7 @@ fn an_answer_after_600_ms_falls_back_saying_why_and_keys_typed_meanwhile_arrows_
 #[test]
 fn graphics_sixel_forces_sixel_when_the_terminal_does_not_answer() {
     let dir = tempfile::tempdir().unwrap();
-    let mut pty = Pty::start_with(dir.path(), "--graphics sixel", &[]);
+    let mut pty = Pty::start_wide(dir.path(), "--graphics sixel", &[], WIDE);
     pty.wait_for("the graphics query", "\x1b[5n");
     pty.wait_screen("the header", |s| {
         s.contains("sixel: asked for (--graphics sixel)")
@@ -69,7 +73,7 @@ fn graphics_sixel_forces_sixel_when_the_terminal_does_not_answer() {
 #[test]
 fn kitty_0_26_gets_no_placeholders_and_kitty_0_35_does() {
     let dir = tempfile::tempdir().unwrap();
-    let mut old = Pty::start(dir.path());
+    let mut old = Pty::start_wide(dir.path(), "", &[], WIDE);
     old.wait_for("the graphics query", "\x1b[5n");
     old.send(&kitty_answer("0.26.5"));
     old.wait_screen("the header", |s| {
@@ -81,7 +85,7 @@ fn kitty_0_26_gets_no_placeholders_and_kitty_0_35_does() {
     assert_eq!(old.exit_code(), Some(0));
 
     let dir = tempfile::tempdir().unwrap();
-    let mut new = Pty::start(dir.path());
+    let mut new = Pty::start_wide(dir.path(), "", &[], WIDE);
     new.wait_for("the graphics query", "\x1b[5n");
     new.send(&kitty_answer("0.35.0"));
     new.wait_screen("the header", |s| {
@@ -95,7 +99,7 @@ fn kitty_0_26_gets_no_placeholders_and_kitty_0_35_does() {
 #[test]
 fn no_color_draws_the_scene_in_characters_without_a_colour_attribute() {
     let dir = tempfile::tempdir().unwrap();
-    let mut pty = Pty::start_with(dir.path(), "", &[("NO_COLOR", "1")]);
+    let mut pty = Pty::start_wide(dir.path(), "", &[("NO_COLOR", "1")], WIDE);
     pty.wait_for("the graphics query", "\x1b[5n");
     // The picture: characters of the ramp from dark to light, and no error.
     pty.wait_screen("the header and the picture", |s| {

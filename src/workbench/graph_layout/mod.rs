@@ -327,8 +327,9 @@ pub fn text_width(text: &str) -> usize {
     text.chars().map(|c| c.width().unwrap_or(0)).sum()
 }
 
-/// `text` on one line (control characters as spaces), cut with `…` to at
-/// most `width` columns; empty when `width` is 0.
+/// `text` on one line (control characters as spaces), cut with `…` (after
+/// the last character kept, not a space) to at most `width` columns; empty
+/// when `width` is 0.
 pub fn truncate(text: &str, width: usize) -> String {
     let clean: String = text
         .chars()
@@ -350,6 +351,8 @@ pub fn truncate(text: &str, width: usize) -> String {
         used += w;
         out.push(c);
     }
+    // `in…`, not `in …`: the ellipsis follows the last character shown.
+    out.truncate(out.trim_end().len());
     out.push('…');
     out
 }

@@ -233,6 +233,7 @@ fn long_and_wide_text_is_cut_by_columns() {
     assert_eq!(truncate("水槽の蛇口", 5), "水槽…");
     assert_eq!(truncate("tab\there", 20), "tab here");
     assert_eq!(truncate("anything", 0), "");
+    assert_eq!(truncate("a rinsed mug", 10), "a rinsed…");
 }
 
 #[test]

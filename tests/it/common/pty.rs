@@ -13,7 +13,11 @@ pub struct Pty {
     child: std::process::Child,
     stdin: std::process::ChildStdin,
     output: Arc<Mutex<Vec<u8>>>,
+    cols: u16,
 }
+
+/// The terminal's rows.
+const ROWS: u16 = 40;
 
 impl Pty {
     /// mapvlm on the demo in a 120×40 terminal (`TERM=xterm-256color`,
@@ -23,15 +27,20 @@ impl Pty {
     }
 
     /// The same with `flags` added to the command line and `env` set.
-    /// Fails when `script` (util-linux) is missing.
     pub fn start_with(dir: &Path, flags: &str, env: &[(&str, &str)]) -> Pty {
+        Pty::start_wide(dir, flags, env, 120)
+    }
+
+    /// The same in a terminal `cols` columns wide (a header with room for
+    /// every field). Fails when `script` (util-linux) is missing.
+    pub fn start_wide(dir: &Path, flags: &str, env: &[(&str, &str)], cols: u16) -> Pty {
         let found = Command::new("script").arg("--version").output();
         assert!(
             found.is_ok_and(|o| o.status.success()),
             "script (util-linux) is not installed: install it to run this test"
         );
         let command = format!(
-            "stty rows 40 cols 120; exec {} {flags} --replay-delay 1 --session {}",
+            "stty rows {ROWS} cols {cols}; exec {} {flags} --replay-delay 1 --session {}",
             env!("CARGO_BIN_EXE_mapvlm"),
             dir.join("session.json").display()
         );
@@ -74,6 +83,7 @@ impl Pty {
             child,
             stdin,
             output,
+            cols,
         }
     }
 
@@ -118,11 +128,11 @@ impl Pty {
         }
     }
 
-    /// The text on the 120×40 screen the output has drawn so far: cursor
+    /// The text on the screen the output has drawn so far: cursor
     /// positioning and text followed, every other sequence (colours,
     /// graphics) left out.
     pub fn screen(&self) -> String {
-        screen_of(&self.output(), 120, 40)
+        screen_of(&self.output(), usize::from(self.cols), usize::from(ROWS))
     }
 
     /// Waits until the screen satisfies `ok` (30 s at most) and returns it.
