@@ -34,7 +34,7 @@ use crate::workbench::scoring::{ModelSlot, ScoreOutcome, ScoreRequest};
 use crate::workbench::session::{
     GroundTruthSource, PlanSource, Session, SessionError, SourceState,
 };
-use crate::workbench::shared::Severity;
+use crate::workbench::shared::{LogEntry, Severity, LOG_MAX};
 use crate::workbench::theme::Theme;
 
 /// The order the approaches cycle in.
@@ -207,6 +207,12 @@ pub struct Messages {
     /// A message from the start (e.g. where an unreadable session file was
     /// moved) that stays in the status bar until Esc dismisses it.
     pub notice: Option<(String, Severity)>,
+    /// Every status message and notice so far, oldest first (at most
+    /// [`LOG_MAX`]): what `M` shows, since the status line keeps only the
+    /// latest.
+    pub log: Vec<LogEntry>,
+    /// When the workbench started, for the log's times.
+    pub started: std::time::Instant,
 }
 
 /// The session file's side of the workbench.
@@ -313,7 +319,17 @@ impl App {
             },
             messages: Messages {
                 status: None,
+                log: init
+                    .notice
+                    .iter()
+                    .map(|(text, severity)| LogEntry {
+                        at: std::time::Duration::ZERO,
+                        text: text.clone(),
+                        severity: *severity,
+                    })
+                    .collect(),
                 notice: init.notice,
+                started: std::time::Instant::now(),
             },
             saving: Saving {
                 session_dirty: false,
@@ -376,7 +392,20 @@ impl App {
     }
 
     pub(crate) fn set_status(&mut self, text: impl Into<String>, severity: Severity) {
-        self.messages.status = Some((text.into(), severity));
+        let text = text.into();
+        let log = &mut self.messages.log;
+        if log.len() >= LOG_MAX {
+            log.drain(..=log.len() - LOG_MAX);
+        }
+        log.push(LogEntry {
+            at: self.messages.started.elapsed(),
+            text: text.clone(),
+            severity,
+        });
+        if let Some(Overlay::Log(view)) = &mut self.overlay {
+            view.update(log);
+        }
+        self.messages.status = Some((text, severity));
     }
 
     /// Whether the demo is what is loaded (no dataset task).

@@ -143,6 +143,9 @@ fn render_tabs(frame: &mut Frame, app: &App, area: Rect) {
     frame.render_widget(Paragraph::new(Line::from(spans)).style(t.base), area);
 }
 
+/// What ends a status message cut to the status line: where it is whole.
+const LOG_POINTER: &str = " · M log";
+
 fn render_status(frame: &mut Frame, app: &App, area: Rect) {
     let t = &app.looks.theme;
     let context = app.key_context();
@@ -185,8 +188,17 @@ fn render_status(frame: &mut Frame, app: &App, area: Rect) {
             Severity::Error => t.bad,
         };
         spans.push(Span::styled("│ ", t.border));
-        // Still too long: cut where it shows, with a mark that it was.
-        let text = truncate(&text, room.saturating_sub(2));
+        // Still too long: cut where it shows, with a mark that it was and
+        // where it is whole.
+        let fits = room.saturating_sub(2);
+        let text = if text.width() > fits && fits > LOG_POINTER.width() + 8 {
+            format!(
+                "{}{LOG_POINTER}",
+                truncate(&text, fits - LOG_POINTER.width())
+            )
+        } else {
+            truncate(&text, fits)
+        };
         room = room.saturating_sub(text.width() + 2);
         spans.push(Span::styled(text, style));
     }

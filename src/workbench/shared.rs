@@ -17,6 +17,22 @@ pub enum Severity {
     Error,
 }
 
+/// A status message as the message log (`M`) keeps it: how long after the
+/// workbench started it came, and how important it was.
+#[derive(Debug, Clone, PartialEq, Eq)]
+pub struct LogEntry {
+    /// Since the workbench started.
+    pub at: std::time::Duration,
+    /// The message.
+    pub text: String,
+    /// How important it was.
+    pub severity: Severity,
+}
+
+/// The most messages the log keeps (the oldest go first): a workbench left
+/// running with retries for days stays small.
+pub const LOG_MAX: usize = 2000;
+
 /// A one-line editor holding `text`, the cursor at its end: what every
 /// field of a form, the search and the step editor start from.
 pub fn single_line_editor(text: &str) -> TextArea<'static> {

@@ -13,6 +13,7 @@ use crate::workbench::layout::{pane_rects, Screen};
 use crate::workbench::message::{Cmd, Msg};
 use crate::workbench::overlays::actions::ActionsView;
 use crate::workbench::overlays::help::Help;
+use crate::workbench::overlays::log::MessageLog;
 use crate::workbench::overlays::Overlay;
 use crate::workbench::panes::steps::{self, StepList, StepsBefore};
 use crate::workbench::panes::{self, Pane};
@@ -31,8 +32,11 @@ impl App {
             Msg::Mouse(mouse) => self.on_mouse(mouse),
             Msg::Resize(w, h) => {
                 self.size = (w, h);
-                if let Some(Overlay::Help(help)) = &mut self.overlay {
-                    help.resize(Rect::new(0, 0, w, h));
+                match &mut self.overlay {
+                    Some(Overlay::Help(help)) => help.resize(Rect::new(0, 0, w, h)),
+                    Some(Overlay::Log(log)) => log.resize(Rect::new(0, 0, w, h)),
+                    Some(Overlay::Actions(view)) => view.resize(Rect::new(0, 0, w, h)),
+                    _ => {}
                 }
                 Vec::new()
             }
@@ -281,13 +285,19 @@ impl App {
                 }
             }
             Action::Actions => {
-                let view = ActionsView {
-                    scores: self.work.scores.clone(),
-                };
+                let screen = Rect::new(0, 0, self.size.0, self.size.1);
+                let view = ActionsView::new(self.work.scores.clone(), screen);
                 self.overlay = Some(Overlay::Actions(Box::new(view)));
             }
             Action::Corrupt => self.open_corrupt_picker(),
             Action::History => self.open_runs(),
+            Action::Messages => {
+                let screen = Rect::new(0, 0, self.size.0, self.size.1);
+                self.overlay = Some(Overlay::Log(Box::new(MessageLog::new(
+                    &self.messages.log,
+                    screen,
+                ))));
+            }
             Action::Accept
             | Action::Leave
             | Action::RunFromEditor
@@ -468,13 +478,19 @@ impl App {
             return Vec::new();
         }
         if self.overlay.is_some() || !matches!(self.editing, Editing::None) {
-            if let Some(Overlay::Help(help)) = &mut self.overlay {
-                match mouse.kind {
-                    MouseEventKind::Down(_) => self.overlay = None,
-                    MouseEventKind::ScrollDown => help.scroll_by(Motion::Wheel(WHEEL_LINES)),
-                    MouseEventKind::ScrollUp => help.scroll_by(Motion::Wheel(-WHEEL_LINES)),
-                    _ => {}
+            let wheel = match mouse.kind {
+                MouseEventKind::ScrollDown => Some(Motion::Wheel(WHEEL_LINES)),
+                MouseEventKind::ScrollUp => Some(Motion::Wheel(-WHEEL_LINES)),
+                _ => None,
+            };
+            match (&mut self.overlay, wheel) {
+                (Some(Overlay::Help(help)), Some(motion)) => help.scroll_by(motion),
+                (Some(Overlay::Log(log)), Some(motion)) => log.scroll_by(motion),
+                (Some(Overlay::Actions(view)), Some(motion)) => view.scroll_by(motion),
+                (Some(Overlay::Help(_)), None) if matches!(mouse.kind, MouseEventKind::Down(_)) => {
+                    self.overlay = None
                 }
+                _ => {}
             }
             return Vec::new();
         }

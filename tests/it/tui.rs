@@ -776,7 +776,7 @@ fn state_for(context: Context, action: Action, warm: bool) -> Harness {
                 h.key(KeyCode::Enter);
             }
             Context::Prompt => h.key(KeyCode::Right),
-            Context::Search | Context::Help => {}
+            Context::Search | Context::Help | Context::Viewer => {}
             _ => {
                 h.keys("/the");
                 h.key(KeyCode::Enter);
@@ -826,7 +826,16 @@ fn open_overlay(h: &mut Harness, context: Context, warm: bool) {
             }
             h.key(KeyCode::Char('S'));
         }
-        Context::Viewer => h.key(KeyCode::Char('f')),
+        Context::Viewer => {
+            // At 80×24, thirty messages are more than the log shows.
+            let cmds = h.app.update(Msg::Resize(80, 24));
+            h.run(cmds);
+            h.keys(&"t".repeat(30));
+            h.key(KeyCode::Char('M'));
+            if warm {
+                h.key(KeyCode::Home);
+            }
+        }
         Context::Help => {
             // At 80×24 the help is longer than the screen.
             let cmds = h.app.update(Msg::Resize(80, 24));
@@ -1264,6 +1273,53 @@ fn a_miners_failure_ends_the_other_miners_wait_in_its_pane_too() {
         screen.contains(&format!("run {run} · failed, no plan, not scored")),
         "{screen}"
     );
+}
+
+/// A message longer than the status line ends with where it is whole, and
+/// `M` shows it whole under its time, with the messages before it.
+#[test]
+fn a_cut_status_message_points_to_the_log_which_keeps_it_whole() {
+    let mut h = Harness::new((80, 24), None, false, bag_of_words());
+    let error = "openai answered HTTP 500: the upstream model server is overloaded, \
+                 try again in a few minutes or ask another model";
+    let events = vec![
+        AgentEvent::Started {
+            role: AgentRole::Skm,
+        },
+        AgentEvent::Failed {
+            role: AgentRole::Skm,
+            error: error.into(),
+            elapsed_ms: 73,
+        },
+    ];
+    run_with_events(&mut h, events);
+    let screen = h.screen();
+    let status = screen.lines().last().unwrap().trim_matches('"').trim_end();
+    assert!(status.ends_with("… · M log"), "{status}");
+    h.key(KeyCode::Char('M'));
+    let log = h.screen();
+    let words = |text: &str| {
+        text.split_whitespace()
+            .filter(|w| {
+                w.chars()
+                    .all(|c| c.is_alphanumeric() || ":,.()#".contains(c))
+            })
+            .map(str::to_string)
+            .collect::<Vec<_>>()
+            .join(" ")
+    };
+    assert!(
+        words(&log).contains(&words(error)),
+        "the whole message: {log}"
+    );
+    assert!(log.contains("Messages, newest last"), "{log}");
+    assert!(
+        log.lines()
+            .any(|l| l.contains("0:00  ") && l.contains("run")),
+        "each under its time: {log}"
+    );
+    h.key(KeyCode::Esc);
+    assert!(!h.screen().contains("Messages, newest last"));
 }
 
 /// A Planner whose answer breaks off after two steps: the run is kept as

@@ -42,7 +42,8 @@ pub enum Context {
     ModelForm,
     /// Typing the name of a prompt set to save.
     SetName,
-    /// A view to read and close: the framed actions.
+    /// A view to read, scroll and close: the framed actions, the message
+    /// log.
     Viewer,
     /// The diff of two runs, scrolled.
     RunDiff,
@@ -173,6 +174,8 @@ pub enum Action {
     Actions,
     /// Open the run history.
     History,
+    /// Open the message log.
+    Messages,
     /// Turn the scene image on or off.
     ToggleImage,
     /// Switch to the next theme.

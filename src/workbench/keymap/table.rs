@@ -316,6 +316,12 @@ pub(super) const WORKBENCH: &[Binding] = &[
     ),
     bind(
         C::Panes,
+        &[(ch('M'), A::Messages)],
+        "M",
+        "message log: every status message so far, whole, with its time",
+    ),
+    bind(
+        C::Panes,
         &[(ch('i'), A::ToggleImage)],
         "i",
         "scene image on or off (for slow links)",
@@ -510,11 +516,21 @@ pub(super) const WORKBENCH: &[Binding] = &[
                 (ch('q'), A::Leave),
                 (key(KeyCode::Enter), A::Leave),
             ],
-            "Esc q Enter (actions)",
+            "Esc q Enter (actions, messages)",
             "close",
         ),
         "Esc",
         "closes",
+    ),
+    hinted(
+        bind(
+            C::Viewer,
+            SCROLL_KEYS,
+            "↑↓ j k, PgUp PgDn, Home End (actions, messages)",
+            "scroll (also the mouse wheel)",
+        ),
+        "↑↓",
+        "scroll",
     ),
     hinted(
         bind(C::RunDiff, MOVE_KEYS, "↑↓ j k (run diff)", "scroll a line"),

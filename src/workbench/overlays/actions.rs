@@ -1,19 +1,20 @@
-//! The framed actions of plan and ground truth, and their matches (`a`), a
+//! The framed actions of plan and ground truth, and their matches (`f`), a
 //! [`Component`] over the scores it was opened on (kept up to date while
-//! it is open).
+//! it is open), scrolled like the help when longer than its box.
 
 use std::convert::Infallible;
 
 use crossterm::event::KeyEvent;
 use ratatui::layout::Rect;
 use ratatui::text::{Line, Span};
-use ratatui::widgets::{Paragraph, Wrap};
+use ratatui::widgets::Clear;
 use ratatui::Frame;
 
 use crate::workbench::component::Component;
 use crate::workbench::keymap::{Action, Context};
-use crate::workbench::overlays::{open_box, Picked};
+use crate::workbench::overlays::{centred, themed_box, Picked};
 use crate::workbench::scoring::{Pg2sOutcome, ScoreOutcome};
+use crate::workbench::scroll::{self, Motion, Scroll};
 use crate::workbench::theme::Theme;
 
 /// The framed-actions viewer: the scores it shows, `None` while scoring.
@@ -21,6 +22,31 @@ use crate::workbench::theme::Theme;
 pub struct ActionsView {
     /// The scores shown; the workbench replaces them when new ones arrive.
     pub scores: Option<ScoreOutcome>,
+    scroll: Scroll,
+    area: Rect,
+}
+
+impl ActionsView {
+    /// The viewer of `scores` over `area` (the screen), at its top.
+    pub fn new(scores: Option<ScoreOutcome>, area: Rect) -> ActionsView {
+        ActionsView {
+            scores,
+            scroll: Scroll::default(),
+            area,
+        }
+    }
+
+    /// Lays the viewer out over a resized screen `area`.
+    pub fn resize(&mut self, area: Rect) {
+        self.area = area;
+        self.scroll_by(Motion::Line(0));
+    }
+
+    /// Scrolls the viewer by `motion`, within its lines.
+    pub fn scroll_by(&mut self, motion: Motion) {
+        let (_, lines, viewport) = layout(self.scores.as_ref(), self.area, &Theme::no_color());
+        self.scroll.scroll(lines.len(), viewport, motion);
+    }
 }
 
 impl Component for ActionsView {
@@ -34,6 +60,10 @@ impl Component for ActionsView {
     fn on_action(&mut self, action: Action) -> Self::Outcome {
         match action {
             Action::Leave => Picked::Cancelled,
+            Action::Move(delta) => {
+                self.scroll_by(Motion::of_move(delta));
+                Picked::Open
+            }
             _ => Picked::Open,
         }
     }
@@ -43,18 +73,31 @@ impl Component for ActionsView {
     }
 
     fn draw(&self, frame: &mut Frame, area: Rect, theme: &Theme) {
-        draw(frame, self.scores.as_ref(), area, theme);
+        let (rect, lines, _) = layout(self.scores.as_ref(), area, theme);
+        frame.render_widget(Clear, rect);
+        let block = themed_box(
+            theme,
+            "Framed actions and their matches (↑↓ PgUp PgDn scroll · Esc closes)",
+        );
+        scroll::render(frame, rect, block, &lines, self.scroll, theme.accent);
     }
 }
 
-fn draw(frame: &mut Frame, scores: Option<&ScoreOutcome>, area: Rect, t: &Theme) {
-    let inner = open_box(
-        frame,
-        t,
-        area,
-        (110, 30),
-        "Framed actions and their matches (Esc closes)",
-    );
+/// The viewer's box over `area` (at most 110×30), its lines wrapped to it
+/// and how many it shows at once.
+fn layout(
+    scores: Option<&ScoreOutcome>,
+    area: Rect,
+    t: &Theme,
+) -> (Rect, Vec<Line<'static>>, usize) {
+    let rect = centred(area, 110, 30);
+    let inner = usize::from(rect.width.saturating_sub(2)).max(1);
+    let lines = scroll::wrap_text(&lines(scores, t), inner);
+    (rect, lines, usize::from(rect.height.saturating_sub(2)))
+}
+
+/// What the viewer says: S_goal's action matches, then KAS's key actions.
+fn lines(scores: Option<&ScoreOutcome>, t: &Theme) -> Vec<Line<'static>> {
     let mut lines = Vec::new();
     match scores.map(|s| &s.pg2s) {
         Some(Pg2sOutcome::Ready(report)) => match &report.goal {
@@ -134,7 +177,7 @@ fn draw(frame: &mut Frame, scores: Option<&ScoreOutcome>, area: Rect, t: &Theme)
             )));
         }
     }
-    frame.render_widget(Paragraph::new(lines).wrap(Wrap { trim: false }), inner);
+    lines
 }
 
 #[cfg(test)]

@@ -1,11 +1,12 @@
 //! The modal views over the panes, each in its own module: help, pickers,
 //! the model form, the run history and the diff of two runs, the framed
-//! actions.
+//! actions, the message log.
 
 pub mod actions;
 pub mod corrupt;
 mod diff_page;
 pub mod help;
+pub mod log;
 pub mod model_form;
 pub mod pickers;
 pub mod prompt_sets;
@@ -50,6 +51,8 @@ pub enum Overlay {
     Actions(Box<ActionsView>),
     /// Choose how to corrupt the plan into a new run.
     CorruptPicker(CorruptPicker),
+    /// Every status message so far.
+    Log(Box<log::MessageLog>),
 }
 
 /// What a key in a picker or prompt asks of the workbench.
@@ -75,7 +78,7 @@ impl Overlay {
             Overlay::PromptSetName(_) => Some(Context::SetName),
             Overlay::PromptSetPicker(_) => Some(Context::Picker),
             Overlay::Runs(view) => Some(view.context()),
-            Overlay::Actions(_) => Some(Context::Viewer),
+            Overlay::Actions(_) | Overlay::Log(_) => Some(Context::Viewer),
         }
     }
 }
@@ -102,6 +105,10 @@ impl App {
             Overlay::Actions(view) => {
                 // A viewer chooses nothing: it is put back or closed.
                 let _ = self.pick(*view, &key, |v| Overlay::Actions(Box::new(v)));
+                Vec::new()
+            }
+            Overlay::Log(view) => {
+                let _ = self.pick(*view, &key, |v| Overlay::Log(Box::new(v)));
                 Vec::new()
             }
             Overlay::GroundTruthPicker(picker) => {
@@ -206,5 +213,6 @@ pub(crate) fn render_overlay(frame: &mut Frame, app: &App, area: Rect) {
         Overlay::Runs(view) => view.draw(frame, area, t),
         Overlay::Actions(view) => view.draw(frame, area, t),
         Overlay::CorruptPicker(picker) => picker.draw(frame, area, t),
+        Overlay::Log(view) => view.draw(frame, area, t),
     }
 }
