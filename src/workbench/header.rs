@@ -6,7 +6,7 @@
 use ratatui::style::Style;
 use ratatui::text::{Line, Span};
 
-use crate::workbench::graph_layout::{text_width, truncate};
+use crate::workbench::scroll::{cut_line, text_width, truncate};
 
 /// The shortest a cut task text is still worth showing (it is in the Scene
 /// pane too); below it the task is left out.
@@ -120,38 +120,8 @@ impl Header {
             spans.push(Span::styled(if i == 0 { "│ " } else { " │ " }, border));
             spans.push(field);
         }
-        let line = Line::from(spans);
-        if line.width() > width {
-            cut(line, width)
-        } else {
-            line
-        }
+        cut_line(Line::from(spans), width)
     }
-}
-
-/// `line` cut with `…` to `width` columns, each span keeping its style.
-fn cut(line: Line<'static>, width: usize) -> Line<'static> {
-    let mut left = width;
-    let mut spans = Vec::new();
-    let count = line.spans.len();
-    for (i, span) in line.spans.into_iter().enumerate() {
-        let w = text_width(&span.content);
-        if w <= left && (i + 1 == count || w < left) {
-            left -= w;
-            spans.push(span);
-            continue;
-        }
-        // A span that fills the rest exactly, with more to come, leaves
-        // its last column to the ellipsis.
-        let room = if w > left {
-            left
-        } else {
-            left.saturating_sub(1)
-        };
-        spans.push(Span::styled(truncate(&span.content, room), span.style));
-        break;
-    }
-    Line::from(spans)
 }
 
 #[cfg(test)]

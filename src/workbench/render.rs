@@ -9,7 +9,6 @@ use unicode_width::UnicodeWidthStr;
 use crate::agents::ProviderKind;
 use crate::workbench::app::App;
 use crate::workbench::editing::Editing;
-use crate::workbench::graph_layout::truncate;
 use crate::workbench::header::Header;
 use crate::workbench::keymap::{self};
 use crate::workbench::layout::{pane_rects, Screen, MIN_HEIGHT, MIN_WIDTH};
@@ -17,6 +16,7 @@ use crate::workbench::overlays::{self};
 use crate::workbench::panes::{self, Pane};
 use crate::workbench::scoring::ModelSlot;
 use crate::workbench::scroll;
+use crate::workbench::scroll::truncate;
 use crate::workbench::shared::{fold_to_ascii, Severity};
 
 /// Draws the whole workbench.

@@ -20,7 +20,7 @@ use ratatui::style::Style;
 use ratatui::text::{Line, Span};
 use ratatui::widgets::{Block, Paragraph};
 use ratatui::Frame;
-use unicode_width::UnicodeWidthStr;
+use unicode_width::{UnicodeWidthChar, UnicodeWidthStr};
 
 /// How a key moves a view.
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
@@ -414,6 +414,70 @@ impl Scroll {
         };
         self.clamp(total, viewport);
     }
+}
+
+/// How many columns `text` takes in a terminal.
+pub fn text_width(text: &str) -> usize {
+    text.chars().map(|c| c.width().unwrap_or(0)).sum()
+}
+
+/// `text` on one line (control characters as spaces), cut with `…` (after
+/// the last character kept, not a space) to at most `width` columns; empty
+/// when `width` is 0.
+pub fn truncate(text: &str, width: usize) -> String {
+    let clean: String = text
+        .chars()
+        .map(|c| if c.is_control() { ' ' } else { c })
+        .collect();
+    if text_width(&clean) <= width {
+        return clean;
+    }
+    if width == 0 {
+        return String::new();
+    }
+    let mut out = String::new();
+    let mut used = 0;
+    for c in clean.chars() {
+        let w = c.width().unwrap_or(0);
+        if used + w > width - 1 {
+            break;
+        }
+        used += w;
+        out.push(c);
+    }
+    // `in…`, not `in …`: the ellipsis follows the last character shown.
+    out.truncate(out.trim_end().len());
+    out.push('…');
+    out
+}
+
+/// `line` as it is when it fits `width` columns, else cut with `…`, each
+/// span keeping its style: a one-line text that must not be cut silently.
+pub fn cut_line<'a>(line: Line<'a>, width: usize) -> Line<'a> {
+    if line.width() <= width {
+        return line;
+    }
+    let mut left = width;
+    let mut spans = Vec::new();
+    let count = line.spans.len();
+    for (i, span) in line.spans.into_iter().enumerate() {
+        let w = text_width(&span.content);
+        if w <= left && (i + 1 == count || w < left) {
+            left -= w;
+            spans.push(span);
+            continue;
+        }
+        // A span that fills the rest exactly, with more to come, leaves
+        // its last column to the ellipsis.
+        let room = if w > left {
+            left
+        } else {
+            left.saturating_sub(1)
+        };
+        spans.push(Span::styled(truncate(&span.content, room), span.style));
+        break;
+    }
+    Line::from(spans)
 }
 
 /// The markers of a view `offset` lines down a text of `total` lines

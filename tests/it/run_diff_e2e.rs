@@ -34,7 +34,7 @@ fn a_prompt_edit_between_two_runs_shows_in_their_diff_with_the_score_change() {
     let dataset = common::shared().join("data/alfred30").display().to_string();
     let workbench = Workbench::start("run-diff", &home, (120, 40), &["--dataset", &dataset]);
     workbench.wait_for("the dataset task", |s| {
-        s.contains("Place a wet sponge inside the bathtub")
+        s.contains("trial_T20190906_234735_610018-1")
     });
     workbench.keys(&["r"]);
     let first = workbench.wait_for("run 1, scored", |s| {

@@ -1322,6 +1322,36 @@ fn a_cut_status_message_points_to_the_log_which_keeps_it_whole() {
     assert!(!h.screen().contains("Messages, newest last"));
 }
 
+/// At 80×24 the run history gives up its least important columns (the
+/// approach, the steps, S_plan) so that the cost and the state stay, and
+/// wraps the run's details instead of cutting them at the box's edge.
+#[test]
+fn the_run_history_at_80_columns_keeps_the_cost_and_the_state_and_wraps_the_details() {
+    let mut h = Harness::new((80, 24), None, false, bag_of_words());
+    h.key(KeyCode::Char('H'));
+    let screen = h.screen();
+    let header = screen
+        .lines()
+        .find(|l| l.contains("PG2S") && l.contains("KAS") && l.contains("run"))
+        .unwrap_or_else(|| panic!("no table header: {screen}"));
+    for column in ["cost", "state", "PG2S", "KAS", "samples"] {
+        assert!(header.contains(column), "{column}: {header}");
+    }
+    assert!(
+        !header.contains("approach"),
+        "the approach gave way: {header}"
+    );
+    let row = screen
+        .lines()
+        .find(|l| l.contains("#1 "))
+        .unwrap_or_else(|| panic!("no row of run 1: {screen}"));
+    assert!(row.contains("finished"), "{row}");
+    assert!(
+        screen.contains("samples); per agent:"),
+        "the details wrapped, not cut: {screen}"
+    );
+}
+
 /// A Planner whose answer breaks off after two steps: the run is kept as
 /// failed with the partial plan marked and unscored, the Plan pane keeps
 /// the last good plan and says why the new run failed, and the history,

@@ -15,9 +15,8 @@
 mod layering;
 mod place;
 
-use unicode_width::UnicodeWidthChar;
-
 use crate::agents::graph::KnowledgeGraph;
+use crate::workbench::scroll::{text_width, truncate};
 
 /// The most nodes laid out; the rest are counted in [`GraphLayout::omitted_nodes`].
 pub const MAX_NODES: usize = 400;
@@ -320,41 +319,6 @@ fn components(nodes: usize, edges: &[InputEdge]) -> Vec<Vec<usize>> {
         groups[group_of_root[r]].push(n);
     }
     groups
-}
-
-/// How many columns `text` takes in a terminal.
-pub fn text_width(text: &str) -> usize {
-    text.chars().map(|c| c.width().unwrap_or(0)).sum()
-}
-
-/// `text` on one line (control characters as spaces), cut with `…` (after
-/// the last character kept, not a space) to at most `width` columns; empty
-/// when `width` is 0.
-pub fn truncate(text: &str, width: usize) -> String {
-    let clean: String = text
-        .chars()
-        .map(|c| if c.is_control() { ' ' } else { c })
-        .collect();
-    if text_width(&clean) <= width {
-        return clean;
-    }
-    if width == 0 {
-        return String::new();
-    }
-    let mut out = String::new();
-    let mut used = 0;
-    for c in clean.chars() {
-        let w = c.width().unwrap_or(0);
-        if used + w > width - 1 {
-            break;
-        }
-        used += w;
-        out.push(c);
-    }
-    // `in…`, not `in …`: the ellipsis follows the last character shown.
-    out.truncate(out.trim_end().len());
-    out.push('…');
-    out
 }
 
 #[cfg(test)]

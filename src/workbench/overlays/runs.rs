@@ -23,6 +23,7 @@ use crate::workbench::overlays::{centred, moved, themed_box, Overlay};
 use crate::workbench::panes::list_window;
 use crate::workbench::run_diff::{agent_side, cost_text, run_cost, ReadMetric, RunDiff, METRICS};
 use crate::workbench::runs::{mean_score, sample_scores};
+use crate::workbench::scroll;
 use crate::workbench::session::{PlanSource, RunRecord, RunState};
 use crate::workbench::shared::Severity;
 use crate::workbench::theme::Theme;
@@ -141,75 +142,6 @@ impl RunsOverlay {
             frame.render_widget(Paragraph::new(Span::styled("No runs yet.", t.muted)), inner);
             return;
         };
-        let detail = current.agents.len() as u16 + 2;
-        let [spark, table, agents] = Layout::vertical([
-            Constraint::Length(3),
-            Constraint::Min(2),
-            Constraint::Length(detail),
-        ])
-        .areas(inner);
-        let data: Vec<u64> = self
-            .runs
-            .iter()
-            .filter(|r| r.state.is_scored())
-            .map(|r| mean_score(r, |s| s.pg2s.or(s.kas)).map_or(0, |v| (v * 100.0).round() as u64))
-            .collect();
-        frame.render_widget(
-            Sparkline::default().data(&data).max(100).style(t.accent),
-            spark,
-        );
-        let mut lines = vec![Line::from(Span::styled(
-            format!(
-                "   {:<4} {:<12} {:<6} {:<6} {:<6} {:<6} {:>6} {:>7} {:>5} {:>9} {:>7} {}",
-                "run",
-                "approach",
-                "PG2S",
-                "S_plan",
-                "S_goal",
-                "KAS",
-                "ms",
-                "tokens",
-                "steps",
-                "cost",
-                "samples",
-                "state"
-            ),
-            t.muted,
-        ))];
-        let (first, count) = list_window(
-            self.selected,
-            self.runs.len(),
-            1,
-            usize::from(table.height.saturating_sub(1)),
-        );
-        for (i, r) in self.runs.iter().enumerate().skip(first).take(count) {
-            let mean = |of: ReadMetric| mean_score(r, of);
-            let mark = if self.marked == Some(i) { "●" } else { " " };
-            let style = if i == self.selected {
-                t.selection
-            } else {
-                t.base
-            };
-            lines.push(Line::from(Span::styled(
-                format!(
-                    "{mark}  #{:<3} {:<12} {:<6} {:<6} {:<6} {:<6} {:>6} {:>7} {:>5} {:>9} {:>7} {}",
-                    r.id,
-                    r.approach.name(),
-                    shown(mean(|s| s.pg2s)),
-                    shown(mean(|s| s.s_plan)),
-                    shown(mean(|s| s.s_goal)),
-                    shown(mean(|s| s.kas)),
-                    r.total_ms(),
-                    r.total_tokens(),
-                    r.plan.len(),
-                    cost_text(run_cost(&self.prices, r)),
-                    format!("{}/{}", sample_scores(r).len(), r.samples.len() + 1),
-                    r.state.word()
-                ),
-                style,
-            )));
-        }
-        frame.render_widget(Paragraph::new(lines), table);
         let mut per_agent = vec![Line::from(Span::styled(
             format!("run #{} {}", current.id, current.state_text()),
             if current.state == RunState::Finished {
@@ -237,10 +169,14 @@ impl RunsOverlay {
             },
             t.muted,
         )));
-        per_agent.extend(current.agents.iter().map(|a| {
-            Line::from(vec![
-                Span::styled(format!("  {:<8}", a.role.label()), t.accent),
-                Span::styled(
+        // Wrapped, never cut: as many rows as it takes (each agent's under
+        // itself), the table keeping its header and a row.
+        let width = usize::from(inner.width).max(1);
+        let mut per_agent = scroll::wrap_text(&per_agent, width);
+        per_agent.extend(current.agents.iter().flat_map(|a| {
+            scroll::wrap_hanging(
+                &[Span::styled(format!("  {:<8}", a.role.label()), t.accent)],
+                &[Span::styled(
                     match agent_side(&self.prices, current, a.role) {
                         Some(side) => format!(
                             "{}/{} · {} ms · {}+{} tok · {}{}{}",
@@ -259,11 +195,133 @@ impl RunsOverlay {
                         None => String::new(),
                     },
                     t.base,
-                ),
-            ])
+                )],
+                width,
+            )
         }));
+        let detail = u16::try_from(per_agent.len())
+            .unwrap_or(u16::MAX)
+            .min(inner.height.saturating_sub(5));
+        let [spark, table, agents] = Layout::vertical([
+            Constraint::Length(3),
+            Constraint::Min(2),
+            Constraint::Length(detail),
+        ])
+        .areas(inner);
+        let data: Vec<u64> = self
+            .runs
+            .iter()
+            .filter(|r| r.state.is_scored())
+            .map(|r| mean_score(r, |s| s.pg2s.or(s.kas)).map_or(0, |v| (v * 100.0).round() as u64))
+            .collect();
+        frame.render_widget(
+            Sparkline::default().data(&data).max(100).style(t.accent),
+            spark,
+        );
+        let widths = column_widths(usize::from(table.width));
+        let row = |mark: &str, cells: [String; COLUMNS.len()]| {
+            let mut text = mark.to_string();
+            for ((column, width), cell) in COLUMNS.iter().zip(&widths).zip(cells) {
+                let Some(width) = width else { continue };
+                if column.right {
+                    text.push_str(&format!(" {cell:>width$}"));
+                } else {
+                    text.push_str(&format!(" {cell:<width$}"));
+                }
+            }
+            scroll::truncate(&text, usize::from(table.width))
+        };
+        let mut lines = vec![Line::from(Span::styled(
+            row("  ", COLUMNS.map(|c| c.name.to_string())),
+            t.muted,
+        ))];
+        let (first, count) = list_window(
+            self.selected,
+            self.runs.len(),
+            1,
+            usize::from(table.height.saturating_sub(1)),
+        );
+        for (i, r) in self.runs.iter().enumerate().skip(first).take(count) {
+            let mean = |of: ReadMetric| mean_score(r, of);
+            let mark = if self.marked == Some(i) { "● " } else { "  " };
+            let style = if i == self.selected {
+                t.selection
+            } else {
+                t.base
+            };
+            let cells = [
+                format!("#{}", r.id),
+                r.approach.name().to_string(),
+                shown(mean(|s| s.pg2s)),
+                shown(mean(|s| s.s_plan)),
+                shown(mean(|s| s.s_goal)),
+                shown(mean(|s| s.kas)),
+                r.total_ms().to_string(),
+                r.total_tokens().to_string(),
+                r.plan.len().to_string(),
+                cost_text(run_cost(&self.prices, r)),
+                format!("{}/{}", sample_scores(r).len(), r.samples.len() + 1),
+                r.state.word().to_string(),
+            ];
+            lines.push(Line::from(Span::styled(row(mark, cells), style)));
+        }
+        frame.render_widget(Paragraph::new(lines), table);
         frame.render_widget(Paragraph::new(per_agent), agents);
     }
+}
+
+/// A column of the run history: its name, width and alignment, and how
+/// soon it goes when the box is narrow (0 never).
+struct Column {
+    name: &'static str,
+    width: usize,
+    right: bool,
+    gives_way: u8,
+}
+
+const fn column(name: &'static str, width: usize, right: bool, gives_way: u8) -> Column {
+    Column {
+        name,
+        width,
+        right,
+        gives_way,
+    }
+}
+
+/// The history's columns in the order shown. On a narrow screen the
+/// approach goes first, then the steps, S_plan, S_goal, the samples, the
+/// time and the tokens; the run, PG2S, KAS, the cost and the state stay.
+const COLUMNS: [Column; 12] = [
+    column("run", 4, false, 0),
+    column("approach", 12, false, 1),
+    column("PG2S", 6, false, 0),
+    column("S_plan", 6, false, 3),
+    column("S_goal", 6, false, 4),
+    column("KAS", 6, false, 0),
+    column("ms", 6, true, 6),
+    column("tokens", 7, true, 7),
+    column("steps", 5, true, 2),
+    column("cost", 9, true, 0),
+    column("samples", 7, true, 5),
+    column("state", 9, false, 0),
+];
+
+/// The width of each column shown in a table `width` columns wide (`None`
+/// for a column given up), after the two of the mark.
+fn column_widths(width: usize) -> [Option<usize>; COLUMNS.len()] {
+    let mut widths = COLUMNS.map(|c| Some(c.width));
+    let used = |widths: &[Option<usize>]| 2 + widths.iter().flatten().map(|w| w + 1).sum::<usize>();
+    for rank in 1..=COLUMNS.iter().map(|c| c.gives_way).max().unwrap_or(0) {
+        if used(&widths) <= width {
+            break;
+        }
+        for (w, c) in widths.iter_mut().zip(&COLUMNS) {
+            if c.gives_way == rank {
+                *w = None;
+            }
+        }
+    }
+    widths
 }
 
 impl Component for RunsOverlay {

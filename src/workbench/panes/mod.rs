@@ -18,12 +18,12 @@ use ratatui::Frame;
 
 use crate::agents::AgentRole;
 use crate::workbench::app::App;
-use crate::workbench::graph_layout::{text_width, truncate};
 use crate::workbench::panes::graph::GraphPane;
 use crate::workbench::panes::prompt::PromptPane;
 use crate::workbench::panes::scene::ScenePane;
 use crate::workbench::panes::steps::{StepList, StepUndo, Steps};
 use crate::workbench::runs::{AgentStatus, AgentView};
+use crate::workbench::scroll::{text_width, truncate};
 
 /// The panes' own state: each pane's content and view.
 pub struct Panes {

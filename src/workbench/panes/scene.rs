@@ -97,12 +97,15 @@ pub(crate) fn draw(frame: &mut Frame, app: &App, area: Rect) {
     } else {
         frame.render_widget(block, area);
     }
-    let caption = Line::from(highlighted(
-        &app.work.task.text,
-        &app.panes.search,
-        t.base,
-        t.highlight,
-    ));
+    let caption = scroll::cut_line(
+        Line::from(highlighted(
+            &app.work.task.text,
+            &app.panes.search,
+            t.base,
+            t.highlight,
+        )),
+        usize::from(inner.width),
+    );
     frame.render_widget(Paragraph::new(caption), Rect { height: 1, ..inner });
     if app.shows_table() {
         return;
