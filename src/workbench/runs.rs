@@ -24,34 +24,11 @@ use crate::workbench::session::{
 };
 use crate::workbench::shared::{unix_now, Severity};
 
-/// Every sample's scores of `run`, in sample order: the one place the run
-/// diff's verdicts and the Scores pane read a run's samples from. The run's
-/// own scores are sample 0; each later sample follows once scored (a
-/// sample not scored yet is left out).
-///
-/// Only complete samples of a run that counts as scored ([`RunState::is_scored`])
-/// are given: a failed or cancelled run has none, a partial run its
-/// complete samples only.
-pub fn sample_scores(run: &RunRecord) -> Vec<ScoreRecord> {
-    if !run.state.is_scored() {
-        return Vec::new();
-    }
-    run.scores
-        .into_iter()
-        .chain(
-            run.samples
-                .iter()
-                .filter(|s| s.error.is_none())
-                .filter_map(|s| s.scores),
-        )
-        .collect()
-}
-
 /// The mean of one score over the complete samples of `run` (see
-/// [`sample_scores`]), the value the history, the Scores pane and the diff
+/// [`RunRecord::sample_scores`]), the value the history, the Scores pane and the diff
 /// all show for it; `None` when no complete sample has it.
 pub fn mean_score(run: &RunRecord, of: impl Fn(&ScoreRecord) -> Option<f64>) -> Option<f64> {
-    crate::stats::summary::Spread::of(sample_scores(run).iter().filter_map(of)).map(|s| s.mean)
+    crate::stats::summary::Spread::of(run.sample_scores().iter().filter_map(of)).map(|s| s.mean)
 }
 
 /// Marks `run` partial when one of its later samples failed, saying how

@@ -17,7 +17,7 @@ mod file;
 mod migrate;
 mod repair;
 
-pub use file::{decode, default_path, restore, save, DecodeError, Restored, SessionError};
+pub use file::{decode, default_path, restore, save, Restored, SessionError};
 
 /// The format version written into every session file.
 pub const SESSION_VERSION: u32 = 6;
@@ -210,6 +210,29 @@ pub struct CorruptedFrom {
 }
 
 impl RunRecord {
+    /// Every sample's scores of the run, in sample order: the one place the run
+    /// diff's verdicts and the Scores pane read a run's samples from. The run's
+    /// own scores are sample 0; each later sample follows once scored (a
+    /// sample not scored yet is left out).
+    ///
+    /// Only complete samples of a run that counts as scored ([`RunState::is_scored`])
+    /// are given: a failed or cancelled run has none, a partial run its
+    /// complete samples only.
+    pub fn sample_scores(&self) -> Vec<ScoreRecord> {
+        if !self.state.is_scored() {
+            return Vec::new();
+        }
+        self.scores
+            .into_iter()
+            .chain(
+                self.samples
+                    .iter()
+                    .filter(|s| s.error.is_none())
+                    .filter_map(|s| s.scores),
+            )
+            .collect()
+    }
+
     /// What became of it in one line, as every view says it: `finished`, or
     /// the state's word with the failure and the reason (`failed: Planner:
     /// HTTP 500 … (no plan, not scored)`).
@@ -310,6 +333,24 @@ pub struct Session {
     pub samples: u32,
     /// Text being edited at the time of saving.
     pub draft: Option<Draft>,
+}
+
+/// Why the bytes of a file are not a session this version can read; the
+/// file is then set aside, not fatal.
+#[derive(Debug, Clone, PartialEq, Eq, thiserror::Error)]
+pub enum DecodeError {
+    /// The bytes are not JSON of a session (the parser's words).
+    #[error("not a session file ({0})")]
+    NotSession(String),
+    /// The JSON has no version field.
+    #[error("not a session file (no version)")]
+    NoVersion,
+    /// A newer mapvlm wrote the file.
+    #[error("version {0} was written by a newer mapvlm than this one (version {SESSION_VERSION})")]
+    Newer(u64),
+    /// A version older than any migration knows.
+    #[error("version {0} is too old to read")]
+    TooOld(u64),
 }
 
 #[cfg(test)]

@@ -577,7 +577,7 @@ fn scores_of_a_finished_run_are_kept_in_its_record() {
         assert_eq!(step.kas, kas_steps.get(i).copied(), "step {i}");
         assert_eq!(step.matched, None, "step {i}");
     }
-    assert_eq!(mapvlm::workbench::runs::sample_scores(run), vec![scores]);
+    assert_eq!(run.sample_scores(), vec![scores]);
 }
 
 #[test]
@@ -1386,7 +1386,7 @@ fn a_failed_run_is_kept_failed_unscored_and_the_last_good_plan_stays() {
         "the partial plan is kept"
     );
     assert_eq!(failed.scores, None, "never scored");
-    assert!(mapvlm::workbench::runs::sample_scores(&failed).is_empty());
+    assert!(failed.sample_scores().is_empty());
     let planner = failed
         .agents
         .iter()
@@ -1518,10 +1518,7 @@ fn a_partial_sampled_run_is_scored_over_its_complete_samples() {
     ];
     run.state = RunState::Partial;
     h.app.runs.history = vec![run.clone()];
-    assert_eq!(
-        mapvlm::workbench::runs::sample_scores(&run),
-        vec![score(0.4), score(0.5)]
-    );
+    assert_eq!(run.sample_scores(), vec![score(0.4), score(0.5)]);
     let screen = zoomed_scores(&mut h);
     assert!(
         screen.contains("run #1 partial: 2 of 3 samples scored"),

@@ -481,11 +481,7 @@ fn samples_ask_each_agent_n_times_keep_every_sample_and_reuse_them() {
     assert_eq!(requests().len(), 9, "3 samples of SKM, GKM and the Planner");
     let run = app.runs.history.last().unwrap().clone();
     assert_eq!(run.samples.len(), 2, "the samples after the first");
-    assert_eq!(
-        mapvlm::workbench::runs::sample_scores(&run).len(),
-        3,
-        "every sample scored"
-    );
+    assert_eq!(run.sample_scores().len(), 3, "every sample scored");
     let planners: Vec<String> = requests()
         .iter()
         .map(|r| String::from_utf8_lossy(&r.body).into_owned())

@@ -22,7 +22,7 @@ use crate::workbench::overlays::diff_page::{diff_lines, wrap};
 use crate::workbench::overlays::{centred, moved, themed_box, Overlay};
 use crate::workbench::panes::list_window;
 use crate::workbench::run_diff::{agent_side, cost_text, run_cost, ReadMetric, RunDiff, METRICS};
-use crate::workbench::runs::{mean_score, sample_scores};
+use crate::workbench::runs::mean_score;
 use crate::workbench::scroll;
 use crate::workbench::session::{PlanSource, RunRecord, RunState};
 use crate::workbench::shared::Severity;
@@ -150,7 +150,7 @@ impl RunsOverlay {
                 t.bad
             },
         ))];
-        let scores = sample_scores(current);
+        let scores = current.sample_scores();
         let spreads: Vec<String> = METRICS
             .iter()
             .filter_map(|(name, of)| {
@@ -260,7 +260,7 @@ impl RunsOverlay {
                 r.total_tokens().to_string(),
                 r.plan.len().to_string(),
                 cost_text(run_cost(&self.prices, r)),
-                format!("{}/{}", sample_scores(r).len(), r.samples.len() + 1),
+                format!("{}/{}", r.sample_scores().len(), r.samples.len() + 1),
                 r.state.word().to_string(),
             ];
             lines.push(Line::from(Span::styled(row(mark, cells), style)));

@@ -9,7 +9,6 @@ use crate::metrics::pg2s::Pg2sReport;
 use crate::stats::summary::Spread;
 use crate::workbench::app::App;
 use crate::workbench::panes::{pane_block, Pane};
-use crate::workbench::runs::sample_scores;
 use crate::workbench::scoring::Pg2sOutcome;
 use crate::workbench::session::{PlanSource, RunRecord, RunState, ScoreRecord};
 use crate::workbench::theme::Theme;
@@ -37,7 +36,7 @@ fn sampled_run(app: &App) -> Option<(&RunRecord, Vec<ScoreRecord>)> {
         return None;
     };
     let kept = app.runs.history.iter().find(|r| r.id == run)?;
-    let scores = sample_scores(kept);
+    let scores = kept.sample_scores();
     (scores.len() > 1).then_some((kept, scores))
 }
 
@@ -82,7 +81,7 @@ fn history_bars(theme: &Theme, history: &[RunRecord]) -> Vec<SparklineBar> {
     let height = |v: f64| (v * 100.0).round().max(0.0) as u64;
     let mut bars = Vec::new();
     for run in history {
-        let scores = sample_scores(run);
+        let scores = run.sample_scores();
         let Some(spread) = spread_of(&scores, |s| s.pg2s.or(s.kas)) else {
             if run.state.is_scored() && run.scores.is_some() {
                 bars.push(SparklineBar::from(0));
@@ -227,7 +226,7 @@ pub(crate) fn draw(frame: &mut Frame, app: &App, area: Rect) {
         .rev()
         .take(table.height as usize)
         .map(|r| {
-            let scores = sample_scores(r);
+            let scores = r.sample_scores();
             let f = |of: ScoreOf| {
                 spread_of(&scores, of).map_or("  –  ".to_string(), |s| s.plus_minus(3))
             };

@@ -6,7 +6,7 @@
 //!
 //! Built once when the diff opens, from the two run records and the price
 //! table: it reads the scores the runs were given (per sample through
-//! [`sample_scores`], per step from [`RunRecord::steps`]) and never scores.
+//! [`RunRecord::sample_scores`], per step from [`RunRecord::steps`]) and never scores.
 
 mod verdict;
 mod words;
@@ -20,7 +20,6 @@ use crate::agents::config::AgentSettings;
 use crate::agents::cost::{dollars, Billing, PriceTable};
 use crate::agents::pipeline::AgentRecord;
 use crate::agents::{AgentRole, Usage};
-use crate::workbench::runs::sample_scores;
 use crate::workbench::session::{RunRecord, RunState, StepScore};
 
 /// A setting whose value differs between the runs.
@@ -270,7 +269,7 @@ impl RunDiff {
     /// The difference from `before` to `after`, with costs at `prices`.
     pub fn between(before: &RunRecord, after: &RunRecord, prices: &PriceTable) -> RunDiff {
         let runs = [before, after];
-        let samples = runs.map(sample_scores);
+        let samples = runs.map(RunRecord::sample_scores);
         let verdicts = METRICS
             .iter()
             .map(|(name, read)| {

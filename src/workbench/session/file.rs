@@ -4,7 +4,7 @@
 
 use std::path::{Path, PathBuf};
 
-use super::{migrate, repair, Session, SESSION_VERSION};
+use super::{migrate, repair, DecodeError, Session};
 
 /// Why a session file could not be saved or restored.
 #[derive(Debug, thiserror::Error)]
@@ -23,24 +23,6 @@ pub enum SessionError {
     /// The saving task ended abnormally.
     #[error("{0}")]
     Stopped(#[from] tokio::task::JoinError),
-}
-
-/// Why the bytes of a file are not a session this version can read; the
-/// file is then set aside, not fatal.
-#[derive(Debug, Clone, PartialEq, Eq, thiserror::Error)]
-pub enum DecodeError {
-    /// The bytes are not JSON of a session (the parser's words).
-    #[error("not a session file ({0})")]
-    NotSession(String),
-    /// The JSON has no version field.
-    #[error("not a session file (no version)")]
-    NoVersion,
-    /// A newer mapvlm wrote the file.
-    #[error("version {0} was written by a newer mapvlm than this one (version {SESSION_VERSION})")]
-    Newer(u64),
-    /// A version older than any migration knows.
-    #[error("version {0} is too old to read")]
-    TooOld(u64),
 }
 
 /// The outcome of restoring a session.

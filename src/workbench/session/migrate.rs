@@ -306,7 +306,7 @@ mod tests {
         for run in &session.current.runs {
             assert!(run.samples.is_empty(), "an older run is one sample");
             assert_eq!(run.state, RunState::Finished);
-            let scores = crate::workbench::runs::sample_scores(run);
+            let scores = run.sample_scores();
             assert_eq!(scores.len(), 1, "its one sample's scores");
             assert_eq!(Some(scores[0]), run.scores);
         }
@@ -362,7 +362,7 @@ mod tests {
             .current
             .runs
             .iter()
-            .map(|r| crate::workbench::runs::sample_scores(r).len())
+            .map(|r| r.sample_scores().len())
             .collect();
         assert_eq!(
             scored,
