@@ -1,9 +1,70 @@
-//! Where each pane goes for a terminal size, shared by rendering and by
-//! mouse hit-testing so both always agree.
+//! The panes and where each goes for a terminal size, shared by rendering
+//! and by mouse hit-testing so both always agree (a leaf: the panes'
+//! drawing and state build on it).
 
 use ratatui::layout::{Constraint, Layout, Rect};
 
-use crate::workbench::panes::Pane;
+/// The panes, each with the title users and tests find it by.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, PartialOrd, Ord, Hash)]
+pub enum Pane {
+    /// The scene image.
+    Scene,
+    /// The SKM's knowledge graph.
+    Graph,
+    /// The GKM's grounded description.
+    Description,
+    /// The plan, with its matches.
+    Plan,
+    /// The ground truth.
+    GroundTruth,
+    /// The scores and the history of runs.
+    Scores,
+    /// The prompt editor.
+    Prompt,
+}
+
+impl Pane {
+    /// The panes in focus order.
+    pub const ALL: [Pane; 7] = [
+        Pane::Scene,
+        Pane::Graph,
+        Pane::Description,
+        Pane::Plan,
+        Pane::GroundTruth,
+        Pane::Scores,
+        Pane::Prompt,
+    ];
+
+    /// The pane's title.
+    pub fn title(self) -> &'static str {
+        match self {
+            Pane::Scene => "Scene",
+            Pane::Graph => "Knowledge Graph (SKM)",
+            Pane::Description => "Grounded Description (GKM)",
+            Pane::Plan => "Plan",
+            Pane::GroundTruth => "Ground Truth",
+            Pane::Scores => "Scores",
+            Pane::Prompt => "Prompt",
+        }
+    }
+
+    /// A short name for the tab strip of narrow terminals.
+    pub fn short(self) -> &'static str {
+        match self {
+            Pane::Scene => "Scene",
+            Pane::Graph => "Graph",
+            Pane::Description => "GKM",
+            Pane::Plan => "Plan",
+            Pane::GroundTruth => "Truth",
+            Pane::Scores => "Scores",
+            Pane::Prompt => "Prompt",
+        }
+    }
+
+    pub(crate) fn index(self) -> usize {
+        Pane::ALL.iter().position(|p| *p == self).unwrap_or(0)
+    }
+}
 
 /// The smallest terminal the workbench draws in.
 pub const MIN_WIDTH: u16 = 50;

@@ -18,6 +18,7 @@ use ratatui::Frame;
 
 use crate::agents::AgentRole;
 use crate::workbench::app::App;
+pub use crate::workbench::layout::Pane;
 use crate::workbench::panes::graph::GraphPane;
 use crate::workbench::panes::prompt::PromptPane;
 use crate::workbench::panes::scene::ScenePane;
@@ -61,68 +62,6 @@ impl Panes {
             StepList::Plan => &mut self.plan,
             StepList::GroundTruth => &mut self.ground_truth,
         }
-    }
-}
-
-/// The panes, each with the title users and tests find it by.
-#[derive(Debug, Clone, Copy, PartialEq, Eq, PartialOrd, Ord, Hash)]
-pub enum Pane {
-    /// The scene image.
-    Scene,
-    /// The SKM's knowledge graph.
-    Graph,
-    /// The GKM's grounded description.
-    Description,
-    /// The plan, with its matches.
-    Plan,
-    /// The ground truth.
-    GroundTruth,
-    /// The scores and the history of runs.
-    Scores,
-    /// The prompt editor.
-    Prompt,
-}
-
-impl Pane {
-    /// The panes in focus order.
-    pub const ALL: [Pane; 7] = [
-        Pane::Scene,
-        Pane::Graph,
-        Pane::Description,
-        Pane::Plan,
-        Pane::GroundTruth,
-        Pane::Scores,
-        Pane::Prompt,
-    ];
-
-    /// The pane's title.
-    pub fn title(self) -> &'static str {
-        match self {
-            Pane::Scene => "Scene",
-            Pane::Graph => "Knowledge Graph (SKM)",
-            Pane::Description => "Grounded Description (GKM)",
-            Pane::Plan => "Plan",
-            Pane::GroundTruth => "Ground Truth",
-            Pane::Scores => "Scores",
-            Pane::Prompt => "Prompt",
-        }
-    }
-
-    /// A short name for the tab strip of narrow terminals.
-    pub fn short(self) -> &'static str {
-        match self {
-            Pane::Scene => "Scene",
-            Pane::Graph => "Graph",
-            Pane::Description => "GKM",
-            Pane::Plan => "Plan",
-            Pane::GroundTruth => "Truth",
-            Pane::Scores => "Scores",
-            Pane::Prompt => "Prompt",
-        }
-    }
-
-    pub(crate) fn index(self) -> usize {
-        Pane::ALL.iter().position(|p| *p == self).unwrap_or(0)
     }
 }
 
