@@ -393,19 +393,25 @@ impl App {
 
     pub(crate) fn set_status(&mut self, text: impl Into<String>, severity: Severity) {
         let text = text.into();
+        self.log(text.clone(), severity);
+        self.messages.status = Some((text, severity));
+    }
+
+    /// Keeps `text` in the message log (`M`) without showing it on the
+    /// status line: what the header may have to shorten, said whole.
+    pub fn log(&mut self, text: String, severity: Severity) {
         let log = &mut self.messages.log;
         if log.len() >= LOG_MAX {
             log.drain(..=log.len() - LOG_MAX);
         }
         log.push(LogEntry {
             at: self.messages.started.elapsed(),
-            text: text.clone(),
+            text,
             severity,
         });
         if let Some(Overlay::Log(view)) = &mut self.overlay {
             view.update(log);
         }
-        self.messages.status = Some((text, severity));
     }
 
     /// Whether the demo is what is loaded (no dataset task).

@@ -349,6 +349,10 @@ async fn run_async(mut options: Options) -> Result<(), TuiError> {
     }
     let graphics = probe.graphics;
     app.panes.scene.graphics = graphics.summary();
+    app.log(
+        format!("scene image: {}", graphics.summary()),
+        Severity::Info,
+    );
     let (agent_tx, mut agent_rx) = mpsc::unbounded_channel();
     let (score_tx, score_rx) = watch::channel(None);
     let (save_tx, save_rx) = watch::channel::<Option<NumberedCopy>>(None);

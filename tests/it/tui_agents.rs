@@ -639,6 +639,30 @@ fn the_prompt_footer_names_the_agents_last_run_never_a_change_before_one() {
     assert_eq!(footer(&mut app), "its last run failed");
 }
 
+/// Until a dataset task's image is read the Scene pane says it is being
+/// read, never that the task has none; once read, it is drawn.
+#[test]
+fn a_dataset_tasks_image_is_being_read_until_it_is_drawn_never_missing() {
+    let root = concat!(env!("CARGO_MANIFEST_DIR"), "/../shared/data/alfred30");
+    let (dataset, _) = mapvlm::dataset::Dataset::load(std::path::Path::new(root)).unwrap();
+    let (mut app, cmds) = App::new(AppInit {
+        dataset: Some(dataset),
+        ..AppInit::demo((200, 60), "no models in this test")
+    });
+    let before = screen_of(&mut app);
+    assert!(
+        before.contains("reading the image…") && !before.contains("no image for this task"),
+        "{before}"
+    );
+    let pipeline = AgentsPipeline::offline(Pace::Instant).unwrap();
+    run_cmds(&mut app, &pipeline, cmds);
+    let after = screen_of(&mut app);
+    assert!(
+        !after.contains("reading the image…") && !after.contains("no image for this task"),
+        "{after}"
+    );
+}
+
 /// The workbench drawn as text at its size.
 fn screen_of(app: &mut App) -> String {
     use mapvlm::workbench::graphics::Graphics;

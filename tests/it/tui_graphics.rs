@@ -53,6 +53,12 @@ fn an_answer_after_600_ms_falls_back_saying_why_and_keys_typed_meanwhile_arrows_
         },
     );
     assert!(!contains(&pty.output(), PLACEHOLDER));
+    // The reason kept whole in the message log, whatever the header's room.
+    pty.send(b"M");
+    pty.wait_screen("the message log", |s| {
+        s.contains("scene image: halfblocks: no answer from the terminal in 400 ms (--graphics sixel forces)")
+    });
+    pty.send(b"q");
     pty.send(b"q");
     assert_eq!(pty.exit_code(), Some(0));
 }

@@ -113,7 +113,14 @@ pub(crate) fn draw(frame: &mut Frame, app: &App, area: Rect) {
     let (encoded, note) = if !app.panes.scene.enabled {
         (None, "image off (i shows it)")
     } else if app.panes.scene.image.is_none() {
-        (None, "no image for this task")
+        // A task with an image file says so while it is read, or that it
+        // could not be: "no image" only when it has none.
+        let note = match (&app.work.task.image, &app.panes.scene.message) {
+            (None, _) => "no image for this task",
+            (Some(_), Some(_)) => "the image cannot be shown (M says why)",
+            (Some(_), None) => "reading the image…",
+        };
+        (None, note)
     } else {
         (app.panes.scene.protocol.as_ref(), "drawing the image…")
     };
