@@ -138,6 +138,58 @@ fn a_500_and_a_dropped_stream_are_failed_runs_unscored_and_the_good_plan_stays()
     );
 }
 
+/// The SKM's server unreachable (a port nobody listens on) on a dataset
+/// task: the run is failed in the history and the session, never scored,
+/// the Planner never asked, and the task's published plan stays on screen.
+#[test]
+fn an_unreachable_miner_is_a_failed_run_unscored_and_the_published_plan_stays() {
+    let server = LocalServer::start();
+    let home = UserHome::new();
+    let closed = {
+        let listener = std::net::TcpListener::bind("127.0.0.1:0").unwrap();
+        listener.local_addr().unwrap().port()
+    };
+    home.write_config(&format!(
+        "max_retries = 0\n[defaults]\nprovider = \"openai\"\nbase_url = \"{}\"\nmodel = \"{LOCAL_MODEL}\"\n\
+         [agents.skm]\nbase_url = \"http://127.0.0.1:{closed}/v1\"\n",
+        server.base_url()
+    ));
+    let workbench = Workbench::start_on_alfred30("unreachable-miner", &home);
+    workbench.keys(&["r"]);
+    let failed = workbench.wait_for("run 1 failed with the published plan kept", |s| {
+        s.contains("run 1 failed: SKM:")
+            && s.contains(PUBLISHED_STEP)
+            && !s.contains("scoring…")
+            && score_on(s, "KAS").is_some()
+    });
+    assert!(failed.contains("published"), "{failed}");
+    workbench.keys(&["H"]);
+    workbench.wait_for("the history with the failed run", |s| {
+        s.contains("0/1 failed") && s.contains("run #1 failed: SKM:")
+    });
+    workbench.keys(&["Escape"]);
+    workbench.wait_for("the history closed", |s| !s.contains("Runs (space marks"));
+    assert_eq!(workbench.quit(), "0");
+    assert_eq!(
+        server::roles(&server.requests())
+            .iter()
+            .filter(|r| **r == AgentRole::Planner)
+            .count(),
+        0,
+        "the Planner is not asked once a miner failed"
+    );
+    let session: serde_json::Value =
+        serde_json::from_str(&std::fs::read_to_string(home.session_file()).unwrap()).unwrap();
+    let run = &session["runs"][0];
+    assert_eq!(run["state"], "failed", "{run}");
+    assert!(run["scores"].is_null(), "never scored: {run}");
+    assert!(run["error"].as_str().unwrap().starts_with("SKM: "), "{run}");
+}
+
+/// The first step of alfred30's first task's published multi-image plan,
+/// which the Plan pane shows before any run.
+const PUBLISHED_STEP: &str = "Walk to vanity at position in front of the toilet.";
+
 /// A run of three samples of the three agents: the history's tokens, cost
 /// and time are the sums over every request the server saw, and each agent
 /// says how many calls it made.

@@ -159,6 +159,18 @@ impl Pty {
     }
 }
 
+/// A test that fails before mapvlm quits takes it down with it: `script`
+/// killed, its terminal hangs up, and mapvlm (which saves and exits on the
+/// hangup) does not outlive the test holding half a gigabyte.
+impl Drop for Pty {
+    fn drop(&mut self) {
+        if matches!(self.child.try_wait(), Ok(None)) {
+            let _ = self.child.kill();
+            let _ = self.child.wait();
+        }
+    }
+}
+
 /// The text `bytes` leaves on a `width`×`height` screen (see [`Pty::screen`]).
 pub fn screen_of(bytes: &[u8], width: usize, height: usize) -> String {
     use unicode_width::UnicodeWidthChar;
