@@ -416,6 +416,30 @@ impl Scroll {
     }
 }
 
+/// A text in a box laid out over the screen (the help, the message log,
+/// the framed actions): its scroll position and the screen it is laid out
+/// for are all it keeps, so scrolling and resizing are written once.
+pub trait ScrolledBox {
+    /// Its scroll position and the screen it is laid out over.
+    fn view(&mut self) -> (&mut Scroll, &mut Rect);
+
+    /// Its lines over `area`, and how many of them its box shows.
+    fn measure(&self, area: Rect) -> (usize, usize);
+
+    /// Scrolls it by `motion`, within its lines.
+    fn scroll_by(&mut self, motion: Motion) {
+        let area = *self.view().1;
+        let (total, viewport) = self.measure(area);
+        self.view().0.scroll(total, viewport, motion);
+    }
+
+    /// Lays it out over a resized screen `area`, still within its lines.
+    fn resize(&mut self, area: Rect) {
+        *self.view().1 = area;
+        self.scroll_by(Motion::Line(0));
+    }
+}
+
 /// How many columns `text` takes in a terminal.
 pub fn text_width(text: &str) -> usize {
     text.chars().map(|c| c.width().unwrap_or(0)).sum()

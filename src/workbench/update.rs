@@ -32,11 +32,8 @@ impl App {
             Msg::Mouse(mouse) => self.on_mouse(mouse),
             Msg::Resize(w, h) => {
                 self.size = (w, h);
-                match &mut self.overlay {
-                    Some(Overlay::Help(help)) => help.resize(Rect::new(0, 0, w, h)),
-                    Some(Overlay::Log(log)) => log.resize(Rect::new(0, 0, w, h)),
-                    Some(Overlay::Actions(view)) => view.resize(Rect::new(0, 0, w, h)),
-                    _ => {}
+                if let Some(text) = self.overlay.as_mut().and_then(Overlay::scrolled_box) {
+                    text.resize(Rect::new(0, 0, w, h));
                 }
                 Vec::new()
             }
@@ -483,10 +480,12 @@ impl App {
                 MouseEventKind::ScrollUp => Some(Motion::Wheel(-WHEEL_LINES)),
                 _ => None,
             };
-            match (&mut self.overlay, wheel) {
-                (Some(Overlay::Help(help)), Some(motion)) => help.scroll_by(motion),
-                (Some(Overlay::Log(log)), Some(motion)) => log.scroll_by(motion),
-                (Some(Overlay::Actions(view)), Some(motion)) => view.scroll_by(motion),
+            match (self.overlay.as_mut(), wheel) {
+                (Some(overlay), Some(motion)) => {
+                    if let Some(text) = overlay.scrolled_box() {
+                        text.scroll_by(motion);
+                    }
+                }
                 (Some(Overlay::Help(_)), None) if matches!(mouse.kind, MouseEventKind::Down(_)) => {
                     self.overlay = None
                 }

@@ -14,7 +14,7 @@ use crate::workbench::component::Component;
 use crate::workbench::keymap::{Action, Context};
 use crate::workbench::overlays::{centred, themed_box, Picked};
 use crate::workbench::scoring::{Pg2sOutcome, ScoreOutcome};
-use crate::workbench::scroll::{self, Motion, Scroll};
+use crate::workbench::scroll::{self, Motion, Scroll, ScrolledBox};
 use crate::workbench::theme::Theme;
 
 /// The framed-actions viewer: the scores it shows, `None` while scoring.
@@ -35,17 +35,16 @@ impl ActionsView {
             area,
         }
     }
+}
 
-    /// Lays the viewer out over a resized screen `area`.
-    pub fn resize(&mut self, area: Rect) {
-        self.area = area;
-        self.scroll_by(Motion::Line(0));
+impl ScrolledBox for ActionsView {
+    fn view(&mut self) -> (&mut Scroll, &mut Rect) {
+        (&mut self.scroll, &mut self.area)
     }
 
-    /// Scrolls the viewer by `motion`, within its lines.
-    pub fn scroll_by(&mut self, motion: Motion) {
-        let (_, lines, viewport) = layout(self.scores.as_ref(), self.area, &Theme::no_color());
-        self.scroll.scroll(lines.len(), viewport, motion);
+    fn measure(&self, area: Rect) -> (usize, usize) {
+        let (_, lines, viewport) = layout(self.scores.as_ref(), area, &Theme::no_color());
+        (lines.len(), viewport)
     }
 }
 

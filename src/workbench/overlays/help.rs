@@ -13,7 +13,7 @@ use unicode_width::UnicodeWidthStr;
 use super::{centred, themed_box, Picked};
 use crate::workbench::component::Component;
 use crate::workbench::keymap::{self, Action, Context};
-use crate::workbench::scroll::{self, wrap_hanging, Motion, Scroll};
+use crate::workbench::scroll::{self, wrap_hanging, Motion, Scroll, ScrolledBox};
 use crate::workbench::theme::Theme;
 
 /// The help overlay: every key of the workbench, drawn from the key table
@@ -34,16 +34,16 @@ impl Help {
             area,
         }
     }
+}
 
-    /// Lays the help out over a resized screen `area`.
-    pub fn resize(&mut self, area: Rect) {
-        self.area = area;
+impl ScrolledBox for Help {
+    fn view(&mut self) -> (&mut Scroll, &mut Rect) {
+        (&mut self.scroll, &mut self.area)
     }
 
-    /// Scrolls the help by `motion`, within its lines.
-    pub fn scroll_by(&mut self, motion: Motion) {
-        let (_, lines, viewport) = layout(self.area, &Theme::no_color());
-        self.scroll.scroll(lines.len(), viewport, motion);
+    fn measure(&self, area: Rect) -> (usize, usize) {
+        let (_, lines, viewport) = layout(area, &Theme::no_color());
+        (lines.len(), viewport)
     }
 }
 

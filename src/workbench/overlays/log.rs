@@ -14,7 +14,7 @@ use ratatui::Frame;
 use super::{centred, themed_box, Picked};
 use crate::workbench::component::Component;
 use crate::workbench::keymap::{Action, Context};
-use crate::workbench::scroll::{self, wrap_hanging, Motion, Scroll};
+use crate::workbench::scroll::{self, wrap_hanging, Motion, Scroll, ScrolledBox};
 use crate::workbench::shared::{LogEntry, Severity};
 use crate::workbench::theme::Theme;
 
@@ -45,24 +45,23 @@ impl MessageLog {
     /// Takes the messages as they are now; a view at the newest message
     /// follows the new ones.
     pub fn update(&mut self, entries: &[LogEntry]) {
-        let (_, lines, viewport) = layout(&self.entries, self.area, &Theme::no_color());
-        let at_end = self.scroll.offset() + viewport >= lines.len();
+        let (lines, viewport) = self.measure(self.area);
+        let at_end = self.scroll.offset() + viewport >= lines;
         self.entries = entries.to_vec();
         if at_end {
             self.scroll_by(Motion::End);
         }
     }
+}
 
-    /// Lays the log out over a resized screen `area`.
-    pub fn resize(&mut self, area: Rect) {
-        self.area = area;
-        self.scroll_by(Motion::Line(0));
+impl ScrolledBox for MessageLog {
+    fn view(&mut self) -> (&mut Scroll, &mut Rect) {
+        (&mut self.scroll, &mut self.area)
     }
 
-    /// Scrolls the log by `motion`, within its lines.
-    pub fn scroll_by(&mut self, motion: Motion) {
-        let (_, lines, viewport) = layout(&self.entries, self.area, &Theme::no_color());
-        self.scroll.scroll(lines.len(), viewport, motion);
+    fn measure(&self, area: Rect) -> (usize, usize) {
+        let (_, lines, viewport) = layout(&self.entries, area, &Theme::no_color());
+        (lines.len(), viewport)
     }
 }
 

@@ -28,6 +28,7 @@ use crate::workbench::overlays::help::Help;
 use crate::workbench::overlays::model_form::ModelForm;
 use crate::workbench::overlays::pickers::{GroundTruthPicker, PathPrompt};
 use crate::workbench::overlays::prompt_sets::{SetName, SetPicker};
+use crate::workbench::scroll::ScrolledBox;
 use crate::workbench::theme::Theme;
 
 /// A modal view over the panes.
@@ -79,6 +80,17 @@ impl Overlay {
             Overlay::PromptSetPicker(_) => Some(Context::Picker),
             Overlay::Runs(view) => Some(view.context()),
             Overlay::Actions(_) | Overlay::Log(_) => Some(Context::Viewer),
+        }
+    }
+
+    /// The overlay as a scrolled text box, when it is one: what the
+    /// screen's resizing and the mouse wheel reach.
+    pub fn scrolled_box(&mut self) -> Option<&mut dyn ScrolledBox> {
+        match self {
+            Overlay::Help(help) => Some(help),
+            Overlay::Log(log) => Some(log.as_mut()),
+            Overlay::Actions(view) => Some(view.as_mut()),
+            _ => None,
         }
     }
 }
