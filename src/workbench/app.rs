@@ -6,36 +6,40 @@
 use std::collections::BTreeMap;
 use std::path::PathBuf;
 use std::sync::Arc;
+use std::time::Instant;
 
 use image::DynamicImage;
 use ratatui::layout::Rect;
 
 use crate::agents::config::AgentSettings;
 use crate::agents::cost::PriceTable;
+use crate::agents::prompts::template_name;
 use crate::agents::{AgentRole, Approach, ProviderKind};
 use crate::dataset::{Dataset, Task};
 use crate::demo;
-use crate::workbench::agents;
+use crate::workbench::agents::{self, RunError};
 use crate::workbench::editing::Editing;
 use crate::workbench::keymap::Context;
 use crate::workbench::layout::{pane_rects, Screen};
 use crate::workbench::message::Cmd;
+use crate::workbench::overlays::pickers::{ground_truth_choices, GroundTruthChoice};
 use crate::workbench::overlays::Overlay;
 use crate::workbench::panes::graph::GraphPane;
 use crate::workbench::panes::prompt::PromptPane;
-use crate::workbench::panes::scene::scene_image_area;
-use crate::workbench::panes::scene::ScenePane;
+use crate::workbench::panes::scene::{scene_image_area, ScenePane};
 use crate::workbench::panes::steps::{demo_ground_truth, StepList, StepUndo, Steps};
-use crate::workbench::panes::{Pane, Panes};
+use crate::workbench::panes::{Pane, Panes, Shared};
 use crate::workbench::persist::Persist;
-use crate::workbench::runs::Runs;
+use crate::workbench::runs::{fresh_agents, AgentStatus, AgentView, RunContext, Runs};
 use crate::workbench::scene_image::ImageRequest;
-use crate::workbench::scoring::{ModelSlot, ScoreOutcome, ScoreRequest};
+use crate::workbench::scoring::{ModelSlot, ScoreRequest};
 use crate::workbench::session::{
-    GroundTruthSource, PlanSource, Session, SessionError, SourceState,
+    Draft, GroundTruthSource, PlanSource, RunState, Session, SourceState, SESSION_VERSION,
 };
-use crate::workbench::shared::{LogEntry, Severity, LOG_MAX};
+use crate::workbench::shared::{single_line_editor, LogEntry, Severity, LOG_MAX};
+use crate::workbench::snapshot::Snapshot;
 use crate::workbench::theme::Theme;
+use crate::workbench::workspace::{demo_task, task_view, Kept, Looks, Messages, Saving, Workspace};
 
 /// The order the approaches cycle in.
 const APPROACH_CYCLE: [Approach; 4] = [
@@ -44,21 +48,6 @@ const APPROACH_CYCLE: [Approach; 4] = [
     Approach::MultiTable,
     Approach::SingleTable,
 ];
-
-/// The task in use.
-#[derive(Debug, Clone, PartialEq)]
-pub struct TaskView {
-    /// The dataset task id; `None` for the built-in demo.
-    pub id: Option<String>,
-    /// The task text.
-    pub text: String,
-    /// The scene image file (the demo draws its own).
-    pub image: Option<PathBuf>,
-    /// The environment table file.
-    pub table: Option<PathBuf>,
-    /// Published plans by approach key.
-    pub published: BTreeMap<String, Vec<String>>,
-}
 
 /// What the workbench starts from.
 pub struct AppInit {
@@ -149,117 +138,6 @@ pub struct App {
     pub quit: bool,
 }
 
-/// The session's data that is no pane's own: the task, the dataset, the
-/// approach, the settings runs start from, where the plans came from and
-/// their scores.
-pub struct Workspace {
-    /// The task.
-    pub task: TaskView,
-    /// The dataset, if loaded.
-    pub dataset: Option<Dataset>,
-    /// The approach.
-    pub approach: Approach,
-    /// How many samples `r` asks each agent for (the `S` key, `--samples`).
-    pub samples: u32,
-    /// The settings configured agents start with on a user's task.
-    pub configured: BTreeMap<AgentRole, AgentSettings>,
-    /// The config file's prices, for the cost of each run in the history
-    /// (empty: every cost shows as `no price`).
-    pub prices: PriceTable,
-    /// The folder of the named prompt sets, if there is one.
-    pub prompt_sets: Option<PathBuf>,
-    /// The prompt set saved or loaded last (empty: none yet).
-    pub prompt_set: String,
-    /// Where the plan came from.
-    pub plan_source: PlanSource,
-    /// Where the ground-truth steps came from.
-    pub ground_truth_source: GroundTruthSource,
-    /// The latest scores.
-    pub scores: Option<ScoreOutcome>,
-    /// The generation of the latest score request.
-    pub score_generation: u64,
-    /// The PG2S models.
-    pub models: ModelSlot,
-    /// The sources opened in this session other than the one in use, each
-    /// as it was left ([`crate::workbench::sources`]).
-    pub parked: Vec<SourceState>,
-    /// The step edits `u` can take back on each parked source, by task id
-    /// (`None`: the demo); kept while the workbench runs, not saved.
-    pub parked_undo: BTreeMap<Option<String>, StepUndo>,
-}
-
-/// How the workbench looks.
-pub struct Looks {
-    /// The theme in use.
-    pub theme: Theme,
-    /// The themes to cycle through.
-    pub themes: Vec<Theme>,
-    /// Whether `NO_COLOR` is in force.
-    pub no_color: bool,
-    /// Whether every frame is folded to ASCII (see [`AppInit::ascii`]).
-    pub ascii: bool,
-}
-
-/// The status line's messages.
-pub struct Messages {
-    /// The latest status message.
-    pub status: Option<(String, Severity)>,
-    /// A message from the start (e.g. where an unreadable session file was
-    /// moved) that stays in the status bar until Esc dismisses it.
-    pub notice: Option<(String, Severity)>,
-    /// Every status message and notice so far, oldest first (at most
-    /// [`LOG_MAX`]): what `M` shows, since the status line keeps only the
-    /// latest.
-    pub log: Vec<LogEntry>,
-    /// When the workbench started, for the log's times.
-    pub started: std::time::Instant,
-}
-
-/// The session file's side of the workbench.
-pub struct Saving {
-    /// Set when something the session holds changed since the last save.
-    pub session_dirty: bool,
-    /// The loop's copies of the session for the saver.
-    pub persist: Persist,
-    /// The session file's state, for the status bar.
-    pub saved: Option<Result<(), SessionError>>,
-    /// The session's own settings that a start-up flag (or `NO_COLOR`)
-    /// overrides for this start: saved in their place, so the next start
-    /// without the flag gets them back, until the user changes the setting
-    /// here.
-    pub kept: Kept,
-}
-
-/// The session's values of the settings overridden at start-up (see
-/// [`Saving::kept`]); `None` where nothing overrides the setting.
-#[derive(Debug, Clone, Default, PartialEq, Eq)]
-pub struct Kept {
-    /// The session's theme, by name.
-    pub theme: Option<String>,
-    /// The session's number of samples.
-    pub samples: Option<u32>,
-}
-
-pub(crate) fn demo_task() -> TaskView {
-    TaskView {
-        id: None,
-        text: demo::TASK.trim().to_string(),
-        image: None,
-        table: None,
-        published: BTreeMap::new(),
-    }
-}
-
-pub(crate) fn task_view(task: &Task) -> TaskView {
-    TaskView {
-        id: Some(task.id.clone()),
-        text: task.task.clone(),
-        image: task.image.clone(),
-        table: task.table.clone(),
-        published: task.plans.clone(),
-    }
-}
-
 impl App {
     /// A workbench in its starting state, with the commands that start it:
     /// the demo run on a fresh start, and the first scoring.
@@ -298,7 +176,6 @@ impl App {
                 score_generation: 0,
                 models: init.models,
                 parked: Vec::new(),
-                parked_undo: BTreeMap::new(),
             },
             panes: Panes {
                 zoom: false,
@@ -310,6 +187,7 @@ impl App {
                 scroll: BTreeMap::new(),
                 search: String::new(),
                 undo: StepUndo::default(),
+                parked_undo: BTreeMap::new(),
             },
             looks: Looks {
                 theme,
@@ -385,10 +263,7 @@ impl App {
 
     /// Whether scores are being computed for the latest change.
     pub fn scoring(&self) -> bool {
-        self.work
-            .scores
-            .as_ref()
-            .is_none_or(|s| s.generation < self.work.score_generation)
+        self.work.scoring()
     }
 
     pub(crate) fn set_status(&mut self, text: impl Into<String>, severity: Severity) {
@@ -416,7 +291,7 @@ impl App {
 
     /// Whether the demo is what is loaded (no dataset task).
     pub fn is_demo(&self) -> bool {
-        self.work.task.id.is_none()
+        self.work.is_demo()
     }
 
     /// On a user's task, puts every agent still on the demo's recording
@@ -534,16 +409,87 @@ impl App {
     /// The text of `agent`'s prompt template in the current approach, with
     /// the editor's text when it is being edited.
     pub fn prompt_of(&self, agent: AgentRole) -> String {
-        let editing = matches!(self.editing, Editing::Prompt);
-        self.panes
-            .prompt
-            .text_of(self.work.approach, agent, editing)
+        self.shared().prompt_of(agent)
+    }
+
+    /// What the panes draw from beside their own state.
+    pub fn shared(&self) -> Shared<'_> {
+        Shared {
+            theme: &self.looks.theme,
+            work: &self.work,
+            runs: &self.runs,
+            panes: &self.panes,
+            editing: &self.editing,
+            focus: self.focus,
+            overlay_open: self.overlay.is_some(),
+        }
+    }
+
+    /// What a run's record reads beyond the runs, as it stands.
+    pub fn run_context(&self) -> RunContext {
+        RunContext {
+            approach: self.work.approach,
+            task: self.work.task.text.clone(),
+            prompts: self
+                .work
+                .approach
+                .roles()
+                .iter()
+                .map(|&a| (a, self.prompt_of(a)))
+                .collect(),
+            plan: self.panes.plan.items.clone(),
+            ground_truth: self.panes.ground_truth.items.clone(),
+        }
+    }
+
+    /// Whether an agent's prompt or settings differ from those its output
+    /// was made with.
+    pub fn agent_changed(&self, agent: AgentRole) -> bool {
+        self.shared().agent_changed(agent)
+    }
+
+    /// The agents a run re-executes: those whose inputs changed (every one
+    /// when `all`), and the planner when a miner it reads re-runs.
+    pub fn agents_to_run(&self, all: bool) -> Vec<AgentRole> {
+        let mut out: Vec<AgentRole> = Vec::new();
+        for &agent in self.work.approach.roles() {
+            let upstream = agent == AgentRole::Planner && !out.is_empty();
+            if all || upstream || self.agent_changed(agent) {
+                out.push(agent);
+            }
+        }
+        out
+    }
+
+    /// Takes the settings the pipeline resolved for a run it accepted
+    /// ([`Runs::accepted`]); called by the runtime.
+    pub fn run_accepted(&mut self, run: u64, settings: BTreeMap<AgentRole, AgentSettings>) {
+        self.runs.accepted(run, settings);
+    }
+
+    /// Refuses a run the pipeline cannot do, saying why; called by the
+    /// runtime.
+    pub fn run_refused(&mut self, run: u64, reason: RunError) {
+        if self.runs.refused(run) {
+            self.set_status(reason.to_string(), Severity::Warn);
+        }
+    }
+
+    /// When the screen must be drawn again for a retry's countdown or a
+    /// silence to move ([`Runs::countdown_wake`]).
+    pub fn countdown_wake(&self, now: std::time::Instant) -> Option<std::time::Instant> {
+        self.runs.countdown_wake(now)
+    }
+
+    /// The ground truths the picker offers, with their labels.
+    pub fn ground_truth_choices(&self) -> Vec<(GroundTruthChoice, String)> {
+        ground_truth_choices(&self.work)
     }
 
     /// Whether the Scene pane shows the task's table instead of its
-    /// picture: on a table approach, for a task with a table file.
+    /// picture.
     pub fn shows_table(&self) -> bool {
-        !self.work.approach.uses_image() && self.work.task.table.is_some()
+        self.work.shows_table()
     }
 
     pub(crate) fn load_scene(&mut self) -> Vec<Cmd> {
@@ -667,6 +613,289 @@ impl App {
             .chain(pane)
             .chain([Context::Panes])
             .collect()
+    }
+}
+
+/// The session: the copy the saver writes, and restoring one.
+impl App {
+    /// Called by the loop after each batch of messages: the copy of the
+    /// session for the saver when one is due (at once when an edit was just
+    /// committed, else at most every [`SNAPSHOT_EVERY`]), and otherwise the
+    /// instant to ask again, if a change waits.
+    pub fn poll_snapshot(&mut self, now: Instant) -> (Option<Session>, Option<Instant>) {
+        let changed = std::mem::take(&mut self.saving.session_dirty);
+        match self.saving.persist.due(changed, self.is_editing(), now) {
+            Snapshot::Take => (Some(self.to_session()), None),
+            Snapshot::WaitUntil(at) => (None, Some(at)),
+            Snapshot::Idle => (None, None),
+        }
+    }
+
+    /// The session as it stands, for saving.
+    pub fn to_session(&self) -> Session {
+        let mut prompts = self.panes.prompt.texts.clone();
+        if matches!(self.editing, Editing::Prompt) {
+            prompts.insert(
+                template_name(self.work.approach, self.panes.prompt.agent),
+                self.panes.prompt.editor_text(),
+            );
+        }
+        prompts.retain(|name, text| self.panes.prompt.defaults.get(name) != Some(text));
+        let draft = match &self.editing {
+            Editing::Step {
+                list,
+                index,
+                editor,
+                ..
+            } => Some(Draft {
+                target: list.key().to_string(),
+                index: *index,
+                text: editor.lines().join(" "),
+            }),
+            _ => None,
+        };
+        Session {
+            version: SESSION_VERSION,
+            current: self.source_state(),
+            parked: self.work.parked.clone(),
+            prompts,
+            theme: self
+                .saving
+                .kept
+                .theme
+                .clone()
+                .unwrap_or_else(|| self.looks.theme.name.clone()),
+            image: self.panes.scene.enabled,
+            samples: self.saving.kept.samples.unwrap_or(self.work.samples),
+            draft,
+        }
+    }
+
+    /// Puts a saved session in place with `task` in use (`None`: the
+    /// demo): the session's source for it when it has one, else a fresh
+    /// start on it; every other source the session holds is parked, kept
+    /// for when it is opened again. The draft comes back only on the
+    /// source it was typed in.
+    pub(crate) fn restore(&mut self, s: Session, task: Option<&Task>) -> Vec<Cmd> {
+        for (name, text) in s.prompts {
+            if let Some(prompt) = self.panes.prompt.texts.get_mut(&name) {
+                *prompt = text;
+            }
+        }
+        if let Some(theme) = self.looks.themes.iter().find(|t| t.name == s.theme) {
+            if !self.looks.no_color {
+                self.looks.theme = theme.clone();
+            }
+        }
+        self.panes.scene.enabled = s.image;
+        let wanted = task.map(|t| t.id.clone());
+        let same = s.current.task_id == wanted;
+        let kept = (!same).then(|| s.current.task_id.clone()).flatten();
+        self.work.parked = s.parked;
+        self.work.parked.retain(|p| p.task_id != s.current.task_id);
+        self.work.parked.push(s.current);
+        let cmds = self.open_source(task);
+        if let Some(id) = kept {
+            // A start notice, so that the demo's first run does not hide it.
+            let opened = wanted.as_deref().unwrap_or("the demo");
+            let text = format!(
+                "{opened} opened; the session's task {id} and its runs are kept for when it is opened again (Esc hides this)"
+            );
+            self.messages.notice.get_or_insert((text, Severity::Info));
+        }
+        self.work.samples = s.samples;
+        let draft = s.draft.filter(|_| same);
+        if let Some(draft) = draft {
+            let list = if draft.target == StepList::GroundTruth.key() {
+                StepList::GroundTruth
+            } else {
+                StepList::Plan
+            };
+            let len = self.panes.steps(list).len();
+            let inserted = draft.index >= len;
+            if inserted {
+                self.panes.steps_mut(list).items.push(String::new());
+            }
+            let index = draft.index.min(len);
+            self.editing = Editing::Step {
+                list,
+                index,
+                editor: single_line_editor(&draft.text),
+                inserted,
+            };
+            self.focus = match list {
+                StepList::Plan => Pane::Plan,
+                StepList::GroundTruth => Pane::GroundTruth,
+            };
+        }
+        cmds
+    }
+}
+
+/// The sources of plans: the one in use, parking it, opening another.
+impl App {
+    /// The source in use as the session keeps it, the run in flight
+    /// included (as running, restored as cancelled).
+    pub(crate) fn source_state(&self) -> SourceState {
+        let agents = &self.runs.agents;
+        let context = self.runs.active.as_ref().map(|_| self.run_context());
+        SourceState {
+            task_id: self.work.task.id.clone(),
+            approach: self.work.approach,
+            ground_truth_source: self.work.ground_truth_source.clone(),
+            ground_truth: self.panes.ground_truth.items.clone(),
+            plan_source: self.work.plan_source.clone(),
+            plan: self.panes.plan.items.clone(),
+            settings: agents
+                .iter()
+                .map(|(a, v)| (*a, v.settings.clone()))
+                .collect(),
+            outputs: agents
+                .iter()
+                .filter(|(_, v)| v.status == AgentStatus::Done)
+                .map(|(a, v)| (*a, v.output.clone()))
+                .collect(),
+            ran_with: agents
+                .iter()
+                .filter_map(|(a, v)| v.ran_with.clone().map(|r| (*a, r)))
+                .collect(),
+            runs: self
+                .runs
+                .history
+                .iter()
+                .cloned()
+                .chain(
+                    self.runs
+                        .active
+                        .as_ref()
+                        .zip(context.as_ref())
+                        .map(|(active, context)| {
+                            self.runs.record(active, RunState::Running, context)
+                        }),
+                )
+                .collect(),
+        }
+    }
+
+    /// Opens another source (`None`: the demo) from the picker: the one in
+    /// use is parked as it is, and the other comes back as it was left, or
+    /// fresh when it was never opened. Refused while a run is in flight,
+    /// since its answers belong to the source it started on.
+    pub(crate) fn switch_source(&mut self, task: Option<&Task>) -> Vec<Cmd> {
+        if self.runs.active.is_some() {
+            self.set_status(
+                "a run is in flight: x cancels it before another task opens",
+                Severity::Warn,
+            );
+            return Vec::new();
+        }
+        let parked = self.source_state();
+        let undo = std::mem::take(&mut self.panes.undo);
+        self.panes.parked_undo.insert(parked.task_id.clone(), undo);
+        self.work.parked.retain(|p| p.task_id != parked.task_id);
+        self.work.parked.push(parked);
+        self.saving.session_dirty = true;
+        let mut cmds = self.open_source(task);
+        cmds.push(self.rescore());
+        cmds
+    }
+
+    /// Puts `task` (`None`: the demo) in use: its parked state when the
+    /// session has one, else a fresh start on it (the demo runs its
+    /// recording, a dataset task shows its published plan).
+    pub(crate) fn open_source(&mut self, task: Option<&Task>) -> Vec<Cmd> {
+        let id = task.map(|t| t.id.clone());
+        self.panes.undo = self.panes.parked_undo.remove(&id).unwrap_or_default();
+        match self.work.parked.iter().position(|p| p.task_id == id) {
+            Some(at) => {
+                let state = self.work.parked.remove(at);
+                self.apply_source(state, task)
+            }
+            None => self.fresh_source(task),
+        }
+    }
+
+    /// A source opened for the first time: no runs, no answers.
+    fn fresh_source(&mut self, task: Option<&Task>) -> Vec<Cmd> {
+        self.runs.history.clear();
+        self.runs.awaiting_scores = None;
+        match task {
+            Some(task) => {
+                for view in self.runs.agents.values_mut() {
+                    *view = AgentView::idle(view.settings.clone());
+                }
+                self.work.task = task_view(task);
+                self.panes.ground_truth.replace(task.ground_truth.clone());
+                self.work.ground_truth_source = GroundTruthSource::Dataset {
+                    task: task.id.clone(),
+                };
+                let published = task.plans.contains_key(self.work.approach.dataset_field());
+                if !self.work.approach.uses_image() && task.table.is_none() && !published {
+                    self.set_approach(Approach::MultiImage);
+                }
+                self.use_configured_providers();
+                self.refresh_graph();
+                self.load_published_plan();
+                self.load_scene()
+            }
+            None => {
+                self.runs.agents = fresh_agents();
+                self.work.task = demo_task();
+                self.set_approach(Approach::MultiImage);
+                self.panes.ground_truth.replace(demo_ground_truth(0));
+                self.work.ground_truth_source = GroundTruthSource::Demo { index: 0 };
+                self.panes.plan.replace(Vec::new());
+                self.work.plan_source = PlanSource::None;
+                self.refresh_graph();
+                let mut cmds = self.load_scene();
+                cmds.extend(self.start_run(false));
+                cmds
+            }
+        }
+    }
+
+    /// Puts a saved source in use: its task, lists, answers and runs (a run
+    /// saved in flight comes back cancelled); each agent's pane shows the
+    /// time and tokens of its latest good call.
+    pub(crate) fn apply_source(&mut self, s: SourceState, task: Option<&Task>) -> Vec<Cmd> {
+        self.work.task = task.map_or_else(demo_task, task_view);
+        self.set_approach(s.approach);
+        self.work.ground_truth_source = s.ground_truth_source;
+        self.panes.ground_truth.replace(s.ground_truth);
+        self.work.plan_source = s.plan_source;
+        self.panes.plan.replace(s.plan);
+        for (agent, view) in self.runs.agents.iter_mut() {
+            let settings = s.settings.get(agent).unwrap_or(&view.settings).clone();
+            *view = AgentView::idle(settings);
+            if let Some(out) = s.outputs.get(agent) {
+                view.output = out.clone();
+                view.status = AgentStatus::Done;
+            }
+            view.ran_with = s.ran_with.get(agent).cloned();
+        }
+        self.use_configured_providers();
+        self.runs.history = s.runs;
+        self.runs.awaiting_scores = None;
+        for run in &mut self.runs.history {
+            if run.state == RunState::Running {
+                run.state = RunState::Cancelled;
+                run.reason =
+                    Some("cancelled: the workbench stopped during the run, not scored".into());
+            }
+        }
+        for (agent, view) in self.runs.agents.iter_mut() {
+            let last = self.runs.history.iter().rev().find_map(|r| {
+                r.calls()
+                    .find(|a| a.role == *agent && a.output.is_some() && a.error.is_none())
+            });
+            if let Some(record) = last.filter(|_| view.status == AgentStatus::Done) {
+                view.usage = record.usage;
+                view.duration_ms = record.elapsed_ms;
+                view.cached = record.cached;
+            }
+        }
+        self.refresh_graph();
+        self.load_scene()
     }
 }
 

@@ -23,6 +23,25 @@ pub enum Pane {
     Prompt,
 }
 
+/// Which step list an editor works on.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub enum StepList {
+    /// The plan.
+    Plan,
+    /// The ground truth.
+    GroundTruth,
+}
+
+impl StepList {
+    /// The name the session file gives the list.
+    pub fn key(self) -> &'static str {
+        match self {
+            StepList::Plan => "plan",
+            StepList::GroundTruth => "ground_truth",
+        }
+    }
+}
+
 impl Pane {
     /// The panes in focus order.
     pub const ALL: [Pane; 7] = [

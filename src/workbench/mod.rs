@@ -38,11 +38,11 @@ pub mod scroll;
 pub mod session;
 pub mod shared;
 pub mod snapshot;
-pub mod sources;
 pub mod terminal_query;
 pub mod theme;
 pub mod undo;
 pub mod update;
+pub mod workspace;
 
 use std::collections::BTreeMap;
 use std::path::PathBuf;

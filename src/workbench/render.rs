@@ -12,7 +12,6 @@ use crate::workbench::editing::Editing;
 use crate::workbench::header::Header;
 use crate::workbench::keymap::{self};
 use crate::workbench::layout::{pane_rects, Screen, MIN_HEIGHT, MIN_WIDTH};
-use crate::workbench::overlays::{self};
 use crate::workbench::panes::{self, Pane};
 use crate::workbench::scoring::ModelSlot;
 use crate::workbench::scroll;
@@ -45,11 +44,14 @@ pub fn render(frame: &mut Frame, app: &App) {
     if let Some(tabs) = tabs {
         render_tabs(frame, app, tabs);
     }
+    let shared = app.shared();
     for (pane, rect) in panes {
-        panes::render_pane(frame, app, pane, rect);
+        panes::render_pane(frame, &shared, pane, rect);
     }
     render_status(frame, app, status);
-    overlays::render_overlay(frame, app, area);
+    if let Some(overlay) = &app.overlay {
+        overlay.draw(frame, area, &app.looks.theme);
+    }
     if app.looks.ascii {
         fold_to_ascii(frame.buffer_mut());
     }

@@ -9,15 +9,15 @@ use ratatui::widgets::{Clear, Paragraph};
 use ratatui::Frame;
 
 use crate::corrupt::Kind;
-use crate::workbench::app::App;
 use crate::workbench::component::Component;
-use crate::workbench::corrupting::{CorruptError, CorruptRequest, Corrupted};
+use crate::workbench::corrupting::{CorruptRequest, Corrupted};
 use crate::workbench::keymap::{Action, Context};
-use crate::workbench::message::Cmd;
-use crate::workbench::overlays::{centred, moved, themed_box, Overlay, Picked};
-use crate::workbench::session::{CorruptedFrom, PlanSource, RunRecord, RunState};
-use crate::workbench::shared::{unix_now, Severity};
+use crate::workbench::overlays::{centred, moved, themed_box, Picked};
+use crate::workbench::runs::Runs;
+use crate::workbench::session::{CorruptedFrom, RunRecord, RunState};
+use crate::workbench::shared::unix_now;
 use crate::workbench::theme::Theme;
+use crate::workbench::workspace::Workspace;
 
 /// What each kind does, as the picker says it.
 fn describe(kind: Kind) -> &'static str {
@@ -33,103 +33,73 @@ fn describe(kind: Kind) -> &'static str {
     }
 }
 
-impl App {
-    /// Opens the corruption picker, if there is a plan to corrupt.
-    pub(crate) fn open_corrupt_picker(&mut self) {
-        if self.panes.plan.items.is_empty() {
-            self.set_status("the plan is empty: nothing to corrupt", Severity::Info);
-        } else if self.runs.active.is_some() {
-            self.set_status("a run is in flight: x cancels it", Severity::Warn);
-        } else {
-            self.overlay = Some(Overlay::CorruptPicker(CorruptPicker::default()));
-        }
+/// The request for corrupting `plan` with `kind` into the next run,
+/// seeded by the number of runs so far; an inserted step comes from the
+/// other tasks' plans for the approach (their ground truth where they have
+/// none).
+pub fn corrupt_request(
+    kind: Kind,
+    work: &Workspace,
+    runs: &Runs,
+    plan: &[String],
+) -> CorruptRequest {
+    let field = work.approach.dataset_field();
+    let others = work
+        .dataset
+        .iter()
+        .flat_map(|d| &d.tasks)
+        .filter(|t| work.task.id.as_deref() != Some(t.id.as_str()))
+        .map(|t| t.plans.get(field).unwrap_or(&t.ground_truth).clone())
+        .collect();
+    CorruptRequest {
+        run: runs.next_id(),
+        kind,
+        seed: runs.history.len() as u64,
+        plan: plan.to_vec(),
+        others,
     }
+}
 
-    /// The kind the corruption picker chose: asks for the plan corrupted
-    /// with it.
-    pub(crate) fn corrupt_with(&mut self, kind: Kind) -> Vec<Cmd> {
-        vec![Cmd::Corrupt(self.corrupt_request(kind))]
-    }
+/// What the status line says of a corruption: the run, the kind, the words
+/// swapped and how many steps changed.
+pub fn corrupted_status(corrupted: &Corrupted) -> String {
+    let c = &corrupted.corruption;
+    let words = c.words.as_ref().map_or_else(String::new, |w| {
+        let similarity = c
+            .similarity
+            .map_or_else(String::new, |s| format!(", similarity {s:.2}"));
+        format!(" ({} → {}{similarity})", w.from, w.to)
+    });
+    format!(
+        "run {}: {} of the plan{words}, {} step(s) edited",
+        corrupted.run,
+        c.kind,
+        c.edits.len()
+    )
+}
 
-    /// The request for corrupting the plan with `kind` into the next run,
-    /// seeded by the number of runs so far.
-    fn corrupt_request(&mut self, kind: Kind) -> CorruptRequest {
-        let field = self.work.approach.dataset_field();
-        let others = self
-            .work
-            .dataset
-            .iter()
-            .flat_map(|d| &d.tasks)
-            .filter(|t| self.work.task.id.as_deref() != Some(t.id.as_str()))
-            .map(|t| t.plans.get(field).unwrap_or(&t.ground_truth).clone())
-            .collect();
-        self.set_status(format!("corrupting the plan: {kind}…"), Severity::Info);
-        CorruptRequest {
-            run: self.runs.history.iter().map(|r| r.id).max().unwrap_or(0) + 1,
-            kind,
-            seed: self.runs.history.len() as u64,
-            plan: self.panes.plan.items.clone(),
-            others,
-        }
-    }
-
-    /// A corruption finished: a new run with the corrupted plan, scored at
-    /// once; or one line saying why not.
-    pub(crate) fn on_corrupted(&mut self, result: Result<Corrupted, CorruptError>) -> Vec<Cmd> {
-        let corrupted = match result {
-            Ok(c) if c.source == self.panes.plan.items && self.runs.active.is_none() => c,
-            Ok(_) => {
-                self.set_status(
-                    "the plan changed while it was being corrupted: c tries again",
-                    Severity::Warn,
-                );
-                return Vec::new();
-            }
-            Err(reason) => {
-                self.set_status(reason.to_string(), Severity::Warn);
-                return Vec::new();
-            }
-        };
-        let c = &corrupted.corruption;
-        let words = c.words.as_ref().map_or_else(String::new, |w| {
-            let similarity = c
-                .similarity
-                .map_or_else(String::new, |s| format!(", similarity {s:.2}"));
-            format!(" ({} → {}{similarity})", w.from, w.to)
-        });
-        let status = format!(
-            "run {}: {} of the plan{words}, {} step(s) edited",
-            corrupted.run,
-            c.kind,
-            c.edits.len()
-        );
-        self.runs.history.push(RunRecord {
-            id: corrupted.run,
-            started_unix: unix_now(),
-            approach: self.work.approach,
-            task: self.work.task.text.clone(),
-            agents: Vec::new(),
-            prompts: Default::default(),
-            plan: corrupted.plan.clone(),
-            ground_truth: self.panes.ground_truth.items.clone(),
-            scores: None,
-            state: RunState::Finished,
-            error: None,
-            reason: None,
-            corrupted: Some(CorruptedFrom {
-                source: self.work.plan_source.clone(),
-                corruption: corrupted.corruption,
-            }),
-            steps: Vec::new(),
-            samples: Vec::new(),
-        });
-        self.panes.plan.items = corrupted.plan;
-        self.panes.plan.selected = 0;
-        self.work.plan_source = PlanSource::Run { run: corrupted.run };
-        let cmd = self.rescore();
-        self.runs.awaiting_scores = Some((self.runs.history.len() - 1, self.work.score_generation));
-        self.set_status(status, Severity::Info);
-        vec![cmd]
+/// The run a corruption makes of the plan shown (from `work`'s plan
+/// source), finished and waiting for its scores against `ground_truth`.
+pub fn corrupted_run(corrupted: Corrupted, work: &Workspace, ground_truth: &[String]) -> RunRecord {
+    RunRecord {
+        id: corrupted.run,
+        started_unix: unix_now(),
+        approach: work.approach,
+        task: work.task.text.clone(),
+        agents: Vec::new(),
+        prompts: Default::default(),
+        plan: corrupted.plan,
+        ground_truth: ground_truth.to_vec(),
+        scores: None,
+        state: RunState::Finished,
+        error: None,
+        reason: None,
+        corrupted: Some(CorruptedFrom {
+            source: work.plan_source.clone(),
+            corruption: corrupted.corruption,
+        }),
+        steps: Vec::new(),
+        samples: Vec::new(),
     }
 }
 

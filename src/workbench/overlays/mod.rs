@@ -12,16 +12,13 @@ pub mod pickers;
 pub mod prompt_sets;
 pub mod runs;
 
-use crossterm::event::KeyEvent;
 use ratatui::layout::Rect;
 use ratatui::text::Span;
 use ratatui::widgets::{Block, Borders, Clear};
 use ratatui::Frame;
 
-use crate::workbench::app::App;
-use crate::workbench::component::{self, Component};
+use crate::workbench::component::Component;
 use crate::workbench::keymap::Context;
-use crate::workbench::message::Cmd;
 use crate::workbench::overlays::actions::ActionsView;
 use crate::workbench::overlays::corrupt::CorruptPicker;
 use crate::workbench::overlays::help::Help;
@@ -102,77 +99,6 @@ pub(crate) fn moved(selected: usize, delta: isize, len: usize) -> usize {
         .min(len.saturating_sub(1))
 }
 
-impl App {
-    /// A key while an overlay is open: looked up in the overlay's context
-    /// and handled by the overlay's module.
-    pub(crate) fn on_overlay_key(&mut self, key: KeyEvent) -> Vec<Cmd> {
-        let Some(overlay) = self.overlay.take() else {
-            return Vec::new();
-        };
-        match overlay {
-            Overlay::Help(help) => {
-                let _ = self.pick(help, &key, Overlay::Help);
-                Vec::new()
-            }
-            Overlay::Actions(view) => {
-                // A viewer chooses nothing: it is put back or closed.
-                let _ = self.pick(*view, &key, |v| Overlay::Actions(Box::new(v)));
-                Vec::new()
-            }
-            Overlay::Log(view) => {
-                let _ = self.pick(*view, &key, |v| Overlay::Log(Box::new(v)));
-                Vec::new()
-            }
-            Overlay::GroundTruthPicker(picker) => {
-                match self.pick(picker, &key, Overlay::GroundTruthPicker) {
-                    Some(choice) => self.choose_ground_truth(choice),
-                    None => Vec::new(),
-                }
-            }
-            Overlay::CorruptPicker(picker) => match self.pick(picker, &key, Overlay::CorruptPicker)
-            {
-                Some(kind) => self.corrupt_with(kind),
-                None => Vec::new(),
-            },
-            Overlay::StepFilePath(prompt) => {
-                match self.pick(*prompt, &key, |p| Overlay::StepFilePath(Box::new(p))) {
-                    Some(path) => vec![Cmd::ReadStepFile(path)],
-                    None => Vec::new(),
-                }
-            }
-            Overlay::ModelForm(form) => self.on_model_form_key(form, key),
-            Overlay::PromptSetName(prompt) => self.on_set_name_key(prompt, key),
-            Overlay::PromptSetPicker(picker) => self.on_set_picker_key(picker, key),
-            Overlay::Runs(mut view) => {
-                let outcome = component::dispatch(view.as_mut(), &key);
-                self.on_runs_outcome(view, outcome)
-            }
-        }
-    }
-
-    /// Hands `key` to the open picker or prompt `overlay`: puts it back
-    /// (made an [`Overlay`] by `reopen`) while it stays open, and returns
-    /// what it chose.
-    fn pick<C, T>(
-        &mut self,
-        mut overlay: C,
-        key: &KeyEvent,
-        reopen: impl FnOnce(C) -> Overlay,
-    ) -> Option<T>
-    where
-        C: Component<Outcome = Picked<T>>,
-    {
-        match component::dispatch(&mut overlay, key) {
-            Picked::Open => {
-                self.overlay = Some(reopen(overlay));
-                None
-            }
-            Picked::Cancelled => None,
-            Picked::Chosen(choice) => Some(choice),
-        }
-    }
-}
-
 /// A `width`×`height` box in the middle of `area` (smaller when it must be).
 pub(crate) fn centred(area: Rect, width: u16, height: u16) -> Rect {
     let w = width.min(area.width.saturating_sub(2));
@@ -211,20 +137,20 @@ pub(crate) fn open_box(
     inner
 }
 
-/// Draws the open overlay, if any.
-pub(crate) fn render_overlay(frame: &mut Frame, app: &App, area: Rect) {
-    let Some(overlay) = &app.overlay else { return };
-    let t = &app.looks.theme;
-    match overlay {
-        Overlay::Help(help) => help.draw(frame, area, t),
-        Overlay::GroundTruthPicker(picker) => picker.draw(frame, area, t),
-        Overlay::StepFilePath(prompt) => prompt.draw(frame, area, t),
-        Overlay::ModelForm(form) => form.draw(frame, area, t),
-        Overlay::PromptSetName(prompt) => prompt.draw(frame, area, t),
-        Overlay::PromptSetPicker(picker) => picker.draw(frame, area, t),
-        Overlay::Runs(view) => view.draw(frame, area, t),
-        Overlay::Actions(view) => view.draw(frame, area, t),
-        Overlay::CorruptPicker(picker) => picker.draw(frame, area, t),
-        Overlay::Log(view) => view.draw(frame, area, t),
+impl Overlay {
+    /// Draws the overlay over `area`.
+    pub fn draw(&self, frame: &mut Frame, area: Rect, t: &Theme) {
+        match self {
+            Overlay::Help(help) => help.draw(frame, area, t),
+            Overlay::GroundTruthPicker(picker) => picker.draw(frame, area, t),
+            Overlay::StepFilePath(prompt) => prompt.draw(frame, area, t),
+            Overlay::ModelForm(form) => form.draw(frame, area, t),
+            Overlay::PromptSetName(prompt) => prompt.draw(frame, area, t),
+            Overlay::PromptSetPicker(picker) => picker.draw(frame, area, t),
+            Overlay::Runs(view) => view.draw(frame, area, t),
+            Overlay::Actions(view) => view.draw(frame, area, t),
+            Overlay::CorruptPicker(picker) => picker.draw(frame, area, t),
+            Overlay::Log(view) => view.draw(frame, area, t),
+        }
     }
 }

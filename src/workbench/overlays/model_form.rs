@@ -15,14 +15,13 @@ use crate::agents::config::{check_base_url, check_max_tokens, check_temperature,
 use crate::agents::provider::endpoint_url;
 use crate::agents::{AgentRole, ProviderKind};
 use crate::sanitize::{for_terminal, redact_url_credentials};
-use crate::workbench::app::App;
-use crate::workbench::component::{self, Component};
+use crate::workbench::component::Component;
 use crate::workbench::keymap::{Action, Context};
-use crate::workbench::message::Cmd;
-use crate::workbench::overlays::{centred, themed_box, Overlay};
+use crate::workbench::overlays::{centred, themed_box};
 use crate::workbench::panes::Pane;
-use crate::workbench::shared::{single_line_editor, Severity};
+use crate::workbench::shared::single_line_editor;
 use crate::workbench::theme::Theme;
+use crate::workbench::workspace::Messages;
 
 /// The form's fields, in order.
 const LABELS: [&str; 5] = ["provider", "base URL", "model", "temperature", "max tokens"];
@@ -285,75 +284,35 @@ impl Component for ModelForm {
     }
 }
 
-impl App {
-    /// A key of the open model form; the form closes when saved or cancelled.
-    pub(crate) fn on_model_form_key(&mut self, mut form: ModelForm, key: KeyEvent) -> Vec<Cmd> {
-        match component::dispatch(&mut form, &key) {
-            FormOutcome::Open => self.overlay = Some(Overlay::ModelForm(form)),
-            FormOutcome::Cancelled => {}
-            FormOutcome::Saved { agents, settings } => self.apply_settings(&agents, settings),
-        }
-        Vec::new()
-    }
-
-    fn apply_settings(&mut self, agents: &[AgentRole], settings: AgentSettings) {
-        for agent in agents {
-            if let Some(view) = self.runs.agents.get_mut(agent) {
-                view.settings = settings.clone();
-            }
-        }
-        self.saving.session_dirty = true;
-        let who = match agents {
-            [one] => one.label().to_string(),
-            _ => "every agent".to_string(),
-        };
-        self.set_status(
-            format!(
-                "{who}: {} / {} (r runs what changed)",
-                settings.provider, settings.model
-            ),
-            Severity::Info,
-        );
-    }
-
-    /// Opens the model form for the agent in question
-    /// ([`App::agent_in_question`]).
-    pub(crate) fn open_model_form(&mut self) {
-        let agent = self.agent_in_question();
-        if let Some(view) = self.runs.agents.get(&agent) {
-            self.overlay = Some(Overlay::ModelForm(ModelForm::new(agent, &view.settings)));
-        }
-    }
-
-    /// The agent the model form is for: the one the status message or the
-    /// start notice names as needing a provider or a key (e.g. "SKM needs a
-    /// provider"), else the agent of the focused pane (Knowledge Graph:
-    /// SKM, Grounded Description: GKM), else the Prompt pane's agent.
-    pub fn agent_in_question(&self) -> AgentRole {
-        let messages = [&self.messages.status, &self.messages.notice];
-        let named = messages
-            .iter()
-            .filter_map(|m| m.as_ref())
-            .find_map(|(text, _)| {
-                AgentRole::ALL.into_iter().find(|role| {
-                    let label = role.label();
-                    text.contains(&format!("{label} needs a provider"))
-                        || text.contains(&format!("{label} uses "))
-                        || text.starts_with(&format!("{label} failed"))
-                })
-            });
-        named.unwrap_or(match self.focus {
-            Pane::Graph => AgentRole::Skm,
-            Pane::Description => AgentRole::Gkm,
-            _ => self.panes.prompt.agent,
-        })
-    }
+/// The agent the model form is for: the one the status message or the
+/// start notice names as needing a provider or a key (e.g. "SKM needs a
+/// provider"), else the agent of the focused pane (Knowledge Graph: SKM,
+/// Grounded Description: GKM), else the Prompt pane's agent (`shown`).
+pub fn agent_in_question(messages: &Messages, focus: Pane, shown: AgentRole) -> AgentRole {
+    let named = [&messages.status, &messages.notice]
+        .into_iter()
+        .filter_map(|m| m.as_ref())
+        .find_map(|(text, _)| {
+            AgentRole::ALL.into_iter().find(|role| {
+                let label = role.label();
+                text.contains(&format!("{label} needs a provider"))
+                    || text.contains(&format!("{label} uses "))
+                    || text.starts_with(&format!("{label} failed"))
+            })
+        });
+    named.unwrap_or(match focus {
+        Pane::Graph => AgentRole::Skm,
+        Pane::Description => AgentRole::Gkm,
+        _ => shown,
+    })
 }
 
 #[cfg(test)]
 mod tests {
     use super::*;
-    use crate::workbench::app::AppInit;
+    use crate::workbench::app::{App, AppInit};
+    use crate::workbench::overlays::Overlay;
+    use crate::workbench::shared::Severity;
     use crossterm::event::{KeyCode, KeyModifiers};
     use ratatui::backend::TestBackend;
     use ratatui::Terminal;
@@ -490,15 +449,24 @@ mod tests {
 
         app.messages.status = None;
         app.focus = Pane::Graph;
-        assert_eq!(app.agent_in_question(), AgentRole::Skm);
+        assert_eq!(
+            agent_in_question(&app.messages, app.focus, app.panes.prompt.agent),
+            AgentRole::Skm
+        );
         app.focus = Pane::Plan;
-        assert_eq!(app.agent_in_question(), AgentRole::Planner);
+        assert_eq!(
+            agent_in_question(&app.messages, app.focus, app.panes.prompt.agent),
+            AgentRole::Planner
+        );
         app.set_status(
             "Planner uses openai but no API key is set: …",
             Severity::Warn,
         );
         app.focus = Pane::Graph;
-        assert_eq!(app.agent_in_question(), AgentRole::Planner);
+        assert_eq!(
+            agent_in_question(&app.messages, app.focus, app.panes.prompt.agent),
+            AgentRole::Planner
+        );
     }
 
     #[test]

@@ -11,17 +11,13 @@ use ratatui::widgets::{Clear, Paragraph};
 use ratatui::Frame;
 use ratatui_textarea::TextArea;
 
-use crate::workbench::app::App;
 use crate::workbench::component::Component;
-use crate::workbench::editing::Editing;
 use crate::workbench::keymap::{Action, Context};
-use crate::workbench::message::Cmd;
-use crate::workbench::overlays::{centred, moved, open_box, themed_box, Overlay, Picked};
+use crate::workbench::overlays::{centred, moved, open_box, themed_box, Picked};
 use crate::workbench::panes::list_window;
-use crate::workbench::panes::steps::{demo_ground_truth, StepList};
-use crate::workbench::panes::Pane;
 use crate::workbench::session::GroundTruthSource;
 use crate::workbench::theme::Theme;
+use crate::workbench::workspace::Workspace;
 
 /// A ground truth the picker offers.
 #[derive(Debug, Clone, PartialEq, Eq)]
@@ -49,6 +45,58 @@ impl GroundTruthPicker {
     pub fn new(choices: Vec<(GroundTruthChoice, String)>, selected: usize) -> GroundTruthPicker {
         GroundTruthPicker { choices, selected }
     }
+
+    /// `g`: a picker over what `work` offers, on the ground truth in use.
+    pub fn open(work: &Workspace) -> GroundTruthPicker {
+        let choices = ground_truth_choices(work);
+        let selected = choices
+            .iter()
+            .position(|(c, _)| match (c, &work.ground_truth_source) {
+                (GroundTruthChoice::Demo(i), GroundTruthSource::Demo { index }) => i == index,
+                (GroundTruthChoice::Task(i), GroundTruthSource::Dataset { task }) => work
+                    .dataset
+                    .as_ref()
+                    .and_then(|d| d.tasks.get(*i))
+                    .is_some_and(|t| &t.id == task),
+                _ => false,
+            })
+            .unwrap_or(0);
+        GroundTruthPicker::new(choices, selected)
+    }
+}
+
+/// The ground truths the picker offers on `work`, with their labels: the
+/// demo's two (or the demo itself, from a dataset task), each dataset
+/// task, a step file, or typing one.
+pub fn ground_truth_choices(work: &Workspace) -> Vec<(GroundTruthChoice, String)> {
+    let mut out = Vec::new();
+    if work.is_demo() {
+        out.push((
+            GroundTruthChoice::Demo(0),
+            "Demo: annotator A's ground truth".to_string(),
+        ));
+        out.push((
+            GroundTruthChoice::Demo(1),
+            "Demo: annotator B's ground truth".to_string(),
+        ));
+    }
+    if let Some(ds) = &work.dataset {
+        for (i, t) in ds.tasks.iter().enumerate() {
+            out.push((GroundTruthChoice::Task(i), format!("{} · {}", t.id, t.task)));
+        }
+    }
+    if !work.is_demo() {
+        out.push((
+            GroundTruthChoice::Demo(0),
+            "Demo: the built-in task, with its own plan and runs".to_string(),
+        ));
+    }
+    out.push((GroundTruthChoice::File, "Load a step file…".to_string()));
+    out.push((
+        GroundTruthChoice::Typed,
+        "Type a new ground truth".to_string(),
+    ));
+    out
 }
 
 impl Component for GroundTruthPicker {
@@ -141,105 +189,6 @@ impl Component for PathPrompt {
             "Step file path (Enter loads, Esc cancels)",
         );
         frame.render_widget(&self.editor, inner);
-    }
-}
-
-impl App {
-    /// `g`: opens the ground-truth picker on the ground truth in use.
-    pub(crate) fn open_ground_truth_picker(&mut self) {
-        let choices = self.ground_truth_choices();
-        let selected = choices
-            .iter()
-            .position(|(c, _)| match (c, &self.work.ground_truth_source) {
-                (GroundTruthChoice::Demo(i), GroundTruthSource::Demo { index }) => i == index,
-                (GroundTruthChoice::Task(i), GroundTruthSource::Dataset { task }) => self
-                    .work
-                    .dataset
-                    .as_ref()
-                    .and_then(|d| d.tasks.get(*i))
-                    .is_some_and(|t| &t.id == task),
-                _ => false,
-            })
-            .unwrap_or(0);
-        self.overlay = Some(Overlay::GroundTruthPicker(GroundTruthPicker::new(
-            choices, selected,
-        )));
-    }
-
-    /// The ground truths the picker offers, with their labels.
-    pub fn ground_truth_choices(&self) -> Vec<(GroundTruthChoice, String)> {
-        let mut out = Vec::new();
-        if self.is_demo() {
-            out.push((
-                GroundTruthChoice::Demo(0),
-                "Demo: annotator A's ground truth".to_string(),
-            ));
-            out.push((
-                GroundTruthChoice::Demo(1),
-                "Demo: annotator B's ground truth".to_string(),
-            ));
-        }
-        if let Some(ds) = &self.work.dataset {
-            for (i, t) in ds.tasks.iter().enumerate() {
-                out.push((GroundTruthChoice::Task(i), format!("{} · {}", t.id, t.task)));
-            }
-        }
-        if !self.is_demo() {
-            out.push((
-                GroundTruthChoice::Demo(0),
-                "Demo: the built-in task, with its own plan and runs".to_string(),
-            ));
-        }
-        out.push((GroundTruthChoice::File, "Load a step file…".to_string()));
-        out.push((
-            GroundTruthChoice::Typed,
-            "Type a new ground truth".to_string(),
-        ));
-        out
-    }
-
-    pub(crate) fn choose_ground_truth(&mut self, choice: GroundTruthChoice) -> Vec<Cmd> {
-        self.overlay = None;
-        match choice {
-            GroundTruthChoice::Demo(_) if !self.is_demo() => return self.switch_source(None),
-            GroundTruthChoice::Demo(index) => {
-                self.panes.ground_truth.items = demo_ground_truth(index);
-                self.work.ground_truth_source = GroundTruthSource::Demo { index };
-            }
-            GroundTruthChoice::Task(index) => {
-                let Some(task) = self
-                    .work
-                    .dataset
-                    .as_ref()
-                    .and_then(|d| d.tasks.get(index))
-                    .cloned()
-                else {
-                    return Vec::new();
-                };
-                if self.work.task.id.as_ref() != Some(&task.id) {
-                    return self.switch_source(Some(&task));
-                }
-                self.panes.ground_truth.items = task.ground_truth.clone();
-                self.work.ground_truth_source = GroundTruthSource::Dataset { task: task.id };
-            }
-            GroundTruthChoice::File => {
-                self.overlay = Some(Overlay::StepFilePath(Box::default()));
-                return Vec::new();
-            }
-            GroundTruthChoice::Typed => {
-                self.panes.ground_truth.items = vec![String::new()];
-                self.work.ground_truth_source = GroundTruthSource::Typed;
-                self.focus = Pane::GroundTruth;
-                self.editing = Editing::Step {
-                    list: StepList::GroundTruth,
-                    index: 0,
-                    editor: TextArea::default(),
-                    inserted: true,
-                };
-            }
-        }
-        self.panes.ground_truth.selected = 0;
-        vec![self.rescore()]
     }
 }
 

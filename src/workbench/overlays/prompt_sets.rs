@@ -4,9 +4,6 @@
 //! ([`Cmd::SavePromptSet`], [`Cmd::ListPromptSets`], [`Cmd::LoadPromptSet`]);
 //! their layout is [`crate::agents::prompt_sets`]'.
 
-use std::collections::BTreeMap;
-use std::path::PathBuf;
-
 use crossterm::event::KeyEvent;
 use ratatui::layout::{Constraint, Layout, Rect};
 use ratatui::text::{Line, Span};
@@ -14,16 +11,12 @@ use ratatui::widgets::{Clear, Paragraph};
 use ratatui::Frame;
 use ratatui_textarea::TextArea;
 
-use crate::agents::prompt_sets::{check_name, PromptSetError};
-use crate::agents::prompts::PromptSet;
-use crate::workbench::agents::prompt_texts;
-use crate::workbench::app::App;
-use crate::workbench::component::{self, Component};
+use crate::agents::prompt_sets::check_name;
+use crate::workbench::component::Component;
 use crate::workbench::keymap::{Action, Context};
-use crate::workbench::message::Cmd;
-use crate::workbench::overlays::{centred, moved, themed_box, Overlay, Picked};
+use crate::workbench::overlays::{centred, moved, themed_box, Picked};
 use crate::workbench::panes::list_window;
-use crate::workbench::shared::{single_line_editor, Severity};
+use crate::workbench::shared::single_line_editor;
 use crate::workbench::theme::Theme;
 
 /// What a key in a prompt-set overlay asks of the workbench: the set's
@@ -114,6 +107,17 @@ impl SetPicker {
             armed: None,
         }
     }
+
+    /// Whether choosing `name` loads it now: at once when no prompt edit
+    /// is unsaved (`unsaved`), else when it is chosen a second time (the
+    /// first arms it, and the picker asks before the edits are lost).
+    pub fn confirmed(&mut self, name: &str, unsaved: bool) -> bool {
+        if unsaved && self.armed.as_deref() != Some(name) {
+            self.armed = Some(name.to_string());
+            return false;
+        }
+        true
+    }
 }
 
 impl Component for SetPicker {
@@ -176,144 +180,15 @@ impl Component for SetPicker {
     }
 }
 
-impl App {
-    /// `S`: asks for the name to save the prompts under.
-    pub(crate) fn open_save_prompt_set(&mut self) {
-        self.overlay = Some(Overlay::PromptSetName(Box::new(SetName::new(
-            &self.work.prompt_set,
-        ))));
-    }
-
-    /// `L`: lists the saved sets, to choose one from.
-    pub(crate) fn list_prompt_sets(&mut self) -> Vec<Cmd> {
-        match self.work.prompt_sets.clone() {
-            Some(root) => vec![Cmd::ListPromptSets(root)],
-            None => {
-                self.set_status(PromptSetError::NoFolder.to_string(), Severity::Warn);
-                Vec::new()
-            }
-        }
-    }
-
-    /// A key of the open name prompt.
-    pub(crate) fn on_set_name_key(&mut self, mut prompt: Box<SetName>, key: KeyEvent) -> Vec<Cmd> {
-        match component::dispatch(prompt.as_mut(), &key) {
-            SetOutcome::Open => self.overlay = Some(Overlay::PromptSetName(prompt)),
-            SetOutcome::Cancelled => {}
-            SetOutcome::Chosen(name) => return self.save_prompt_set(name),
-        }
-        Vec::new()
-    }
-
-    /// A key of the open set picker.
-    pub(crate) fn on_set_picker_key(&mut self, mut picker: SetPicker, key: KeyEvent) -> Vec<Cmd> {
-        match component::dispatch(&mut picker, &key) {
-            SetOutcome::Open => self.overlay = Some(Overlay::PromptSetPicker(picker)),
-            SetOutcome::Cancelled => {}
-            SetOutcome::Chosen(name) => {
-                if self.panes.prompt.has_unsaved_edits() && picker.armed.as_ref() != Some(&name) {
-                    picker.armed = Some(name);
-                    self.overlay = Some(Overlay::PromptSetPicker(picker));
-                    return Vec::new();
-                }
-                if let Some(root) = self.work.prompt_sets.clone() {
-                    return vec![Cmd::LoadPromptSet { root, name }];
-                }
-            }
-        }
-        Vec::new()
-    }
-
-    fn save_prompt_set(&mut self, name: String) -> Vec<Cmd> {
-        let Some(root) = self.work.prompt_sets.clone() else {
-            self.set_status(PromptSetError::NoFolder.to_string(), Severity::Warn);
-            return Vec::new();
-        };
-        let set = PromptSet::load(None)
-            .and_then(|set| set.with_texts(&self.panes.prompt.texts, "the workbench"));
-        match set {
-            Ok(set) => vec![Cmd::SavePromptSet { root, name, set }],
-            Err(e) => {
-                self.set_status(format!("prompt set {name} not saved: {e}"), Severity::Warn);
-                Vec::new()
-            }
-        }
-    }
-
-    /// The sets saved so far arrived: a picker over them, or why not.
-    pub(crate) fn on_prompt_sets(&mut self, listed: Result<Vec<String>, PromptSetError>) {
-        match listed {
-            Ok(names) if names.is_empty() => {
-                let root = self.work.prompt_sets.clone().unwrap_or_default();
-                self.set_status(
-                    format!(
-                        "no prompt set in {} yet: S in the Prompt pane saves one",
-                        root.display()
-                    ),
-                    Severity::Info,
-                );
-            }
-            Ok(names) => self.overlay = Some(Overlay::PromptSetPicker(SetPicker::new(names))),
-            Err(e) => self.set_status(e.to_string(), Severity::Warn),
-        }
-    }
-
-    /// A set was saved in `dir`, or why not.
-    pub(crate) fn on_prompt_set_saved(
-        &mut self,
-        name: String,
-        saved: Result<PathBuf, PromptSetError>,
-    ) {
-        match saved {
-            Ok(dir) => {
-                self.set_status(
-                    format!(
-                        "prompt set {name} saved in {} (eval --prompts that folder runs it)",
-                        dir.display()
-                    ),
-                    Severity::Info,
-                );
-                self.work.prompt_set = name;
-                self.panes.prompt.kept = self.panes.prompt.texts.clone();
-            }
-            Err(e) => self.set_status(format!("prompt set {name} not saved: {e}"), Severity::Error),
-        }
-    }
-
-    /// A set was read: its templates replace the workbench's prompts.
-    pub(crate) fn on_prompt_set_loaded(
-        &mut self,
-        name: String,
-        loaded: Result<PromptSet, PromptSetError>,
-    ) {
-        match loaded {
-            Ok(set) => {
-                let texts: BTreeMap<String, String> = prompt_texts(&set);
-                for (template, text) in texts {
-                    self.panes.prompt.texts.insert(template, text);
-                }
-                self.panes.prompt.kept = self.panes.prompt.texts.clone();
-                self.panes.prompt.load_editor(self.work.approach);
-                self.saving.session_dirty = true;
-                self.set_status(
-                    format!("prompt set {name} loaded (r runs what changed)"),
-                    Severity::Info,
-                );
-                self.work.prompt_set = name;
-            }
-            Err(e) => self.set_status(format!("prompt set {name} not loaded: {e}"), Severity::Warn),
-        }
-    }
-}
-
 #[cfg(test)]
 mod tests {
     use super::*;
     use crate::agents::replay::Pace;
     use crate::workbench::agents::AgentsPipeline;
-    use crate::workbench::app::AppInit;
+    use crate::workbench::app::{App, AppInit};
     use crate::workbench::headless::Headless;
     use crate::workbench::message::Msg;
+    use crate::workbench::overlays::Overlay;
     use crate::workbench::panes::Pane;
     use crate::workbench::scoring::ModelSlot;
     use crossterm::event::{KeyCode, KeyModifiers};

@@ -14,18 +14,15 @@ use ratatui::Frame;
 use crate::agents::cost::PriceTable;
 use crate::metrics::shown;
 use crate::stats::summary::Spread;
-use crate::workbench::app::App;
 use crate::workbench::component::Component;
 use crate::workbench::keymap::{Action, Context};
-use crate::workbench::message::Cmd;
 use crate::workbench::overlays::diff_page::{diff_lines, wrap};
-use crate::workbench::overlays::{centred, moved, themed_box, Overlay};
+use crate::workbench::overlays::{centred, moved, themed_box};
 use crate::workbench::panes::list_window;
 use crate::workbench::run_diff::{agent_side, cost_text, run_cost, ReadMetric, RunDiff, METRICS};
 use crate::workbench::runs::mean_score;
 use crate::workbench::scroll;
-use crate::workbench::session::{PlanSource, RunRecord, RunState};
-use crate::workbench::shared::Severity;
+use crate::workbench::session::{RunRecord, RunState};
 use crate::workbench::theme::Theme;
 
 /// The run history, and the diff of two of its runs when one is open.
@@ -376,46 +373,5 @@ impl Component for RunsOverlay {
         frame.render_widget(themed_box(theme, &title), area);
         let visible: Vec<Line> = lines.into_iter().skip(first).take(shown).collect();
         frame.render_widget(Paragraph::new(visible), inner);
-    }
-}
-
-impl App {
-    /// Opens the run history, the latest run selected.
-    pub(crate) fn open_runs(&mut self) {
-        let view = RunsOverlay::new(&self.runs.history, &self.work.prices);
-        self.overlay = Some(Overlay::Runs(Box::new(view)));
-    }
-
-    /// Gives an open run history the runs again, after one was added or scored.
-    pub(crate) fn refresh_runs(&mut self) {
-        if let Some(Overlay::Runs(view)) = &mut self.overlay {
-            view.set_runs(&self.runs.history);
-        }
-    }
-
-    /// Carries out what a key in the run history asked for.
-    pub(crate) fn on_runs_outcome(
-        &mut self,
-        view: Box<RunsOverlay>,
-        outcome: RunsOutcome,
-    ) -> Vec<Cmd> {
-        match outcome {
-            RunsOutcome::Stay => self.overlay = Some(Overlay::Runs(view)),
-            RunsOutcome::Close => {}
-            RunsOutcome::Note(note) => {
-                self.set_status(note, Severity::Info);
-                self.overlay = Some(Overlay::Runs(view));
-            }
-            RunsOutcome::Load(index) => {
-                if let Some(run) = self.runs.history.get(index) {
-                    self.panes.plan.replace(run.plan.clone());
-                    self.work.plan_source = PlanSource::Run { run: run.id };
-                    let id = run.id;
-                    self.set_status(format!("plan of run {id} loaded"), Severity::Info);
-                    return vec![self.rescore()];
-                }
-            }
-        }
-        Vec::new()
     }
 }

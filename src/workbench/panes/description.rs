@@ -4,15 +4,15 @@ use ratatui::layout::Rect;
 use ratatui::text::{Line, Span};
 use ratatui::Frame;
 
+use super::Shared;
 use crate::agents::AgentRole;
-use crate::workbench::app::App;
 use crate::workbench::panes::{agent_badge, highlighted, pane_block, Pane};
 use crate::workbench::scroll::{self, Scroll};
 
 /// The description, wrapped to `width`, search hits highlighted (a hint
 /// while there is none).
-fn lines(app: &App, width: u16) -> Vec<Line<'static>> {
-    let t = &app.looks.theme;
+fn lines(app: &Shared, width: u16) -> Vec<Line<'static>> {
+    let t = app.theme;
     let output = app
         .runs
         .agents
@@ -34,15 +34,15 @@ fn lines(app: &App, width: u16) -> Vec<Line<'static>> {
 }
 
 /// The furthest the description scrolls in a pane drawn in `area`.
-pub(crate) fn scroll_limit(app: &App, area: Rect) -> usize {
+pub(crate) fn scroll_limit(app: &Shared, area: Rect) -> usize {
     let inner = pane_block(app, Pane::Description, None, area.width).inner(area);
     lines(app, inner.width)
         .len()
         .saturating_sub(usize::from(inner.height))
 }
 
-pub(crate) fn draw(frame: &mut Frame, app: &App, area: Rect) {
-    let t = &app.looks.theme;
+pub(crate) fn draw(frame: &mut Frame, app: &Shared, area: Rect) {
+    let t = app.theme;
     let block = pane_block(
         app,
         Pane::Description,

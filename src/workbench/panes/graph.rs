@@ -6,9 +6,9 @@ use ratatui::text::{Line, Span};
 use ratatui::widgets::{Paragraph, Wrap};
 use ratatui::Frame;
 
+use super::Shared;
 use crate::agents::graph::{parse_triples, KnowledgeGraph};
 use crate::agents::AgentRole;
-use crate::workbench::app::App;
 use crate::workbench::graph_view::{GraphView, GraphWidget};
 use crate::workbench::keymap::{Action, Context};
 use crate::workbench::panes::{agent_badge, pane_block, Pane};
@@ -127,8 +127,8 @@ impl GraphPane {
 }
 
 /// Draws the Knowledge Graph pane.
-pub(crate) fn draw(frame: &mut Frame, app: &App, area: Rect) {
-    let t = &app.looks.theme;
+pub(crate) fn draw(frame: &mut Frame, app: &Shared, area: Rect) {
+    let t = app.theme;
     let g = &app.panes.graph.kg;
     let block = pane_block(
         app,

@@ -16,15 +16,88 @@ use ratatui::text::{Line, Span};
 use ratatui::widgets::{Block, Borders};
 use ratatui::Frame;
 
-use crate::agents::AgentRole;
-use crate::workbench::app::App;
+use crate::agents::{AgentRole, Approach, ProviderKind};
+use crate::workbench::agents;
+use crate::workbench::editing::Editing;
 pub use crate::workbench::layout::Pane;
-use crate::workbench::panes::graph::GraphPane;
-use crate::workbench::panes::prompt::PromptPane;
-use crate::workbench::panes::scene::ScenePane;
-use crate::workbench::panes::steps::{StepList, StepUndo, Steps};
-use crate::workbench::runs::{AgentStatus, AgentView};
+use crate::workbench::runs::{AgentStatus, AgentView, Runs};
 use crate::workbench::scroll::{text_width, truncate};
+use crate::workbench::session::RunRecord;
+use crate::workbench::theme::Theme;
+use crate::workbench::workspace::Workspace;
+use graph::GraphPane;
+use prompt::PromptPane;
+use scene::ScenePane;
+use steps::{StepList, StepUndo, Steps};
+
+/// What every pane draws from beside its own state, read-only: the
+/// session's data, the runs, the theme, the editor in use and the focus
+/// (made by [`crate::workbench::app::App::shared`]). Drawing is a pure
+/// function of it.
+#[derive(Clone, Copy)]
+pub struct Shared<'a> {
+    /// The theme in use.
+    pub theme: &'a Theme,
+    /// The task, the approach, the sources of the plans and their scores.
+    pub work: &'a Workspace,
+    /// The agents and the runs.
+    pub runs: &'a Runs,
+    /// Every pane's own state.
+    pub panes: &'a Panes,
+    /// The editor in use, drawn where it edits.
+    pub editing: &'a Editing,
+    /// The focused pane.
+    pub focus: Pane,
+    /// Whether an overlay covers the panes (a picture is held back).
+    pub overlay_open: bool,
+}
+
+impl Shared<'_> {
+    /// The text of `agent`'s prompt template in the current approach, with
+    /// the editor's text when it is being edited.
+    pub fn prompt_of(&self, agent: AgentRole) -> String {
+        let editing = matches!(self.editing, Editing::Prompt);
+        self.panes
+            .prompt
+            .text_of(self.work.approach, agent, editing)
+    }
+
+    /// Whether an agent's prompt or settings differ from those its output
+    /// was made with.
+    pub fn agent_changed(&self, agent: AgentRole) -> bool {
+        self.runs.agent_changed(agent, &self.prompt_of(agent))
+    }
+
+    /// The note shown when the selected agent's prompt was edited but only
+    /// recorded outputs can be replayed.
+    pub fn provider_note(&self) -> Option<String> {
+        let agent = self.panes.prompt.agent;
+        let view = self.runs.agents.get(&agent)?;
+        let prompt = self.prompt_of(agent);
+        let why = if self.work.approach != Approach::MultiImage {
+            "the demo's recording has only the multi-image approach"
+        } else {
+            "this prompt was edited and the demo's recording has no answer for it"
+        };
+        (view.settings.provider == ProviderKind::Replay
+            && !self
+                .panes
+                .prompt
+                .is_recorded(self.work.approach, agent, &prompt))
+        .then(|| agents::provider_needed(agent, why).to_string())
+    }
+
+    /// The run whose plan the Plan pane shows, when it shows a run's plan.
+    pub fn shown_run(&self) -> Option<&RunRecord> {
+        self.runs.shown(&self.work.plan_source)
+    }
+
+    /// The latest run when it did not finish and the Plan pane shows
+    /// another plan: the panes say it failed and why.
+    pub fn unfinished_latest(&self) -> Option<&RunRecord> {
+        self.runs.unfinished_latest(&self.work.plan_source)
+    }
+}
 
 /// The panes' own state: each pane's content and view.
 pub struct Panes {
@@ -46,6 +119,9 @@ pub struct Panes {
     pub search: String,
     /// The step edits `u` takes back on the source in use.
     pub undo: StepUndo,
+    /// The step edits `u` can take back on each parked source, by task id
+    /// (`None`: the demo); kept while the workbench runs, not saved.
+    pub parked_undo: BTreeMap<Option<String>, StepUndo>,
 }
 
 impl Panes {
@@ -66,7 +142,7 @@ impl Panes {
 }
 
 /// Draws one pane.
-pub(crate) fn render_pane(frame: &mut Frame, app: &App, pane: Pane, area: Rect) {
+pub(crate) fn render_pane(frame: &mut Frame, app: &Shared, pane: Pane, area: Rect) {
     match pane {
         Pane::Scene => scene::draw(frame, app, area),
         Pane::Graph => graph::draw(frame, app, area),
@@ -107,8 +183,8 @@ pub(crate) fn waiting_text(v: &AgentView) -> Option<String> {
 }
 
 /// A short word for an agent's state, with its style.
-pub(crate) fn agent_badge<'a>(app: &App, agent: AgentRole) -> Span<'a> {
-    let t = &app.looks.theme;
+pub(crate) fn agent_badge<'a>(app: &Shared, agent: AgentRole) -> Span<'a> {
+    let t = &app.theme;
     let Some(v) = app.runs.agents.get(&agent) else {
         return Span::raw("");
     };
@@ -188,7 +264,7 @@ pub(crate) fn highlighted<'a>(
 /// frame: for a pane whose scrolled text is only part of what it draws.
 pub(crate) fn draw_scrolled(
     frame: &mut Frame,
-    app: &App,
+    app: &Shared,
     pane: Pane,
     block: Block<'_>,
     area: Rect,
@@ -198,13 +274,8 @@ pub(crate) fn draw_scrolled(
     let viewport = usize::from(body.height);
     let wanted = app.panes.scroll.get(&pane).copied().unwrap_or(0);
     let offset = usize::from(wanted).min(lines.len().saturating_sub(viewport));
-    let block = crate::workbench::scroll::framed(
-        block,
-        offset,
-        lines.len(),
-        viewport,
-        app.looks.theme.accent,
-    );
+    let block =
+        crate::workbench::scroll::framed(block, offset, lines.len(), viewport, app.theme.accent);
     frame.render_widget(block, area);
     let shown: Vec<Line> = lines.into_iter().skip(offset).take(viewport).collect();
     frame.render_widget(ratatui::widgets::Paragraph::new(shown), body);
@@ -214,7 +285,7 @@ pub(crate) fn draw_scrolled(
 /// agent's state, the plan's source, a run's failure) cut with `…` where
 /// the top border is too short for it, never cut silently.
 pub(crate) fn pane_block<'a>(
-    app: &App,
+    app: &Shared,
     pane: Pane,
     extra: Option<Span<'a>>,
     width: u16,
@@ -225,11 +296,11 @@ pub(crate) fn pane_block<'a>(
     let room = usize::from(width)
         .saturating_sub(2)
         .saturating_sub(text_width(&name));
-    let mut title = vec![Span::styled(name, app.looks.theme.title)];
+    let mut title = vec![Span::styled(name, app.theme.title)];
     if let Some(extra) = extra {
         let cut = truncate(&extra.content, room);
         title.push(Span::styled(cut, extra.style));
-        title.push(Span::styled(" ", app.looks.theme.title));
+        title.push(Span::styled(" ", app.theme.title));
     }
     Block::default()
         .borders(Borders::ALL)
@@ -239,10 +310,10 @@ pub(crate) fn pane_block<'a>(
             ratatui::widgets::BorderType::Plain
         })
         .border_style(if focused {
-            app.looks.theme.focus
+            app.theme.focus
         } else {
-            app.looks.theme.border
+            app.theme.border
         })
-        .style(app.looks.theme.base)
+        .style(app.theme.base)
         .title(Line::from(title))
 }

@@ -9,10 +9,10 @@ use ratatui::widgets::{Paragraph, Wrap};
 use ratatui::Frame;
 use ratatui_textarea::TextArea;
 
+use super::Shared;
 use crate::agents::prompts::template_name;
 use crate::agents::{AgentRole, Approach};
 use crate::workbench::agents;
-use crate::workbench::app::App;
 use crate::workbench::editing::Editing;
 use crate::workbench::panes::{agent_badge, draw_scrolled, highlighted, pane_block, Pane};
 use crate::workbench::runs::AgentStatus;
@@ -110,8 +110,8 @@ impl PromptPane {
     }
 }
 
-pub(crate) fn draw(frame: &mut Frame, app: &App, area: Rect) {
-    let t = &app.looks.theme;
+pub(crate) fn draw(frame: &mut Frame, app: &Shared, area: Rect) {
+    let t = app.theme;
     let block = pane_block(
         app,
         Pane::Prompt,
@@ -176,7 +176,7 @@ pub(crate) fn draw(frame: &mut Frame, app: &App, area: Rect) {
 /// What the footer says of the selected agent's last run on this task, and
 /// whether it is a warning: a prompt that never ran is not "changed", and a
 /// failed or cancelled run is not an output the prompt made.
-fn run_state(app: &App) -> (&'static str, bool) {
+fn run_state(app: &Shared) -> (&'static str, bool) {
     let agent = app.panes.prompt.agent;
     let Some(view) = app.runs.agents.get(&agent) else {
         return (IDLE_HINTS, false);
@@ -199,7 +199,7 @@ const IDLE_HINTS: &str = "Enter edits · ←/→ agent · m provider and model";
 
 /// The pane's inside cut into the agent tabs, the prompt's body and the
 /// footer (three lines when there is a provider note).
-fn parts(app: &App, inner: Rect) -> [Rect; 3] {
+fn parts(app: &Shared, inner: Rect) -> [Rect; 3] {
     let footer_height = if app.provider_note().is_some() { 3 } else { 1 };
     Layout::vertical([
         Constraint::Length(1),
@@ -210,8 +210,8 @@ fn parts(app: &App, inner: Rect) -> [Rect; 3] {
 }
 
 /// The prompt shown, wrapped to `body`'s width, search hits highlighted.
-fn body_lines(app: &App, body: Rect) -> Vec<Line<'static>> {
-    let t = &app.looks.theme;
+fn body_lines(app: &Shared, body: Rect) -> Vec<Line<'static>> {
+    let t = app.theme;
     let text: Vec<Line> = app
         .panes
         .prompt
@@ -225,7 +225,7 @@ fn body_lines(app: &App, body: Rect) -> Vec<Line<'static>> {
 
 /// The furthest the prompt scrolls in a pane drawn in `area`: its last
 /// line at the bottom of the body, never a blank page past it.
-pub(crate) fn scroll_limit(app: &App, area: Rect) -> usize {
+pub(crate) fn scroll_limit(app: &Shared, area: Rect) -> usize {
     let inner = pane_block(app, Pane::Prompt, None, area.width).inner(area);
     let [_, body, _] = parts(app, inner);
     body_lines(app, body)

@@ -9,8 +9,8 @@ use ratatui::text::{Line, Span};
 use ratatui::widgets::{Block, Paragraph};
 use ratatui::Frame;
 
+use super::Shared;
 use crate::demo;
-use crate::workbench::app::App;
 use crate::workbench::panes::{draw_scrolled, highlighted, pane_block, Pane};
 use crate::workbench::scene_image::{self, Encoded};
 use crate::workbench::scroll;
@@ -59,8 +59,8 @@ impl ScenePane {
 /// The table's lines as the Scene pane shows them in `body`: wrapped, the
 /// search's hits highlighted; what is wrong with the file, or that it is
 /// being read.
-fn table_lines(app: &App, body: Rect) -> Vec<Line<'static>> {
-    let t = &app.looks.theme;
+fn table_lines(app: &Shared, body: Rect) -> Vec<Line<'static>> {
+    let t = app.theme;
     let text: Vec<Line> = match &app.panes.scene.table {
         Some((_, Ok(table))) => table
             .lines()
@@ -74,8 +74,8 @@ fn table_lines(app: &App, body: Rect) -> Vec<Line<'static>> {
 
 /// The furthest the Scene pane scrolls in `area`: through the table when it
 /// shows one, not at all over a picture.
-pub(crate) fn scroll_limit(app: &App, area: Rect) -> usize {
-    if !app.shows_table() {
+pub(crate) fn scroll_limit(app: &Shared, area: Rect) -> usize {
+    if !app.work.shows_table() {
         return 0;
     }
     let body = scene_image_area(area);
@@ -84,12 +84,12 @@ pub(crate) fn scroll_limit(app: &App, area: Rect) -> usize {
         .saturating_sub(usize::from(body.height))
 }
 
-pub(crate) fn draw(frame: &mut Frame, app: &App, area: Rect) {
-    let t = &app.looks.theme;
+pub(crate) fn draw(frame: &mut Frame, app: &Shared, area: Rect) {
+    let t = app.theme;
     let block = pane_block(app, Pane::Scene, None, area.width);
     let inner = block.inner(area);
     let image_area = scene_image_area(area);
-    if app.shows_table() {
+    if app.work.shows_table() {
         // A table approach reads the table, not the picture: shown as the
         // agents get it, scrolled with the pane's keys.
         let lines = table_lines(app, image_area);
@@ -107,7 +107,7 @@ pub(crate) fn draw(frame: &mut Frame, app: &App, area: Rect) {
         usize::from(inner.width),
     );
     frame.render_widget(Paragraph::new(caption), Rect { height: 1, ..inner });
-    if app.shows_table() {
+    if app.work.shows_table() {
         return;
     }
     let (encoded, note) = if !app.panes.scene.enabled {
@@ -130,7 +130,7 @@ pub(crate) fn draw(frame: &mut Frame, app: &App, area: Rect) {
         encoded,
         note,
         t.muted,
-        app.overlay.is_some() || app.panes.scene.hold,
+        app.overlay_open || app.panes.scene.hold,
     );
 }
 

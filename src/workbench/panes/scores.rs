@@ -5,9 +5,9 @@ use ratatui::text::{Line, Span};
 use ratatui::widgets::{Paragraph, Sparkline, SparklineBar, Wrap};
 use ratatui::Frame;
 
+use super::Shared;
 use crate::metrics::pg2s::Pg2sReport;
 use crate::stats::summary::Spread;
-use crate::workbench::app::App;
 use crate::workbench::panes::{pane_block, Pane};
 use crate::workbench::scoring::Pg2sOutcome;
 use crate::workbench::session::{PlanSource, RunRecord, RunState, ScoreRecord};
@@ -31,7 +31,7 @@ fn spread_of(scores: &[ScoreRecord], of: ScoreOf) -> Option<Spread> {
 
 /// The run whose plan the Plan pane shows, with its samples' scores, when
 /// more than one sample of it is scored.
-fn sampled_run(app: &App) -> Option<(&RunRecord, Vec<ScoreRecord>)> {
+fn sampled_run<'a>(app: &Shared<'a>) -> Option<(&'a RunRecord, Vec<ScoreRecord>)> {
     let PlanSource::Run { run } = app.work.plan_source else {
         return None;
     };
@@ -119,9 +119,10 @@ pub(crate) fn score_span(theme: &Theme, name: &str, value: Option<f64>) -> Vec<S
     ]
 }
 
-pub(crate) fn draw(frame: &mut Frame, app: &App, area: Rect) {
-    let t = &app.looks.theme;
+pub(crate) fn draw(frame: &mut Frame, app: &Shared, area: Rect) {
+    let t = app.theme;
     let extra = app
+        .work
         .scoring()
         .then(|| Span::styled("scoring…", t.warn))
         .or_else(|| {

@@ -6,10 +6,10 @@ use ratatui::text::{Line, Span};
 use ratatui::widgets::{Paragraph, Wrap};
 use ratatui::Frame;
 
+use super::Shared;
 use crate::demo;
 use crate::metrics::pg2s::Pg2sReport;
 use crate::plan::parse_steps;
-use crate::workbench::app::App;
 use crate::workbench::editing::Editing;
 use crate::workbench::keymap::Action;
 use crate::workbench::panes::{highlighted, pane_block, Pane};
@@ -19,24 +19,9 @@ use crate::workbench::scroll::{self, Scroll, Wrapped};
 use crate::workbench::session::{GroundTruthSource, PlanSource};
 use crate::workbench::undo::Undo;
 
-/// Which step list an editor works on.
-#[derive(Debug, Clone, Copy, PartialEq, Eq)]
-pub enum StepList {
-    /// The plan.
-    Plan,
-    /// The ground truth.
-    GroundTruth,
-}
+pub use crate::workbench::layout::StepList;
 
-impl StepList {
-    pub(crate) fn key(self) -> &'static str {
-        match self {
-            StepList::Plan => "plan",
-            StepList::GroundTruth => "ground_truth",
-        }
-    }
-}
-
+/// The demo's ground truth of annotator A (`index` 0) or B (1).
 pub(crate) fn demo_ground_truth(index: usize) -> Vec<String> {
     parse_steps(if index == 1 {
         demo::GROUND_TRUTH_B
@@ -174,16 +159,16 @@ impl Steps {
 }
 
 /// The latest scores and the KAS of step `index`, or the "scoring…" line.
-pub(crate) fn step_scores(
-    app: &App,
+pub(crate) fn step_scores<'a>(
+    app: &Shared<'a>,
     index: usize,
     kas_label: impl Fn(f64) -> String,
-) -> Result<(&ScoreOutcome, String), Line<'static>> {
+) -> Result<(&'a ScoreOutcome, String), Line<'static>> {
     let scores = app
         .work
         .scores
         .as_ref()
-        .ok_or_else(|| Line::from(Span::styled("    scoring…", app.looks.theme.muted)))?;
+        .ok_or_else(|| Line::from(Span::styled("    scoring…", app.theme.muted)))?;
     let kas = scores
         .kas
         .step_scores
@@ -194,8 +179,8 @@ pub(crate) fn step_scores(
 }
 
 /// The mark under a plan step: which ground-truth step it matched, or why none.
-pub(crate) fn plan_mark(app: &App, index: usize) -> Line<'static> {
-    let t = &app.looks.theme;
+pub(crate) fn plan_mark(app: &Shared, index: usize) -> Line<'static> {
+    let t = app.theme;
     let (scores, kas) =
         match step_scores(app, index, |k| format!(" · KAS {k:.2} vs GT {}", index + 1)) {
             Ok(found) => found,
@@ -248,8 +233,8 @@ pub(crate) fn unmatched_plan_reason(report: &Pg2sReport, index: usize) -> String
 }
 
 /// The mark under a ground-truth step: the plan step that matched it, or why none.
-pub(crate) fn ground_truth_mark(app: &App, index: usize) -> Line<'static> {
-    let t = &app.looks.theme;
+pub(crate) fn ground_truth_mark(app: &Shared, index: usize) -> Line<'static> {
+    let t = app.theme;
     let (scores, kas) = match step_scores(app, index, |k| {
         format!(" · KAS {k:.2} vs plan {}", index + 1)
     }) {
@@ -289,8 +274,8 @@ pub(crate) fn ground_truth_mark(app: &App, index: usize) -> Line<'static> {
     }
 }
 
-pub(crate) fn draw(frame: &mut Frame, app: &App, list: StepList, area: Rect) {
-    let t = &app.looks.theme;
+pub(crate) fn draw(frame: &mut Frame, app: &Shared, list: StepList, area: Rect) {
+    let t = app.theme;
     let (pane, selected) = match list {
         StepList::Plan => (Pane::Plan, app.panes.plan.selected),
         StepList::GroundTruth => (Pane::GroundTruth, app.panes.ground_truth.selected),
@@ -404,8 +389,8 @@ pub(crate) fn draw(frame: &mut Frame, app: &App, list: StepList, area: Rect) {
 /// wrapped under its number and followed by its wrapped mark, and which
 /// step is being edited (with the editor's indent): shared by drawing and
 /// by the mouse, so a click lands on the step drawn where it is.
-fn wrapped_steps(app: &App, list: StepList, width: usize) -> (Wrapped, Option<(usize, usize)>) {
-    let t = &app.looks.theme;
+fn wrapped_steps(app: &Shared, list: StepList, width: usize) -> (Wrapped, Option<(usize, usize)>) {
+    let t = app.theme;
     let steps = app.panes.steps(list);
     let pane = match list {
         StepList::Plan => Pane::Plan,
@@ -442,7 +427,7 @@ fn wrapped_steps(app: &App, list: StepList, width: usize) -> (Wrapped, Option<(u
 
 /// The step of `list` drawn on `row` (counted inside the frame) of a pane
 /// drawn in `area`, if any.
-pub(crate) fn step_at(app: &App, list: StepList, area: Rect, row: usize) -> Option<usize> {
+pub(crate) fn step_at(app: &Shared, list: StepList, area: Rect, row: usize) -> Option<usize> {
     let (width, viewport) = (
         usize::from(area.width.saturating_sub(2)),
         usize::from(area.height.saturating_sub(2)),
