@@ -4,7 +4,7 @@
 //! draws itself. New screens and overlays implement [`Component`] and
 //! declare their keys in [`crate::workbench::keymap::BINDINGS`].
 
-use crossterm::event::KeyEvent;
+use crossterm::event::{KeyEvent, MouseEvent, MouseEventKind};
 use ratatui::layout::Rect;
 use ratatui::Frame;
 
@@ -29,6 +29,43 @@ pub trait Component {
 
     /// Draws the component in `area`, a pure function of its state.
     fn draw(&self, frame: &mut Frame, area: Rect, theme: &Theme);
+
+    /// Handles the mouse over `area`, the screen the component is drawn
+    /// in: by default the wheel moves as ↓ and ↑ do, a line a notch, and a
+    /// click moves nothing. Components with rows to click override it.
+    fn on_mouse(&mut self, mouse: MouseEvent, area: Rect) -> Self::Outcome {
+        let _ = area;
+        self.on_action(Action::Move(wheel_step(&mouse)))
+    }
+}
+
+/// What reaches a component: a key, or the mouse over the screen area it
+/// is drawn in.
+#[derive(Debug, Clone, Copy)]
+pub enum Input {
+    /// A key.
+    Key(KeyEvent),
+    /// The mouse, over the screen area given.
+    Mouse(MouseEvent, Rect),
+}
+
+/// Hands `input` to `component`: a key through the key table
+/// ([`dispatch`]), the mouse to [`Component::on_mouse`].
+pub fn deliver<C: Component>(component: &mut C, input: &Input) -> C::Outcome {
+    match input {
+        Input::Key(key) => dispatch(component, key),
+        Input::Mouse(mouse, area) => component.on_mouse(*mouse, *area),
+    }
+}
+
+/// The lines a wheel notch of `mouse` moves: 1 down, -1 up, 0 for any
+/// other mouse event.
+pub fn wheel_step(mouse: &MouseEvent) -> isize {
+    match mouse.kind {
+        MouseEventKind::ScrollDown => 1,
+        MouseEventKind::ScrollUp => -1,
+        _ => 0,
+    }
 }
 
 /// Hands `key` to `component`: as the action the key table binds it to in

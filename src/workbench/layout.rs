@@ -80,6 +80,26 @@ impl Pane {
         }
     }
 
+    /// The pane's tab in the tab strip of a narrow terminal.
+    pub fn tab(self) -> String {
+        format!(" {} ", self.short())
+    }
+
+    /// The pane whose tab is at `column` of a tab strip starting at
+    /// column `x` (each tab followed by a one-column separator).
+    pub fn tab_at(x: u16, column: u16) -> Option<Pane> {
+        let mut at = usize::from(x);
+        let column = usize::from(column);
+        for pane in Pane::ALL {
+            let end = at + pane.tab().len();
+            if (at..end).contains(&column) {
+                return Some(pane);
+            }
+            at = end + 1;
+        }
+        None
+    }
+
     pub(crate) fn index(self) -> usize {
         Pane::ALL.iter().position(|p| *p == self).unwrap_or(0)
     }

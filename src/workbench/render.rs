@@ -139,7 +139,7 @@ fn render_tabs(frame: &mut Frame, app: &App, area: Rect) {
         } else {
             t.muted
         };
-        spans.push(Span::styled(format!(" {} ", pane.short()), style));
+        spans.push(Span::styled(pane.tab(), style));
         spans.push(Span::styled("│", t.border));
     }
     frame.render_widget(Paragraph::new(Line::from(spans)).style(t.base), area);

@@ -15,12 +15,16 @@
 
 use std::ops::Range;
 
+use crossterm::event::MouseEvent;
+
 use ratatui::layout::Rect;
 use ratatui::style::Style;
 use ratatui::text::{Line, Span};
 use ratatui::widgets::{Block, Paragraph};
 use ratatui::Frame;
 use unicode_width::{UnicodeWidthChar, UnicodeWidthStr};
+
+use crate::workbench::component::wheel_step;
 
 /// How a key moves a view.
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
@@ -431,6 +435,16 @@ pub trait ScrolledBox {
         let area = *self.view().1;
         let (total, viewport) = self.measure(area);
         self.view().0.scroll(total, viewport, motion);
+    }
+
+    /// Scrolls it [`WHEEL_LINES`] a notch when `mouse` is the wheel;
+    /// whether it was.
+    fn on_wheel(&mut self, mouse: &MouseEvent) -> bool {
+        let step = wheel_step(mouse);
+        if step != 0 {
+            self.scroll_by(Motion::Wheel(step * WHEEL_LINES));
+        }
+        step != 0
     }
 
     /// Lays it out over a resized screen `area`, still within its lines.

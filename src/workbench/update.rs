@@ -19,7 +19,7 @@ use crate::corrupt::Kind;
 use crate::plan::{bounded_steps, parse_steps};
 use crate::workbench::agents::{prompt_texts, RunRequest};
 use crate::workbench::app::App;
-use crate::workbench::component::{self, Component};
+use crate::workbench::component::{self, Component, Input};
 use crate::workbench::corrupting::{CorruptError, Corrupted};
 use crate::workbench::editing::Editing;
 use crate::workbench::keymap::{self, Action, Context};
@@ -40,7 +40,6 @@ use crate::workbench::panes::steps::{self, demo_ground_truth, StepList, StepsBef
 use crate::workbench::panes::{self, Pane};
 use crate::workbench::runs::{AgentChange, FreshRun, KeptPlan, SAMPLE_STEPS};
 use crate::workbench::scoring::{ModelSlot, ScoreOutcome};
-use crate::workbench::scroll::{Motion, WHEEL_LINES};
 use crate::workbench::session::{GroundTruthSource, PlanSource, RunState, ScoreRecord};
 use crate::workbench::shared::{single_line_editor, Severity};
 
@@ -177,7 +176,7 @@ impl App {
             return self.on_editor_key(key);
         }
         if self.overlay.is_some() {
-            return self.on_overlay_key(key);
+            return self.on_overlay_input(Input::Key(key));
         }
         self.on_command_key(key)
     }
@@ -465,10 +464,15 @@ impl App {
         }
     }
 
+    /// Where everything is drawn at the terminal's size now.
+    fn screen_layout(&self) -> Screen {
+        let screen = Rect::new(0, 0, self.size.0, self.size.1);
+        pane_rects(screen, self.focus, self.panes.zoom)
+    }
+
     /// Where `pane` is drawn at the terminal's size now, if it is shown.
     fn pane_rect(&self, pane: Pane) -> Option<Rect> {
-        let screen = Rect::new(0, 0, self.size.0, self.size.1);
-        match pane_rects(screen, self.focus, self.panes.zoom) {
+        match self.screen_layout() {
             Screen::Panes { panes, .. } => panes
                 .into_iter()
                 .find_map(|(p, r)| (p == pane).then_some(r)),
@@ -477,8 +481,7 @@ impl App {
     }
 
     pub(crate) fn pane_at(&self, column: u16, row: u16) -> Option<(Pane, Rect)> {
-        let screen = Rect::new(0, 0, self.size.0, self.size.1);
-        match pane_rects(screen, self.focus, self.panes.zoom) {
+        match self.screen_layout() {
             Screen::Panes { panes, .. } => panes
                 .into_iter()
                 .find(|(_, r)| r.contains(Position::new(column, row))),
@@ -488,32 +491,31 @@ impl App {
 
     /// Whether the terminal is below the smallest size the panes draw in.
     fn too_small(&self) -> bool {
-        let screen = Rect::new(0, 0, self.size.0, self.size.1);
-        pane_rects(screen, self.focus, self.panes.zoom) == Screen::TooSmall
+        self.screen_layout() == Screen::TooSmall
     }
 
     pub(crate) fn on_mouse(&mut self, mouse: MouseEvent) -> Vec<Cmd> {
         if self.too_small() {
             return Vec::new();
         }
-        if self.overlay.is_some() || !matches!(self.editing, Editing::None) {
-            let wheel = match mouse.kind {
-                MouseEventKind::ScrollDown => Some(Motion::Wheel(WHEEL_LINES)),
-                MouseEventKind::ScrollUp => Some(Motion::Wheel(-WHEEL_LINES)),
-                _ => None,
-            };
-            match (self.overlay.as_mut(), wheel) {
-                (Some(overlay), Some(motion)) => {
-                    if let Some(text) = overlay.scrolled_box() {
-                        text.scroll_by(motion);
-                    }
-                }
-                (Some(Overlay::Help(_)), None) if matches!(mouse.kind, MouseEventKind::Down(_)) => {
-                    self.overlay = None
-                }
-                _ => {}
-            }
+        if self.overlay.is_some() {
+            let screen = Rect::new(0, 0, self.size.0, self.size.1);
+            return self.on_overlay_input(Input::Mouse(mouse, screen));
+        }
+        if !matches!(self.editing, Editing::None) {
             return Vec::new();
+        }
+        let click = mouse.kind == MouseEventKind::Down(MouseButton::Left);
+        if let Screen::Panes {
+            tabs: Some(tabs), ..
+        } = self.screen_layout()
+        {
+            if click && tabs.contains(Position::new(mouse.column, mouse.row)) {
+                if let Some(pane) = Pane::tab_at(tabs.x, mouse.column) {
+                    self.focus = pane;
+                }
+                return Vec::new();
+            }
         }
         let Some((pane, rect)) = self.pane_at(mouse.column, mouse.row) else {
             return Vec::new();
@@ -521,6 +523,14 @@ impl App {
         match mouse.kind {
             MouseEventKind::Down(MouseButton::Left) => {
                 self.focus = pane;
+                if pane == Pane::Prompt {
+                    let shared = self.shared();
+                    if let Some(agent) =
+                        panes::prompt::agent_at(&shared, rect, mouse.column, mouse.row)
+                    {
+                        self.show_prompt_of(agent);
+                    }
+                }
                 let row = mouse.row.saturating_sub(rect.y + 1) as usize;
                 let list = match pane {
                     Pane::Plan => Some(StepList::Plan),
@@ -662,68 +672,69 @@ impl App {
     }
 }
 
-/// The overlays: a key while one is open, handed to it.
+/// The overlays: a key or the mouse while one is open, handed to it.
 impl App {
-    /// A key while an overlay is open: looked up in the overlay's context
-    /// and handled by the overlay's module.
-    pub(crate) fn on_overlay_key(&mut self, key: KeyEvent) -> Vec<Cmd> {
+    /// A key or the mouse while an overlay is open: a key looked up in the
+    /// overlay's context, both handled by the overlay's component.
+    pub(crate) fn on_overlay_input(&mut self, input: Input) -> Vec<Cmd> {
         let Some(overlay) = self.overlay.take() else {
             return Vec::new();
         };
         match overlay {
             Overlay::Help(help) => {
-                let _ = self.pick(help, &key, Overlay::Help);
+                let _ = self.pick(help, &input, Overlay::Help);
                 Vec::new()
             }
             Overlay::Actions(view) => {
                 // A viewer chooses nothing: it is put back or closed.
-                let _ = self.pick(*view, &key, |v| Overlay::Actions(Box::new(v)));
+                let _ = self.pick(*view, &input, |v| Overlay::Actions(Box::new(v)));
                 Vec::new()
             }
             Overlay::Log(view) => {
-                let _ = self.pick(*view, &key, |v| Overlay::Log(Box::new(v)));
+                let _ = self.pick(*view, &input, |v| Overlay::Log(Box::new(v)));
                 Vec::new()
             }
             Overlay::GroundTruthPicker(picker) => {
-                match self.pick(picker, &key, Overlay::GroundTruthPicker) {
+                match self.pick(picker, &input, Overlay::GroundTruthPicker) {
                     Some(choice) => self.choose_ground_truth(choice),
                     None => Vec::new(),
                 }
             }
-            Overlay::CorruptPicker(picker) => match self.pick(picker, &key, Overlay::CorruptPicker)
-            {
-                Some(kind) => self.corrupt_with(kind),
-                None => Vec::new(),
-            },
+            Overlay::CorruptPicker(picker) => {
+                match self.pick(picker, &input, Overlay::CorruptPicker) {
+                    Some(kind) => self.corrupt_with(kind),
+                    None => Vec::new(),
+                }
+            }
             Overlay::StepFilePath(prompt) => {
-                match self.pick(*prompt, &key, |p| Overlay::StepFilePath(Box::new(p))) {
+                match self.pick(*prompt, &input, |p| Overlay::StepFilePath(Box::new(p))) {
                     Some(path) => vec![Cmd::ReadStepFile(path)],
                     None => Vec::new(),
                 }
             }
-            Overlay::ModelForm(form) => self.on_model_form_key(form, key),
-            Overlay::PromptSetName(prompt) => self.on_set_name_key(prompt, key),
-            Overlay::PromptSetPicker(picker) => self.on_set_picker_key(picker, key),
+            Overlay::ModelForm(form) => self.on_model_form_input(form, &input),
+            Overlay::PromptSetName(prompt) => self.on_set_name_input(prompt, &input),
+            Overlay::PromptSetPicker(picker) => self.on_set_picker_input(picker, &input),
             Overlay::Runs(mut view) => {
-                let outcome = component::dispatch(view.as_mut(), &key);
+                let outcome = component::deliver(view.as_mut(), &input);
                 self.on_runs_outcome(view, outcome)
             }
         }
     }
 
-    /// Hands `key` to the open picker or prompt `overlay`: puts it back
+    /// Hands `input` to the open picker or prompt `overlay`: puts it back
     /// (made an [`Overlay`] by `reopen`) while it stays open, and returns
     /// what it chose.
     fn pick<C, T>(
         &mut self,
         mut overlay: C,
-        key: &KeyEvent,
+        input: &Input,
         reopen: impl FnOnce(C) -> Overlay,
     ) -> Option<T>
     where
         C: Component<Outcome = Picked<T>>,
     {
-        match component::dispatch(&mut overlay, key) {
+        match component::deliver(&mut overlay, input) {
             Picked::Open => {
                 self.overlay = Some(reopen(overlay));
                 None
@@ -737,8 +748,8 @@ impl App {
 /// The model form: opening it and what saving it changes.
 impl App {
     /// A key of the open model form; the form closes when saved or cancelled.
-    pub(crate) fn on_model_form_key(&mut self, mut form: ModelForm, key: KeyEvent) -> Vec<Cmd> {
-        match component::dispatch(&mut form, &key) {
+    pub(crate) fn on_model_form_input(&mut self, mut form: ModelForm, input: &Input) -> Vec<Cmd> {
+        match component::deliver(&mut form, input) {
             FormOutcome::Open => self.overlay = Some(Overlay::ModelForm(form)),
             FormOutcome::Cancelled => {}
             FormOutcome::Saved { agents, settings } => self.apply_settings(&agents, settings),
@@ -839,8 +850,8 @@ impl App {
     }
 
     /// A key of the open name prompt.
-    pub(crate) fn on_set_name_key(&mut self, mut prompt: Box<SetName>, key: KeyEvent) -> Vec<Cmd> {
-        match component::dispatch(prompt.as_mut(), &key) {
+    fn on_set_name_input(&mut self, mut prompt: Box<SetName>, input: &Input) -> Vec<Cmd> {
+        match component::deliver(prompt.as_mut(), input) {
             SetOutcome::Open => self.overlay = Some(Overlay::PromptSetName(prompt)),
             SetOutcome::Cancelled => {}
             SetOutcome::Chosen(name) => return self.save_prompt_set(name),
@@ -849,8 +860,8 @@ impl App {
     }
 
     /// A key of the open set picker.
-    pub(crate) fn on_set_picker_key(&mut self, mut picker: SetPicker, key: KeyEvent) -> Vec<Cmd> {
-        match component::dispatch(&mut picker, &key) {
+    fn on_set_picker_input(&mut self, mut picker: SetPicker, input: &Input) -> Vec<Cmd> {
+        match component::deliver(&mut picker, input) {
             SetOutcome::Open => self.overlay = Some(Overlay::PromptSetPicker(picker)),
             SetOutcome::Cancelled => {}
             SetOutcome::Chosen(name) => {

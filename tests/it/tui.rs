@@ -77,6 +77,24 @@ impl Harness {
         h
     }
 
+    /// The workbench at `size` on alfred30's tasks (its first open),
+    /// scoring with `models`; and the dataset.
+    fn on_alfred30(size: (u16, u16), models: ModelSlot) -> (Harness, mapvlm::dataset::Dataset) {
+        let root = concat!(env!("CARGO_MANIFEST_DIR"), "/../shared/data/alfred30");
+        let (dataset, _) = mapvlm::dataset::Dataset::load(std::path::Path::new(root)).unwrap();
+        let (app, cmds) = App::new(AppInit {
+            dataset: Some(dataset.clone()),
+            ..AppInit::demo(size, "no models in this test")
+        });
+        let mut h = Harness {
+            app,
+            models,
+            pipeline: AgentsPipeline::offline(Pace::Instant).unwrap(),
+        };
+        h.run(cmds);
+        (h, dataset)
+    }
+
     /// Carries out `cmds` with timings fixed, so that frames compare.
     fn run(&mut self, cmds: Vec<Cmd>) {
         let runner = Headless::new(&self.pipeline, self.models.clone());
@@ -604,18 +622,7 @@ fn each_step_of_a_scored_run_keeps_its_pg2s_match() {
 
 #[test]
 fn published_plans_score_as_in_mapvlm_score() {
-    let root = concat!(env!("CARGO_MANIFEST_DIR"), "/../shared/data/alfred30");
-    let (dataset, _) = mapvlm::dataset::Dataset::load(std::path::Path::new(root)).unwrap();
-    let (app, cmds) = App::new(AppInit {
-        dataset: Some(dataset.clone()),
-        ..AppInit::demo((200, 60), "no models in this test")
-    });
-    let mut h = Harness {
-        app,
-        models: real_models(),
-        pipeline: AgentsPipeline::offline(Pace::Instant).unwrap(),
-    };
-    h.run(cmds);
+    let (mut h, dataset) = Harness::on_alfred30((200, 60), real_models());
     let dir = tempfile::tempdir().unwrap();
     for index in [0usize, 7, 21] {
         if index > 0 {
@@ -1888,4 +1895,171 @@ fn the_scene_pane_shows_the_table_a_table_approach_reads() {
         h.key(KeyCode::Char('a'));
     }
     assert!(h.app.image_area().is_some(), "the picture is back");
+}
+
+#[test]
+fn the_first_alfred30_tasks_long_ground_truth_step_reads_whole_at_200x60() {
+    use mapvlm::workbench::layout::{pane_rects, Screen};
+    let (mut h, dataset) = Harness::on_alfred30((200, 60), unavailable());
+    let long = dataset.tasks[0]
+        .ground_truth
+        .iter()
+        .find(|s| s.ends_with("before turning it off again."))
+        .expect("alfred30's first task has the step")
+        .clone();
+    let Screen::Panes { panes, .. } = pane_rects(Rect::new(0, 0, 200, 60), h.app.focus, false)
+    else {
+        panic!("no panes at 200x60")
+    };
+    let gt = panes
+        .iter()
+        .find(|(p, _)| *p == Pane::GroundTruth)
+        .unwrap()
+        .1;
+    let screen = h.screen();
+    let rows: Vec<&str> = screen.lines().collect();
+    let pane_text = collapsed(
+        &rows[usize::from(gt.y)..usize::from(gt.y + gt.height)].join("\n"),
+        usize::from(gt.x)..usize::from(gt.x + gt.width),
+    );
+    assert!(pane_text.contains(&format!("4. {long}")), "{pane_text}");
+}
+
+/// Where `needle` is drawn on `screen` (a test backend's text): its first
+/// cell's column and row.
+fn where_is(screen: &str, needle: &str) -> (u16, u16) {
+    screen
+        .lines()
+        .enumerate()
+        .find_map(|(row, line)| {
+            let line = line.strip_prefix('"').unwrap_or(line);
+            let at = line.find(needle)?;
+            Some((line[..at].chars().count() as u16, row as u16))
+        })
+        .unwrap_or_else(|| panic!("{needle:?} is not on the screen:\n{screen}"))
+}
+
+/// The mouse at (`column`, `row`): a left click, or a wheel notch.
+fn mouse(h: &mut Harness, kind: crossterm::event::MouseEventKind, (column, row): (u16, u16)) {
+    let cmds = h.app.update(Msg::Mouse(crossterm::event::MouseEvent {
+        kind,
+        column,
+        row,
+        modifiers: KeyModifiers::NONE,
+    }));
+    h.run(cmds);
+}
+
+fn click(h: &mut Harness, at: (u16, u16)) {
+    use crossterm::event::{MouseButton, MouseEventKind};
+    mouse(h, MouseEventKind::Down(MouseButton::Left), at);
+}
+
+#[test]
+fn a_click_on_a_tab_of_a_narrow_terminal_focuses_that_pane() {
+    let mut h = Harness::new((80, 24), None, false, unavailable());
+    assert_eq!(h.app.focus, Pane::Plan);
+    for pane in [Pane::Scores, Pane::Description, Pane::Scene, Pane::Plan] {
+        let at = where_is(&h.screen(), &pane.tab());
+        click(&mut h, (at.0 + 1, at.1));
+        assert_eq!(h.app.focus, pane);
+        assert!(
+            h.screen().contains(&format!("┏ {}", pane.title())),
+            "{pane:?}"
+        );
+    }
+}
+
+#[test]
+fn a_click_on_an_agents_tab_in_the_prompt_pane_shows_its_prompt() {
+    use mapvlm::agents::AgentRole;
+    let mut h = Harness::new((200, 60), None, false, unavailable());
+    assert_eq!(h.app.panes.prompt.agent, AgentRole::Skm);
+    let at = where_is(&h.screen(), " 2 GKM ");
+    click(&mut h, (at.0 + 2, at.1));
+    assert_eq!(h.app.focus, Pane::Prompt);
+    assert_eq!(h.app.panes.prompt.agent, AgentRole::Gkm);
+    let at = where_is(&h.screen(), " 3 Planner ");
+    click(&mut h, (at.0 + 9, at.1));
+    assert_eq!(h.app.panes.prompt.agent, AgentRole::Planner);
+    // A click on the body selects no agent.
+    click(&mut h, (at.0 + 9, at.1 + 3));
+    assert_eq!(h.app.panes.prompt.agent, AgentRole::Planner);
+}
+
+#[test]
+fn pickers_take_a_click_to_select_a_second_to_choose_and_the_wheel_to_move() {
+    use crossterm::event::MouseEventKind;
+    use mapvlm::workbench::overlays::Overlay;
+    let mut h = Harness::new((120, 40), None, false, unavailable());
+    h.keys("g");
+    let screen = h.screen();
+    let b = where_is(&screen, "Demo: annotator B's ground truth");
+    click(&mut h, b);
+    assert!(matches!(h.app.overlay, Some(Overlay::GroundTruthPicker(_))));
+    assert!(h.app.panes.ground_truth.items[0].starts_with("Turn right"));
+    // The wheel moves the selection up to A and back down to B.
+    mouse(&mut h, MouseEventKind::ScrollUp, b);
+    mouse(&mut h, MouseEventKind::ScrollDown, b);
+    click(&mut h, b);
+    assert!(h.app.overlay.is_none());
+    assert_eq!(
+        h.app.work.ground_truth_source,
+        mapvlm::workbench::session::GroundTruthSource::Demo { index: 1 }
+    );
+    // The corruption picker: a click on a kind selects it, a second
+    // corrupts with it.
+    h.keys("c");
+    let drop = where_is(&h.screen(), "one step is removed");
+    click(&mut h, drop);
+    assert!(h.app.overlay.is_some());
+    click(&mut h, drop);
+    assert!(h.app.overlay.is_none());
+    assert!(
+        h.app
+            .messages
+            .log
+            .iter()
+            .any(|m| m.text == "corrupting the plan: drop…"),
+        "{:?}",
+        h.app.messages.log
+    );
+}
+
+#[test]
+fn the_run_history_takes_a_click_on_a_run_and_loads_its_plan_on_a_second() {
+    use crossterm::event::MouseEventKind;
+    use mapvlm::workbench::overlays::Overlay;
+    use mapvlm::workbench::session::PlanSource;
+    let mut h = Harness::new((160, 50), None, false, unavailable());
+    // A second run: every agent again.
+    h.keys("R");
+    assert_eq!(h.app.runs.history.len(), 2);
+    h.keys("H");
+    let screen = h.screen();
+    let first = where_is(&screen, "#1 ");
+    click(&mut h, first);
+    assert!(matches!(h.app.overlay, Some(Overlay::Runs(_))));
+    click(&mut h, first);
+    assert!(h.app.overlay.is_none());
+    assert_eq!(h.app.work.plan_source, PlanSource::Run { run: 1 });
+    // The wheel moves the history's selection.
+    h.keys("H");
+    mouse(&mut h, MouseEventKind::ScrollUp, first);
+    h.key(KeyCode::Enter);
+    assert_eq!(h.app.work.plan_source, PlanSource::Run { run: 1 });
+}
+
+#[test]
+fn the_wheel_scrolls_the_help_and_a_click_closes_it() {
+    use crossterm::event::MouseEventKind;
+    let mut h = Harness::new((80, 24), None, false, unavailable());
+    h.keys("?");
+    let top = h.screen();
+    mouse(&mut h, MouseEventKind::ScrollDown, (40, 12));
+    let scrolled = h.screen();
+    assert_ne!(top, scrolled);
+    assert!(h.app.overlay.is_some());
+    click(&mut h, (40, 12));
+    assert!(h.app.overlay.is_none());
 }

@@ -4,7 +4,7 @@
 
 use std::convert::Infallible;
 
-use crossterm::event::KeyEvent;
+use crossterm::event::{KeyEvent, MouseEvent};
 use ratatui::layout::Rect;
 use ratatui::text::{Line, Span};
 use ratatui::widgets::Clear;
@@ -68,6 +68,12 @@ impl Component for ActionsView {
     }
 
     fn on_other_key(&mut self, _key: KeyEvent) -> Self::Outcome {
+        Picked::Open
+    }
+
+    /// The wheel scrolls; a click changes nothing.
+    fn on_mouse(&mut self, mouse: MouseEvent, _area: Rect) -> Self::Outcome {
+        self.on_wheel(&mouse);
         Picked::Open
     }
 

@@ -2,7 +2,7 @@
 //! corrupted on a blocking task into a new run, which is scored at once so
 //! the scores' reaction is seen.
 
-use crossterm::event::KeyEvent;
+use crossterm::event::{KeyEvent, MouseEvent};
 use ratatui::layout::Rect;
 use ratatui::text::{Line, Span};
 use ratatui::widgets::{Clear, Paragraph};
@@ -12,7 +12,7 @@ use crate::corrupt::Kind;
 use crate::workbench::component::Component;
 use crate::workbench::corrupting::{CorruptRequest, Corrupted};
 use crate::workbench::keymap::{Action, Context};
-use crate::workbench::overlays::{centred, moved, themed_box, Picked};
+use crate::workbench::overlays::{list_box, list_mouse, moved, themed_box, Picked};
 use crate::workbench::runs::Runs;
 use crate::workbench::session::{CorruptedFrom, RunRecord, RunState};
 use crate::workbench::shared::unix_now;
@@ -103,6 +103,9 @@ pub fn corrupted_run(corrupted: Corrupted, work: &Workspace, ground_truth: &[Str
     }
 }
 
+/// How wide the corruption picker's box is.
+const PICKER_WIDTH: u16 = 80;
+
 /// The corruption picker (`c`): every kind and what it does, one
 /// highlighted.
 #[derive(Debug, Clone, Default)]
@@ -135,10 +138,22 @@ impl Component for CorruptPicker {
         Picked::Open
     }
 
+    /// A click selects a row, a click on the selected row chooses it, the
+    /// wheel moves the selection.
+    fn on_mouse(&mut self, mouse: MouseEvent, area: Rect) -> Self::Outcome {
+        let (selected, action) =
+            list_mouse(&mouse, area, PICKER_WIDTH, Kind::ALL.len(), self.selected);
+        self.selected = selected;
+        self.on_action(action)
+    }
+
     fn draw(&self, frame: &mut Frame, area: Rect, theme: &Theme) {
+        let (rect, first, count) = list_box(area, PICKER_WIDTH, Kind::ALL.len(), self.selected);
         let lines: Vec<Line> = Kind::ALL
             .iter()
             .enumerate()
+            .skip(first)
+            .take(count)
             .map(|(i, &kind)| {
                 let chosen = i == self.selected;
                 let style = if chosen { theme.selection } else { theme.base };
@@ -148,7 +163,6 @@ impl Component for CorruptPicker {
                 ])
             })
             .collect();
-        let rect = centred(area, 80, lines.len() as u16 + 2);
         frame.render_widget(Clear, rect);
         frame.render_widget(
             Paragraph::new(lines).block(themed_box(theme, "Corrupt the plan into a new run")),

@@ -3,7 +3,7 @@
 
 use std::convert::Infallible;
 
-use crossterm::event::KeyEvent;
+use crossterm::event::{KeyEvent, MouseEvent, MouseEventKind};
 use ratatui::layout::Rect;
 use ratatui::text::{Line, Span};
 use ratatui::widgets::Clear;
@@ -67,6 +67,16 @@ impl Component for Help {
 
     fn on_other_key(&mut self, _key: KeyEvent) -> Self::Outcome {
         Picked::Cancelled
+    }
+
+    /// The wheel scrolls; a click closes the help, as any key but the
+    /// scrolling ones does.
+    fn on_mouse(&mut self, mouse: MouseEvent, _area: Rect) -> Self::Outcome {
+        if self.on_wheel(&mouse) || !matches!(mouse.kind, MouseEventKind::Down(_)) {
+            Picked::Open
+        } else {
+            Picked::Cancelled
+        }
     }
 
     fn draw(&self, frame: &mut Frame, area: Rect, theme: &Theme) {

@@ -12,19 +12,21 @@ pub mod pickers;
 pub mod prompt_sets;
 pub mod runs;
 
-use ratatui::layout::Rect;
+use crossterm::event::{MouseButton, MouseEvent, MouseEventKind};
+use ratatui::layout::{Margin, Position, Rect};
 use ratatui::text::Span;
 use ratatui::widgets::{Block, Borders, Clear};
 use ratatui::Frame;
 
-use crate::workbench::component::Component;
-use crate::workbench::keymap::Context;
+use crate::workbench::component::{wheel_step, Component};
+use crate::workbench::keymap::{Action, Context};
 use crate::workbench::overlays::actions::ActionsView;
 use crate::workbench::overlays::corrupt::CorruptPicker;
 use crate::workbench::overlays::help::Help;
 use crate::workbench::overlays::model_form::ModelForm;
 use crate::workbench::overlays::pickers::{GroundTruthPicker, PathPrompt};
 use crate::workbench::overlays::prompt_sets::{SetName, SetPicker};
+use crate::workbench::panes::list_window;
 use crate::workbench::scroll::ScrolledBox;
 use crate::workbench::theme::Theme;
 
@@ -109,6 +111,45 @@ pub(crate) fn centred(area: Rect, width: u16, height: u16) -> Rect {
         w,
         h,
     )
+}
+
+/// A list of `len` rows in a box `width` wide and at most `len + 2` tall,
+/// centred in `area`, `selected` kept in view: the box, the first row
+/// shown and how many are. Drawing and the mouse share it, so a click
+/// lands on the row drawn where it is.
+pub(crate) fn list_box(
+    area: Rect,
+    width: u16,
+    len: usize,
+    selected: usize,
+) -> (Rect, usize, usize) {
+    let rect = centred(area, width, u16::try_from(len + 2).unwrap_or(u16::MAX));
+    let (first, count) = list_window(selected, len, 1, usize::from(rect.height.saturating_sub(2)));
+    (rect, first, count)
+}
+
+/// What the mouse does to a list drawn by [`list_box`] (`width` wide,
+/// `len` rows, `selected` highlighted): the row selected after it and the
+/// action to carry out. A click on a row selects it, a click on the
+/// selected row chooses it (Enter), the wheel moves as ↓ and ↑ do.
+pub(crate) fn list_mouse(
+    mouse: &MouseEvent,
+    area: Rect,
+    width: u16,
+    len: usize,
+    selected: usize,
+) -> (usize, Action) {
+    let (rect, first, count) = list_box(area, width, len, selected);
+    let inner = rect.inner(Margin::new(1, 1));
+    let clicked = (mouse.kind == MouseEventKind::Down(MouseButton::Left)
+        && inner.contains(Position::new(mouse.column, mouse.row)))
+    .then(|| first + usize::from(mouse.row - inner.y))
+    .filter(|&row| row < first + count);
+    match clicked {
+        Some(row) if row == selected => (row, Action::Accept),
+        Some(row) => (row, Action::Move(0)),
+        None => (selected, Action::Move(wheel_step(mouse))),
+    }
 }
 
 /// The frame of an overlay, titled `title`, in `theme`'s colours.

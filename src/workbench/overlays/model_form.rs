@@ -311,6 +311,7 @@ pub fn agent_in_question(messages: &Messages, focus: Pane, shown: AgentRole) -> 
 mod tests {
     use super::*;
     use crate::workbench::app::{App, AppInit};
+    use crate::workbench::component::Input;
     use crate::workbench::overlays::Overlay;
     use crate::workbench::shared::Severity;
     use crossterm::event::{KeyCode, KeyModifiers};
@@ -325,7 +326,7 @@ mod tests {
         let Some(Overlay::ModelForm(form)) = app.overlay.take() else {
             panic!("the model form is not open");
         };
-        app.on_model_form_key(form, KeyEvent::new(code, modifiers));
+        app.on_model_form_input(form, &Input::Key(KeyEvent::new(code, modifiers)));
     }
 
     /// Replaces the text of field `index` with `text`.

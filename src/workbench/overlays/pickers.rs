@@ -4,7 +4,7 @@
 
 use std::path::PathBuf;
 
-use crossterm::event::KeyEvent;
+use crossterm::event::{KeyEvent, MouseEvent};
 use ratatui::layout::Rect;
 use ratatui::text::{Line, Span};
 use ratatui::widgets::{Clear, Paragraph};
@@ -13,8 +13,7 @@ use ratatui_textarea::TextArea;
 
 use crate::workbench::component::Component;
 use crate::workbench::keymap::{Action, Context};
-use crate::workbench::overlays::{centred, moved, open_box, themed_box, Picked};
-use crate::workbench::panes::list_window;
+use crate::workbench::overlays::{list_box, list_mouse, moved, open_box, themed_box, Picked};
 use crate::workbench::session::GroundTruthSource;
 use crate::workbench::theme::Theme;
 use crate::workbench::workspace::Workspace;
@@ -31,6 +30,9 @@ pub enum GroundTruthChoice {
     /// Type a new one.
     Typed,
 }
+
+/// How wide the ground-truth picker's box is.
+const PICKER_WIDTH: u16 = 90;
 
 /// The ground-truth picker (`g`): the choices with their labels, one
 /// highlighted.
@@ -127,10 +129,22 @@ impl Component for GroundTruthPicker {
         Picked::Open
     }
 
+    /// A click selects a row, a click on the selected row chooses it, the
+    /// wheel moves the selection.
+    fn on_mouse(&mut self, mouse: MouseEvent, area: Rect) -> Self::Outcome {
+        let (selected, action) = list_mouse(
+            &mouse,
+            area,
+            PICKER_WIDTH,
+            self.choices.len(),
+            self.selected,
+        );
+        self.selected = selected;
+        self.on_action(action)
+    }
+
     fn draw(&self, frame: &mut Frame, area: Rect, theme: &Theme) {
-        let rect = centred(area, 90, self.choices.len() as u16 + 2);
-        let inner_height = rect.height.saturating_sub(2) as usize;
-        let (first, count) = list_window(self.selected, self.choices.len(), 1, inner_height);
+        let (rect, first, count) = list_box(area, PICKER_WIDTH, self.choices.len(), self.selected);
         let lines: Vec<Line> = self
             .choices
             .iter()

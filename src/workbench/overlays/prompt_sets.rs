@@ -4,7 +4,7 @@
 //! ([`Cmd::SavePromptSet`], [`Cmd::ListPromptSets`], [`Cmd::LoadPromptSet`]);
 //! their layout is [`crate::agents::prompt_sets`]'.
 
-use crossterm::event::KeyEvent;
+use crossterm::event::{KeyEvent, MouseEvent};
 use ratatui::layout::{Constraint, Layout, Rect};
 use ratatui::text::{Line, Span};
 use ratatui::widgets::{Clear, Paragraph};
@@ -14,8 +14,7 @@ use ratatui_textarea::TextArea;
 use crate::agents::prompt_sets::check_name;
 use crate::workbench::component::Component;
 use crate::workbench::keymap::{Action, Context};
-use crate::workbench::overlays::{centred, moved, themed_box, Picked};
-use crate::workbench::panes::list_window;
+use crate::workbench::overlays::{centred, list_box, list_mouse, moved, themed_box, Picked};
 use crate::workbench::shared::single_line_editor;
 use crate::workbench::theme::Theme;
 
@@ -108,6 +107,15 @@ impl SetPicker {
         }
     }
 
+    /// How wide its box is: wider while it asks about unsaved edits.
+    fn width(&self) -> u16 {
+        if self.armed.is_some() {
+            80
+        } else {
+            60
+        }
+    }
+
     /// Whether choosing `name` loads it now: at once when no prompt edit
     /// is unsaved (`unsaved`), else when it is chosen a second time (the
     /// first arms it, and the picker asks before the edits are lost).
@@ -147,20 +155,25 @@ impl Component for SetPicker {
         SetOutcome::Open
     }
 
+    /// A click selects a row, a click on the selected row chooses it, the
+    /// wheel moves the selection.
+    fn on_mouse(&mut self, mouse: MouseEvent, area: Rect) -> Self::Outcome {
+        let (selected, action) =
+            list_mouse(&mouse, area, self.width(), self.names.len(), self.selected);
+        self.selected = selected;
+        self.on_action(action)
+    }
+
     fn draw(&self, frame: &mut Frame, area: Rect, theme: &Theme) {
-        let (title, width) = match &self.armed {
-            Some(_) => (
-                "The prompts have unsaved edits: Enter again discards them, Esc keeps them",
-                80,
-            ),
-            None => ("Load a prompt set (Enter loads)", 60),
+        let title = match &self.armed {
+            Some(_) => "The prompts have unsaved edits: Enter again discards them, Esc keeps them",
+            None => "Load a prompt set (Enter loads)",
         };
-        let rect = centred(area, width, self.names.len() as u16 + 2);
+        let (rect, first, count) = list_box(area, self.width(), self.names.len(), self.selected);
         frame.render_widget(Clear, rect);
         let block = themed_box(theme, title);
         let inner = block.inner(rect);
         frame.render_widget(block, rect);
-        let (first, count) = list_window(self.selected, self.names.len(), 1, inner.height.into());
         let lines: Vec<Line> = self
             .names
             .iter()

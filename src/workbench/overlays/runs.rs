@@ -5,8 +5,8 @@
 
 use std::cell::Cell;
 
-use crossterm::event::KeyEvent;
-use ratatui::layout::{Constraint, Layout, Rect};
+use crossterm::event::{KeyEvent, MouseButton, MouseEvent, MouseEventKind};
+use ratatui::layout::{Constraint, Layout, Position, Rect};
 use ratatui::text::{Line, Span};
 use ratatui::widgets::{Clear, Paragraph, Sparkline};
 use ratatui::Frame;
@@ -14,14 +14,14 @@ use ratatui::Frame;
 use crate::agents::cost::PriceTable;
 use crate::metrics::shown;
 use crate::stats::summary::Spread;
-use crate::workbench::component::Component;
+use crate::workbench::component::{wheel_step, Component};
 use crate::workbench::keymap::{Action, Context};
 use crate::workbench::overlays::diff_page::{diff_lines, wrap};
 use crate::workbench::overlays::{centred, moved, themed_box};
 use crate::workbench::panes::list_window;
 use crate::workbench::run_diff::{agent_side, cost_text, run_cost, ReadMetric, RunDiff, METRICS};
 use crate::workbench::runs::mean_score;
-use crate::workbench::scroll;
+use crate::workbench::scroll::{self, WHEEL_LINES};
 use crate::workbench::session::{RunRecord, RunState};
 use crate::workbench::theme::Theme;
 
@@ -33,6 +33,9 @@ pub struct RunsOverlay {
     selected: usize,
     marked: Option<usize>,
     diff: Option<DiffPage>,
+    /// Where the table's rows were drawn last (below its header) and the
+    /// index of the run on the first, for the mouse.
+    rows_drawn: Cell<(Rect, usize)>,
 }
 
 /// An open diff and how far it is scrolled.
@@ -67,6 +70,7 @@ impl RunsOverlay {
             selected: runs.len().saturating_sub(1),
             marked: None,
             diff: None,
+            rows_drawn: Cell::new((Rect::default(), 0)),
         }
     }
 
@@ -238,6 +242,12 @@ impl RunsOverlay {
             1,
             usize::from(table.height.saturating_sub(1)),
         );
+        let rows = Rect {
+            y: table.y + 1,
+            height: table.height.saturating_sub(1),
+            ..table
+        };
+        self.rows_drawn.set((rows, first));
         for (i, r) in self.runs.iter().enumerate().skip(first).take(count) {
             let mean = |of: ReadMetric| mean_score(r, of);
             let mark = if self.marked == Some(i) { "● " } else { "  " };
@@ -349,6 +359,29 @@ impl Component for RunsOverlay {
 
     fn on_other_key(&mut self, _key: KeyEvent) -> RunsOutcome {
         RunsOutcome::Stay
+    }
+
+    /// In the history a click selects a run and a click on the selected
+    /// one loads its plan; the wheel moves the selection, or scrolls the
+    /// diff.
+    fn on_mouse(&mut self, mouse: MouseEvent, _area: Rect) -> RunsOutcome {
+        let step = wheel_step(&mouse);
+        if self.diff.is_some() {
+            return self.on_action(Action::Move(step * WHEEL_LINES));
+        }
+        let (rows, first) = self.rows_drawn.get();
+        let clicked = (mouse.kind == MouseEventKind::Down(MouseButton::Left)
+            && rows.contains(Position::new(mouse.column, mouse.row)))
+        .then(|| first + usize::from(mouse.row - rows.y))
+        .filter(|&i| i < self.runs.len());
+        match clicked {
+            Some(i) if i == self.selected => self.on_action(Action::Accept),
+            Some(i) => {
+                self.selected = i;
+                RunsOutcome::Stay
+            }
+            None => self.on_action(Action::Move(step)),
+        }
     }
 
     fn draw(&self, frame: &mut Frame, area: Rect, theme: &Theme) {

@@ -126,10 +126,7 @@ pub(crate) fn draw(frame: &mut Frame, app: &Shared, area: Rect) {
         } else {
             t.base
         };
-        tabs.push(Span::styled(
-            format!(" {} {} ", i + 1, agent.label()),
-            style,
-        ));
+        tabs.push(Span::styled(agent_tab(i, *agent), style));
     }
     if let Some(v) = app.runs.agents.get(&app.panes.prompt.agent) {
         tabs.push(Span::styled(
@@ -196,6 +193,30 @@ fn run_state(app: &Shared) -> (&'static str, bool) {
 
 /// The footer of an agent whose output is its prompt's: the pane's keys.
 const IDLE_HINTS: &str = "Enter edits · ←/→ agent · m provider and model";
+
+/// The tab of the agent at `position` of the approach.
+fn agent_tab(position: usize, agent: AgentRole) -> String {
+    format!(" {} {} ", position + 1, agent.label())
+}
+
+/// The agent whose tab a click at (`column`, `row`) lands on, in the
+/// Prompt pane drawn in `area`.
+pub(crate) fn agent_at(app: &Shared, area: Rect, column: u16, row: u16) -> Option<AgentRole> {
+    let inner = pane_block(app, Pane::Prompt, None, area.width).inner(area);
+    let [tab_row, _, _] = parts(app, inner);
+    if row != tab_row.y {
+        return None;
+    }
+    let mut at = usize::from(tab_row.x);
+    for (i, &agent) in app.work.approach.roles().iter().enumerate() {
+        let end = at + agent_tab(i, agent).len();
+        if (at..end).contains(&usize::from(column)) {
+            return Some(agent);
+        }
+        at = end;
+    }
+    None
+}
 
 /// The pane's inside cut into the agent tabs, the prompt's body and the
 /// footer (three lines when there is a provider note).
