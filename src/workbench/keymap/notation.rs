@@ -23,7 +23,7 @@ const MAX_KEYS: usize = 4;
 /// The keys of one row, parsed from the table's notation, in the order
 /// written (the first is the one a status-bar hint names).
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
-pub struct Keys {
+pub(super) struct Keys {
     list: [Key; MAX_KEYS],
     len: usize,
 }
@@ -31,7 +31,7 @@ pub struct Keys {
 impl Keys {
     /// The keys `notation` names (see the module's documentation). Called
     /// in constants, so that a notation it cannot read stops the build.
-    pub const fn parse(notation: &str) -> Keys {
+    pub(super) const fn parse(notation: &str) -> Keys {
         let bytes = notation.as_bytes();
         let unused = Key {
             code: KeyCode::Null,
@@ -62,7 +62,7 @@ impl Keys {
     }
 
     /// The keys, in the order written.
-    pub fn as_slice(&self) -> &[Key] {
+    pub(super) fn as_slice(&self) -> &[Key] {
         &self.list[..self.len.min(MAX_KEYS)]
     }
 }
@@ -176,7 +176,7 @@ impl fmt::Display for Key {
 /// `keys` as one label: separated by spaces, an arrow right after an
 /// arrow joined to it (`↑↓`), and three or more digits in a row written
 /// as a range (`1–5`).
-pub fn label(keys: &[Key]) -> String {
+pub(super) fn label(keys: &[Key]) -> String {
     let mut out = String::new();
     let mut i = 0;
     while let Some(key) = keys.get(i) {
