@@ -16,7 +16,7 @@ use mapvlm::workbench::agents::AgentsPipeline;
 use mapvlm::workbench::app::{App, AppInit};
 use mapvlm::workbench::graphics::Graphics;
 use mapvlm::workbench::headless::Headless;
-use mapvlm::workbench::keymap::{self, Action, Binding, Context, BINDINGS};
+use mapvlm::workbench::keymap::{self, Action, Context, BINDINGS};
 use mapvlm::workbench::message::{Cmd, Msg};
 use mapvlm::workbench::panes::Pane;
 use mapvlm::workbench::scoring::{ModelSlot, Pg2sOutcome};
@@ -410,39 +410,91 @@ fn help_pages(h: &mut Harness) -> Vec<String> {
     }
 }
 
-/// Every key of the key table is in the help, whole, at 120×40 and at
-/// 80×24 (scrolled there), and a key besides the scroll keys closes it.
+/// Every binding of the workbench's key table is in the help under the
+/// title of its context, its keys then the start of what it does, and
+/// every word of that whole: at 120×40, at 80×24 (scrolled there) and at
+/// 200×60. A key the help does not bind closes it.
 #[test]
 fn help_lists_every_key() {
-    let workbench = |b: &&Binding| !b.context.is_overlay() && !b.context.is_annotate();
-    for size in [(120, 40), (80, 24)] {
+    for size in [(120, 40), (80, 24), (200, 60)] {
         let mut h = Harness::new(size, None, false, unavailable());
         let pages = help_pages(&mut h);
         if size == (120, 40) {
             insta::assert_snapshot!("help_120x40", pages[0]);
-        } else {
+        } else if size == (80, 24) {
             assert!(pages.len() > 1, "80×24 needs scrolling");
             assert!(pages[1].contains("↑ "), "{}", pages[1]);
         }
-        let all = pages.join("\n");
-        for binding in BINDINGS.iter().filter(workbench) {
-            assert!(
-                all.contains(binding.label),
-                "{} not in the help at {size:?}",
-                binding.label
-            );
-            // Each word of the description is on some page: nothing cut.
-            for word in binding.help.split_whitespace() {
+        // Each line with its runs of blanks made one: the keys column and
+        // the text beside it read as "keys text".
+        let lines: Vec<String> = pages
+            .iter()
+            .flat_map(|p| p.lines())
+            .map(|l| l.split_whitespace().collect::<Vec<_>>().join(" "))
+            .collect();
+        let all = lines.join("\n");
+        for section in keymap::help_sections(&keymap::workbench_contexts()) {
+            let title = section.context.title();
+            assert!(all.contains(title), "{title} not in the help at {size:?}");
+            for binding in section.rows {
+                let label = binding.label();
+                let first = binding.help.split_whitespace().next().unwrap_or_default();
                 assert!(
-                    all.contains(word),
-                    "{word} of {} cut at {size:?}",
-                    binding.label
+                    lines
+                        .iter()
+                        .any(|l| l.contains(&format!("{label} {first}"))),
+                    "{label} then {first} not in the help at {size:?}"
                 );
+                // Each word of the description is on some page: nothing cut.
+                for word in binding.help.split_whitespace() {
+                    assert!(all.contains(word), "{word} of {label} cut at {size:?}");
+                }
             }
         }
         h.key(KeyCode::Char('x'));
-        assert!(!h.screen().contains("any other key closes"));
+        assert!(!h.screen().contains("Keys ("), "x closes the help");
     }
+}
+
+/// `/` in the help filters it by the words typed: only the rows found with
+/// them stay, under their section's title; Enter keeps the filter to
+/// scroll it, Esc drops it.
+#[test]
+fn the_help_filters_by_words_typed_in_it() {
+    let mut h = Harness::new((120, 40), None, false, unavailable());
+    h.key(KeyCode::Char('?'));
+    let whole = h.screen();
+    assert!(whole.contains("Any pane"), "{whole}");
+    h.keys("/diff");
+    assert_eq!(h.app.key_context(), Context::HelpFilter);
+    let found = h.screen();
+    assert!(found.contains("Keys with: diff"), "{found}");
+    assert!(
+        found.contains("Run history") && found.contains("d c"),
+        "{found}"
+    );
+    assert!(found.contains("diff the marked run"), "{found}");
+    assert!(!found.contains("the session is saved"), "{found}");
+    h.key(KeyCode::Enter);
+    assert_eq!(h.app.key_context(), Context::Help);
+    let kept = h.screen();
+    assert!(kept.contains("Keys with \"diff\""), "{kept}");
+    assert!(!kept.contains("the session is saved"), "{kept}");
+    h.key(KeyCode::Char('/'));
+    h.keys("qqqq");
+    assert!(
+        h.screen().contains("no key is found"),
+        "q is typed, not quit"
+    );
+    h.key(KeyCode::Esc);
+    assert_eq!(h.app.key_context(), Context::Help);
+    assert!(
+        h.screen().contains("the session is saved"),
+        "Esc drops the filter"
+    );
+    h.key(KeyCode::Esc);
+    assert!(!h.app.quit);
+    assert!(!h.screen().contains("Keys ("), "Esc closes the help");
 }
 
 #[test]
@@ -783,7 +835,7 @@ fn state_for(context: Context, action: Action, warm: bool) -> Harness {
                 h.key(KeyCode::Enter);
             }
             Context::Prompt => h.key(KeyCode::Right),
-            Context::Search | Context::Help | Context::Viewer => {}
+            Context::Search | Context::Help | Context::HelpFilter | Context::Viewer => {}
             _ => {
                 h.keys("/the");
                 h.key(KeyCode::Enter);
@@ -843,13 +895,16 @@ fn open_overlay(h: &mut Harness, context: Context, warm: bool) {
                 h.key(KeyCode::Home);
             }
         }
-        Context::Help => {
+        Context::Help | Context::HelpFilter => {
             // At 80×24 the help is longer than the screen.
             let cmds = h.app.update(Msg::Resize(80, 24));
             h.run(cmds);
             h.key(KeyCode::Char('?'));
             if warm {
                 h.key(KeyCode::End);
+            }
+            if context == Context::HelpFilter {
+                h.keys(if warm { "/o" } else { "/" });
             }
         }
         _ => return,
@@ -901,15 +956,32 @@ fn an_overlay_shows_all_its_keys_in_the_status_bar() {
         open_overlay(&mut h, context, false);
         let screen = h.screen();
         let status = screen.lines().last().unwrap_or_default();
-        for binding in BINDINGS.iter().filter(|b| b.context == context) {
-            let (key, hint) = binding.hint.unwrap();
+        for hint in keymap::hints_of(&[context]) {
             assert!(
-                status.contains(&format!("{key} {hint}")),
-                "{} not in the status bar of {context:?}: {status}",
-                binding.label
+                status.contains(&hint),
+                "{hint} not in the status bar of {context:?}: {status}"
             );
         }
+        // Every row of the overlay is among them by its first key.
+        for binding in BINDINGS.iter().filter(|b| b.context == context) {
+            let (Some(word), Some(key)) = (binding.hint, binding.keys().first()) else {
+                panic!("{} of {context:?} has no hint", binding.label());
+            };
+            assert!(status.contains(word) && status.contains(&key.to_string()));
+        }
     }
+}
+
+/// The contexts a key is looked up in with `h` as it is, the first that
+/// binds it winning: Ctrl-C's, then the open editor's, else the open
+/// overlay's, else the focused pane's (as `App::on_key` hands keys on).
+fn lookup_contexts(h: &Harness) -> Vec<Context> {
+    let inner = if h.app.is_editing() || h.app.overlay.is_some() {
+        vec![h.app.key_context()]
+    } else {
+        h.app.pane_contexts()
+    };
+    [Context::Always].into_iter().chain(inner).collect()
 }
 
 #[test]
@@ -917,34 +989,83 @@ fn every_key_in_the_key_table_is_handled() {
     // The annotation screen's keys are checked on that screen
     // (`workbench::annotate::key_table`).
     for binding in BINDINGS.iter().filter(|b| !b.context.is_annotate()) {
-        for &(key, action) in binding.keys {
-            let modifiers = if key.ctrl {
-                KeyModifiers::CONTROL
-            } else {
-                KeyModifiers::NONE
-            };
-            let event = KeyEvent::new(key.code, modifiers);
+        for &key in binding.keys() {
             let handled = [false, true].into_iter().any(|warm| {
-                let mut h = state_for(binding.context, action, warm);
-                let contexts: Vec<Context> = [Context::Always]
-                    .into_iter()
-                    .chain(match binding.context {
-                        Context::Always => vec![],
-                        Context::StepEditor | Context::PromptEditor | Context::Search => {
-                            vec![h.app.editing.context()]
-                        }
-                        c if OVERLAYS.contains(&c) => vec![h.app.key_context()],
-                        _ => h.app.pane_contexts(),
-                    })
-                    .collect();
-                keymap::action(&contexts, &event) == Some(action) && h.press_changes(event)
+                let mut h = state_for(binding.context, binding.action, warm);
+                let contexts = match binding.context {
+                    Context::Always => vec![Context::Always],
+                    _ => lookup_contexts(&h),
+                };
+                keymap::action(&contexts, &key.event()) == Some(binding.action)
+                    && h.press_changes(key.event())
             });
             assert!(
                 handled,
-                "{} ({:?} in {:?}) is in the key table but does nothing",
-                binding.label, key.code, binding.context
+                "{key} ({} in {:?}) is in the key table but does nothing",
+                binding.label(),
+                binding.context
             );
         }
+    }
+}
+
+/// No key of the workbench hides another unless its row says it means to:
+/// in every pane (the graph in both its views), editor and overlay, the
+/// contexts looked up together bind a key twice only where the winning
+/// row is marked as an override, and every row so marked overrides a key
+/// somewhere.
+#[test]
+fn no_key_is_hidden_by_another_unless_marked() {
+    let mut states: Vec<Harness> = Vec::new();
+    for pane in Pane::ALL {
+        let mut h = Harness::new((200, 60), None, false, unavailable());
+        h.focus(pane);
+        if pane == Pane::Graph {
+            let mut other = Harness::new((200, 60), None, false, unavailable());
+            other.focus(pane);
+            other.key(KeyCode::Char('v'));
+            states.push(other);
+        }
+        states.push(h);
+    }
+    for context in [
+        Context::StepEditor,
+        Context::PromptEditor,
+        Context::Search,
+        Context::HelpFilter,
+    ]
+    .into_iter()
+    .chain(OVERLAYS)
+    {
+        states.push(state_for(context, Action::Help, false));
+    }
+    let mut looked_up: Vec<Vec<Context>> = states.iter().map(lookup_contexts).collect();
+    looked_up.dedup();
+    let mut overriding = Vec::new();
+    for contexts in &looked_up {
+        for clash in keymap::clashes(contexts) {
+            assert!(
+                clash.wins.overrides,
+                "{} of {:?} hides {:?} in {contexts:?}: mark the row as an override or bind another key",
+                clash.key, clash.wins.context, clash.hidden.context
+            );
+            overriding.push(clash.wins.label());
+        }
+    }
+    for binding in BINDINGS.iter().filter(|b| b.overrides) {
+        assert!(
+            overriding.contains(&binding.label()),
+            "{} of {:?} is marked as an override but hides no key",
+            binding.label(),
+            binding.context
+        );
+    }
+    // Every context of the workbench was reached.
+    for context in keymap::workbench_contexts() {
+        assert!(
+            looked_up.iter().any(|c| c.contains(&context)),
+            "{context:?} never looked up"
+        );
     }
 }
 

@@ -9,6 +9,7 @@ use std::time::{Duration, Instant};
 
 use common::pty::Pty;
 use common::tmux::Tmux;
+use mapvlm::workbench::keymap::{self, Context};
 
 /// The tmux session each test runs mapvlm in.
 const E2E: &str = "e2e";
@@ -95,9 +96,9 @@ fn help_as_the_first_key_and_a_resize_drawn_at_once_without_halfblocks() {
     let tmux = start_with("first-help", dir.path(), &dir.path().join("s.json"), "");
     tmux.wait_for(E2E, "the first frame", first_frame);
     tmux.keys(E2E, &["?"]);
-    tmux.wait_for(E2E, "the help", |s| {
-        s.contains("PgUp PgDn scroll · any other key closes")
-    });
+    // The help's keys, as its title and the status bar show them.
+    let help_keys = keymap::hints(Context::Help);
+    tmux.wait_for(E2E, "the help", |s| s.contains(&help_keys));
     tmux.cmd(&["resize-window", "-t", E2E, "-x", "120", "-y", "40"]);
     // Redrawn for 120 columns: the rightmost pane closes in the last column.
     let start = Instant::now();
@@ -118,9 +119,7 @@ fn help_as_the_first_key_and_a_resize_drawn_at_once_without_halfblocks() {
     }
     // Esc and q sent together would read as Alt-q: wait for the help to close.
     tmux.keys(E2E, &["Escape"]);
-    tmux.wait_for(E2E, "the help to close", |s| {
-        !s.contains("PgUp PgDn scroll · any other key closes")
-    });
+    tmux.wait_for(E2E, "the help to close", |s| !s.contains(&help_keys));
     tmux.keys(E2E, &["q"]);
     assert_eq!(exit_status(dir.path()), "0");
 }

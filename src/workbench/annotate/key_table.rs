@@ -71,21 +71,11 @@ fn state_for(context: Context, warm: bool) -> Judging {
     s
 }
 
-fn event(code: KeyCode, ctrl: bool) -> KeyEvent {
-    let modifiers = if ctrl {
-        KeyModifiers::CONTROL
-    } else {
-        KeyModifiers::NONE
-    };
-    KeyEvent::new(code, modifiers)
-}
-
 #[test]
 fn every_annotation_key_in_the_key_table_is_handled() {
     let mut checked = 0;
     for binding in BINDINGS.iter().filter(|b| b.context.is_annotate()) {
-        for &(key, action) in binding.keys {
-            let pressed = event(key.code, key.ctrl);
+        for &key in binding.keys() {
             let contexts = match binding.context {
                 Context::Annotate => vec![Context::AnnotateRating, Context::AnnotatePairwise],
                 c => vec![c],
@@ -93,13 +83,13 @@ fn every_annotation_key_in_the_key_table_is_handled() {
             for context in contexts {
                 let handled = [false, true].into_iter().any(|warm| {
                     let mut s = state_for(context, warm);
-                    keymap::action(&s.contexts(), &pressed) == Some(action)
-                        && changes(&mut s, pressed)
+                    keymap::action(&s.contexts(), &key.event()) == Some(binding.action)
+                        && changes(&mut s, key.event())
                 });
                 assert!(
                     handled,
-                    "{} ({:?} in {context:?}) is in the key table but does nothing",
-                    binding.label, key.code
+                    "{key} ({} in {context:?}) is in the key table but does nothing",
+                    binding.label()
                 );
                 checked += 1;
             }
@@ -130,17 +120,48 @@ fn a_key_missing_from_the_key_table_does_nothing_on_the_annotation_screen() {
 
 #[test]
 fn the_workbench_help_leaves_the_annotation_keys_out() {
-    let workbench: Vec<&str> = keymap::help_lines().map(|(_, what)| what).collect();
+    let helps = |contexts: &[Context]| -> Vec<&str> {
+        keymap::help_sections(contexts)
+            .into_iter()
+            .flat_map(|s| s.rows)
+            .map(|b| b.help)
+            .collect()
+    };
+    let workbench = helps(&keymap::workbench_contexts());
     assert!(!workbench.iter().any(|w| w.contains("wrong object")));
-    let rating: Vec<&str> = keymap::help_lines_of(&[Context::AnnotateRating])
-        .map(|(_, what)| what)
-        .collect();
+    let rating = helps(&[Context::AnnotateRating]);
     assert!(rating.iter().any(|w| w.contains("wrong object")));
     assert_eq!(
         keymap::action(
             &[Context::AnnotatePairwise, Context::Annotate],
-            &event(KeyCode::Char('1'), false)
+            &KeyEvent::new(KeyCode::Char('1'), KeyModifiers::NONE)
         ),
         Some(Action::Prefer(crate::annotate::Preference::Left))
     );
+}
+
+#[test]
+fn no_key_of_the_annotation_screen_is_hidden_by_another() {
+    // The contexts the screen looks keys up in, in each of its modes (the
+    // reference plan shown or not): a key two of them bind is refused
+    // unless the row that wins is marked as an override.
+    let mut stacks = 0;
+    for context in BINDINGS
+        .iter()
+        .map(|b| b.context)
+        .filter(|c| c.is_annotate())
+    {
+        for warm in [false, true] {
+            let contexts = state_for(context, warm).contexts();
+            for clash in keymap::clashes(&contexts) {
+                assert!(
+                    clash.wins.overrides,
+                    "{} of {:?} hides {:?} in {contexts:?}",
+                    clash.key, clash.wins.context, clash.hidden.context
+                );
+            }
+            stacks += 1;
+        }
+    }
+    assert!(stacks >= 12, "{stacks}");
 }

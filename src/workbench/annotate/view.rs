@@ -23,7 +23,7 @@ use crate::annotate::order::Unit;
 use crate::annotate::{Preference, StepLabelKind};
 use crate::sanitize::for_terminal;
 use crate::workbench::keymap::{self, Context};
-use crate::workbench::overlays::help::key_rows;
+use crate::workbench::overlays::help::key_lines;
 use crate::workbench::scene_image;
 use crate::workbench::scroll::{self, wrap_hanging, Scroll, Wrapped};
 use crate::workbench::theme::Theme;
@@ -624,14 +624,11 @@ fn fitted(hints: Vec<String>, width: usize) -> String {
 /// The contexts whose keys the screen's help lists: its own, for the mode
 /// it is in (rating or pairwise), never the workbench's.
 fn help_contexts(screen: &Judging) -> Vec<Context> {
-    let mut contexts = vec![
-        Context::Always,
-        if screen.pairwise {
-            Context::AnnotatePairwise
-        } else {
-            Context::AnnotateRating
-        },
-    ];
+    let mut contexts = vec![if screen.pairwise {
+        Context::AnnotatePairwise
+    } else {
+        Context::AnnotateRating
+    }];
     if screen.show_gt {
         contexts.push(Context::AnnotateReference);
     }
@@ -639,6 +636,7 @@ fn help_contexts(screen: &Judging) -> Vec<Context> {
         Context::Annotate,
         Context::AnnotateNote,
         Context::AnnotateHelp,
+        Context::Always,
     ]);
     contexts
 }
@@ -673,8 +671,8 @@ fn help_lines(screen: &Judging, width: usize, theme: &Theme) -> Vec<Line<'static
     }
     lines.push(Line::default());
     lines.push(Line::from(Span::styled("Keys:", theme.title)));
-    lines.extend(key_rows(
-        keymap::help_lines_of(&help_contexts(screen)),
+    lines.extend(key_lines(
+        &keymap::help_sections(&help_contexts(screen)),
         width,
         theme,
     ));
@@ -710,7 +708,7 @@ fn draw_help(frame: &mut Frame, screen: &Judging, theme: &Theme, area: Rect) {
     frame.render_widget(Clear, rect);
     let block = framed(
         theme,
-        "Keys (↑↓ PgUp PgDn scroll · any other key closes)".into(),
+        format!("Keys ({})", keymap::hints(Context::AnnotateHelp)),
     )
     .border_style(theme.focus);
     scroll::render(
@@ -870,22 +868,29 @@ mod tests {
             } else {
                 Context::AnnotateRating
             };
-            for (keys, what) in
-                keymap::help_lines_of(&[judging, Context::Annotate, Context::AnnotateHelp])
-            {
-                let first_words: String = what
-                    .split_whitespace()
-                    .take(3)
-                    .collect::<Vec<_>>()
-                    .join(" ");
-                assert!(
-                    flat.contains(keys),
-                    "{keys} never shown (pairwise {pairwise})"
-                );
-                assert!(
-                    flat.contains(&first_words),
-                    "{what} never shown (pairwise {pairwise})"
-                );
+            let own = [judging, Context::Annotate, Context::AnnotateHelp];
+            for section in keymap::help_sections(&own) {
+                assert!(flat.contains(section.context.title()));
+                for row in section.rows {
+                    let first_words: String = row
+                        .help
+                        .split_whitespace()
+                        .take(3)
+                        .collect::<Vec<_>>()
+                        .join(" ");
+                    // The keys, then what they do.
+                    let shown = format!("{} {first_words}", row.label());
+                    assert!(
+                        flat.contains(&shown),
+                        "{shown} never shown (pairwise {pairwise})"
+                    );
+                }
+            }
+            let lower = flat.to_lowercase();
+            for word in [
+                "corrupt", "swap", "pg2s", "kas ", "s_plan", "s_goal", "score",
+            ] {
+                assert!(!lower.contains(word), "the help says {word}:\n{seen}");
             }
             assert!(
                 seen.contains("↓") && seen.contains("more"),

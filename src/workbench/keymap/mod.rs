@@ -1,8 +1,10 @@
-//! The one key table: every binding of the workbench declared once, with the
-//! context it applies in, the action it triggers and its help text. The key
-//! handlers look actions up here, and the help overlay and the status-bar
-//! hints are drawn from it, so a key cannot be handled without being shown,
-//! or shown without being handled (the `key_table` tests hold both ways).
+//! The one key table: every binding of the workbench and of the annotation
+//! screen declared once, a row a line (context, keys, action, help text,
+//! status-bar hint), its keys written in a small notation read at compile
+//! time. The key handlers look actions up here, and the helps and the
+//! status-bar hints are drawn from it, key labels included, so a key cannot
+//! be handled without being shown, or shown other than it is bound (the
+//! `key_table` tests hold both ways).
 
 use crossterm::event::{KeyCode, KeyEvent, KeyModifiers};
 
@@ -49,6 +51,8 @@ pub enum Context {
     RunDiff,
     /// The workbench's key help, open.
     Help,
+    /// Typing the words the workbench's key help is filtered by.
+    HelpFilter,
     /// The annotation screen, rating single plans or choosing between two.
     Annotate,
     /// The annotation screen rating single plans.
@@ -77,6 +81,7 @@ impl Context {
                 | Context::Viewer
                 | Context::RunDiff
                 | Context::Help
+                | Context::HelpFilter
         )
     }
 
@@ -108,7 +113,39 @@ impl Context {
             Context::Viewer => Some("VIEW"),
             Context::RunDiff => Some("DIFF"),
             Context::Help => Some("HELP"),
+            Context::HelpFilter => Some("FILTER keys"),
             _ => None,
+        }
+    }
+
+    /// The heading of this context's section in a help: where its keys
+    /// work, in the words the screen uses for it.
+    pub fn title(self) -> &'static str {
+        match self {
+            Context::Always => "Everywhere",
+            Context::Panes => "Any pane",
+            Context::Plan => "Plan pane",
+            Context::Steps => "Plan and Ground Truth panes",
+            Context::Graph => "Knowledge Graph, one node's neighbourhood",
+            Context::WholeGraph => "Knowledge Graph, the whole graph",
+            Context::Prompt => "Prompt pane",
+            Context::StepEditor => "Editing a step",
+            Context::PromptEditor => "Editing a prompt",
+            Context::Search => "Typing a search",
+            Context::Picker => "Choosing from a list (ground truth, corruption, prompt set)",
+            Context::History => "Run history",
+            Context::PathPrompt => "Step file path",
+            Context::ModelForm => "Model form",
+            Context::SetName => "Naming a prompt set",
+            Context::Viewer => "Framed actions and message log",
+            Context::RunDiff => "Diff of two runs",
+            Context::Help | Context::AnnotateHelp => "This help",
+            Context::HelpFilter => "Filtering this help",
+            Context::Annotate => "Any item",
+            Context::AnnotateRating => "Rating a plan",
+            Context::AnnotatePairwise => "Choosing between two plans",
+            Context::AnnotateNote => "Writing a note",
+            Context::AnnotateReference => "With the reference plan shown",
         }
     }
 }
@@ -240,7 +277,9 @@ pub enum Action {
     Undo,
 }
 
-/// A key as the table names it: a code, and whether Ctrl is held.
+/// A key as the table names it: a code, and whether Ctrl is held. Shown
+/// by its `Display` (`Tab`, `Shift-Tab`, `→`, `Ctrl-R`, `PgUp`, `space`),
+/// the one place a key's label is made.
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
 pub struct Key {
     /// The key.
@@ -259,26 +298,56 @@ impl Key {
             && self.ctrl == event.modifiers.contains(KeyModifiers::CONTROL)
             && !event.modifiers.contains(KeyModifiers::ALT)
     }
+
+    /// The event of pressing this key (no modifiers but Ctrl where the
+    /// table says): what the tests press for a row.
+    pub fn event(self) -> KeyEvent {
+        let modifiers = if self.ctrl {
+            KeyModifiers::CONTROL
+        } else {
+            KeyModifiers::NONE
+        };
+        KeyEvent::new(self.code, modifiers)
+    }
 }
 
-/// One line of the key help: keys, each with its action, in one context.
+/// One row of the key table: keys doing one action in one context, what
+/// the help says of it and the status bar's word for it.
 #[derive(Debug, Clone, Copy)]
 pub struct Binding {
     /// Where the keys apply.
     pub context: Context,
-    /// Each key and what it does.
-    pub keys: &'static [(Key, Action)],
-    /// The keys as the help shows them.
-    pub label: &'static str,
-    /// What they do, as the help says it.
+    /// The keys, parsed from the table's notation.
+    keys: Keys,
+    /// What the keys do.
+    pub action: Action,
+    /// What they do, as the help says it (never naming a key: the help
+    /// shows the row's keys beside it).
     pub help: &'static str,
-    /// The status-bar hint: the key and a word or two.
-    pub hint: Option<(&'static str, &'static str)>,
+    /// The status bar's word for the row, shown after its first key.
+    pub hint: Option<&'static str>,
+    /// Meant to win over the same key of a context active behind this one.
+    pub overrides: bool,
+}
+
+impl Binding {
+    /// The row's keys, in the order the table writes them.
+    pub fn keys(&self) -> &[Key] {
+        self.keys.as_slice()
+    }
+
+    /// The row's keys as the help shows them, made from the keys.
+    pub fn label(&self) -> String {
+        notation::label(self.keys())
+    }
 }
 
 mod annotate;
+mod notation;
 mod row;
 mod table;
+
+use notation::Keys;
 
 /// Every binding, the workbench's and the annotation screen's, in the order
 /// their helps list them: the one table every key is looked up in.
@@ -337,16 +406,19 @@ pub fn pressable_keys() -> Vec<KeyEvent> {
         .collect()
 }
 
-/// The action `event` triggers in the first of `contexts` that binds it.
-pub fn action(contexts: &[Context], event: &KeyEvent) -> Option<Action> {
+/// The row `event` triggers in the first of `contexts` that binds it.
+fn binding_of(contexts: &[Context], event: &KeyEvent) -> Option<&'static Binding> {
     contexts.iter().find_map(|&context| {
         BINDINGS
             .iter()
             .filter(|b| b.context == context)
-            .flat_map(|b| b.keys)
-            .find(|(key, _)| key.matches(event))
-            .map(|&(_, action)| action)
+            .find(|b| b.keys().iter().any(|key| key.matches(event)))
     })
+}
+
+/// The action `event` triggers in the first of `contexts` that binds it.
+pub fn action(contexts: &[Context], event: &KeyEvent) -> Option<Action> {
+    binding_of(contexts, event).map(|b| b.action)
 }
 
 /// The status-bar hints of `context`: "key hint" pairs joined by dots.
@@ -354,35 +426,90 @@ pub fn hints(context: Context) -> String {
     hints_of(&[context]).join(" · ")
 }
 
-/// The status-bar hints of every context of `contexts`, each "key hint",
-/// in table order.
+/// The status-bar hints of every context of `contexts`, each "keys word",
+/// in table order: a row's first key, and after it the first keys of the
+/// later rows with the same word (`↑↓ move`, `1–5 rate`).
 pub fn hints_of(contexts: &[Context]) -> Vec<String> {
-    BINDINGS
-        .iter()
-        .filter(|b| contexts.contains(&b.context))
-        .filter_map(|b| b.hint.map(|(key, hint)| format!("{key} {hint}")))
+    let mut hints: Vec<(&str, Vec<Key>)> = Vec::new();
+    for b in BINDINGS.iter().filter(|b| contexts.contains(&b.context)) {
+        let (Some(word), Some(&key)) = (b.hint, b.keys().first()) else {
+            continue;
+        };
+        match hints.iter_mut().find(|(w, _)| *w == word) {
+            Some((_, keys)) => keys.push(key),
+            None => hints.push((word, vec![key])),
+        }
+    }
+    hints
+        .into_iter()
+        .map(|(word, keys)| format!("{} {word}", notation::label(&keys)))
         .collect()
 }
 
-/// The workbench help's lines: the keys as shown and what they do, in table
-/// order. An overlay's keys are not among them (its status bar shows them
-/// all), nor the annotation screen's (its own help lists them).
-pub fn help_lines() -> impl Iterator<Item = (&'static str, &'static str)> {
-    BINDINGS
-        .iter()
-        .filter(|b| !b.context.is_overlay() && !b.context.is_annotate())
-        .map(|b| (b.label, b.help))
+/// One section of a help: the rows of one context, under its title.
+#[derive(Debug, Clone)]
+pub struct Section {
+    /// Where the rows work: the section's heading is its title.
+    pub context: Context,
+    /// The rows, in table order.
+    pub rows: Vec<&'static Binding>,
 }
 
-/// The help lines of the bindings of `contexts`, in table order: what a
-/// screen with exactly these contexts lists in its help.
-pub fn help_lines_of(
-    contexts: &[Context],
-) -> impl Iterator<Item = (&'static str, &'static str)> + '_ {
-    BINDINGS
+/// The help's sections for `contexts`, one a context that binds a key, in
+/// the order of `contexts`.
+pub fn help_sections(contexts: &[Context]) -> Vec<Section> {
+    contexts
         .iter()
-        .filter(|b| contexts.contains(&b.context))
-        .map(|b| (b.label, b.help))
+        .map(|&context| Section {
+            context,
+            rows: BINDINGS.iter().filter(|b| b.context == context).collect(),
+        })
+        .filter(|s| !s.rows.is_empty())
+        .collect()
+}
+
+/// Every context of the workbench (the annotation screen's left out: its
+/// own help lists them), in the order the key table first names them: the
+/// sections of the workbench's help.
+pub fn workbench_contexts() -> Vec<Context> {
+    let mut contexts: Vec<Context> = Vec::new();
+    for b in BINDINGS.iter().filter(|b| !b.context.is_annotate()) {
+        if !contexts.contains(&b.context) {
+            contexts.push(b.context);
+        }
+    }
+    contexts
+}
+
+/// A key bound in two of the contexts a key is looked up in together: the
+/// row that wins (the earlier context's) and the row it hides.
+#[derive(Debug, Clone, Copy)]
+pub struct Clash {
+    /// The key.
+    pub key: Key,
+    /// The row the key triggers.
+    pub wins: &'static Binding,
+    /// The row of a later context the key never reaches.
+    pub hidden: &'static Binding,
+}
+
+/// Every key of `contexts` (a lookup's contexts, the first winning) that a
+/// later context binds too: a key that does not do what its later row
+/// says. Meant where the winning row is marked [`Binding::overrides`], a
+/// mistake anywhere else (the tests walk every screen's contexts).
+pub fn clashes(contexts: &[Context]) -> Vec<Clash> {
+    let mut found = Vec::new();
+    for (i, &later) in contexts.iter().enumerate() {
+        for hidden in BINDINGS.iter().filter(|b| b.context == later) {
+            for &key in hidden.keys() {
+                let wins = binding_of(&contexts[..i], &key.event());
+                if let Some(wins) = wins {
+                    found.push(Clash { key, wins, hidden });
+                }
+            }
+        }
+    }
+    found
 }
 
 #[cfg(test)]
@@ -392,17 +519,62 @@ mod tests {
     #[test]
     fn no_key_is_bound_twice_in_one_context() {
         for (i, a) in BINDINGS.iter().enumerate() {
-            for b in &BINDINGS[i..] {
-                for (n, (ka, _)) in a.keys.iter().enumerate() {
-                    let skip = if std::ptr::eq(a, b) { n + 1 } else { 0 };
-                    for (kb, _) in b.keys.iter().skip(skip) {
-                        assert!(
-                            !(a.context == b.context && ka == kb),
-                            "{ka:?} is bound twice in {:?}",
-                            a.context
-                        );
-                    }
+            for (n, ka) in a.keys().iter().enumerate() {
+                let again = a.keys()[n + 1..].contains(ka)
+                    || BINDINGS[i + 1..]
+                        .iter()
+                        .any(|b| b.context == a.context && b.keys().contains(ka));
+                assert!(!again, "{ka} is bound twice in {:?}", a.context);
+            }
+        }
+    }
+
+    #[test]
+    fn the_help_label_of_each_row_is_its_keys() {
+        // The label is made from the keys; read back, it is those keys and
+        // no others, so the help cannot show one key and bind another.
+        for b in BINDINGS {
+            let label = b.label();
+            assert_eq!(
+                notation::tests::read_label(&label),
+                b.keys(),
+                "{label} ({:?})",
+                b.context
+            );
+        }
+    }
+
+    #[test]
+    fn no_help_text_names_a_key_by_hand() {
+        // Named keys only: a letter is a word too ("a", "o").
+        let named: Vec<String> = pressable_keys()
+            .into_iter()
+            .filter(|e| !matches!(e.code, KeyCode::Char(c) if c != ' '))
+            .map(|e| {
+                Key {
+                    code: e.code,
+                    ctrl: false,
                 }
+                .to_string()
+            })
+            .collect();
+        for b in BINDINGS {
+            let words: Vec<&str> = b
+                .help
+                .split(|c: char| !c.is_alphanumeric() && c != '-')
+                .collect();
+            for key in &named {
+                let names = if key.chars().all(char::is_alphanumeric) {
+                    words.contains(&key.as_str())
+                } else {
+                    b.help.contains(key.as_str())
+                };
+                assert!(
+                    !names && !b.help.contains("Ctrl-"),
+                    "the help of {} names the key {key}: {}",
+                    b.label(),
+                    b.help
+                );
             }
         }
     }
@@ -410,8 +582,48 @@ mod tests {
     #[test]
     fn every_overlay_binding_has_a_status_bar_hint() {
         for b in BINDINGS.iter().filter(|b| b.context.is_overlay()) {
-            assert!(b.hint.is_some(), "{} has no hint", b.label);
+            assert!(b.hint.is_some(), "{} has no hint", b.label());
         }
+    }
+
+    #[test]
+    fn a_hint_shows_the_first_key_of_each_row_with_its_word() {
+        assert_eq!(
+            hints(Context::Panes),
+            "? keys · Tab pane · r run · g ground truth · q quit"
+        );
+        assert_eq!(
+            hints(Context::History),
+            "↑↓ move · Enter loads the plan · space marks · d diffs · Esc closes"
+        );
+        let rating = hints_of(&[Context::AnnotateRating]);
+        assert_eq!(rating, ["1–5 rate", "↑↓ step", "o w a r m x ! label"]);
+    }
+
+    #[test]
+    fn a_clash_is_found_and_the_prompt_panes_are_marked() {
+        let prompt = clashes(&[Context::Prompt, Context::Panes]);
+        let shown: Vec<String> = prompt.iter().map(|c| c.key.to_string()).collect();
+        assert_eq!(shown, ["→", "l", "←", "h", "S"]);
+        assert!(prompt
+            .iter()
+            .all(|c| c.wins.overrides && !c.hidden.overrides));
+        // The same contexts the other way round: the panes' keys win, none
+        // of them marked.
+        let reversed = clashes(&[Context::Panes, Context::Prompt]);
+        assert_eq!(reversed.len(), prompt.len());
+        assert!(reversed.iter().all(|c| !c.wins.overrides));
+        assert!(clashes(&[Context::Always, Context::StepEditor]).is_empty());
+    }
+
+    #[test]
+    fn the_workbench_help_has_a_section_a_context_and_no_annotation_key() {
+        let sections = help_sections(&workbench_contexts());
+        assert_eq!(sections[0].context, Context::Panes);
+        let rows: usize = sections.iter().map(|s| s.rows.len()).sum();
+        let workbench = BINDINGS.iter().filter(|b| !b.context.is_annotate());
+        assert_eq!(rows, workbench.count());
+        assert!(sections.iter().all(|s| !s.context.is_annotate()));
     }
 
     #[test]

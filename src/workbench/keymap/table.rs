@@ -1,572 +1,139 @@
-//! The rows of the key table: every binding of the workbench, in the order
-//! the help lists them (each row made with [`super::row`]'s constructors).
+//! The rows of the key table for the workbench: one binding a line, by
+//! context, in the order the help lists them (its sections follow the
+//! contexts in the order they first appear here).
 
-use crossterm::event::KeyCode;
-
-use super::row::{bind, ch, ctrl, hinted, key, MOVE_KEYS, SCROLL_KEYS};
+use super::row::row;
 use super::{Action, Binding, Context};
 use crate::workbench::graph_view::Direction;
 
 use Action as A;
 use Context as C;
 
-/// Every binding of the workbench's panes and overlays, in the order the
-/// help lists them.
+/// Every binding of the workbench's panes, editors and overlays.
+#[rustfmt::skip]
 pub(super) const WORKBENCH: &[Binding] = &[
-    hinted(
-        bind(C::Panes, &[(ch('?'), A::Help)], "?", "this help"),
-        "?",
-        "keys",
-    ),
-    hinted(
-        bind(
-            C::Panes,
-            &[
-                (key(KeyCode::Tab), A::NextPane),
-                (key(KeyCode::BackTab), A::PreviousPane),
-                (key(KeyCode::Right), A::NextPane),
-                (key(KeyCode::Left), A::PreviousPane),
-                (ch('l'), A::NextPane),
-                (ch('h'), A::PreviousPane),
-            ],
-            "Tab, Shift-Tab, ←/→, h/l",
-            "next or previous pane",
-        ),
-        "Tab",
-        "pane",
-    ),
-    hinted(
-        bind(
-            C::Panes,
-            &[(ch('r'), A::Run), (ch('R'), A::RunAll)],
-            "r, R",
-            "run the agents whose inputs changed; all afresh, priced first",
-        ),
-        "r",
-        "run",
-    ),
-    hinted(
-        bind(
-            C::Panes,
-            &[(ch('g'), A::ChooseGroundTruth)],
-            "g",
-            "choose a ground truth: demo, dataset task, step file, or type one",
-        ),
-        "g",
-        "ground truth",
-    ),
-    hinted(
-        bind(
-            C::Panes,
-            &[(ch('q'), A::Quit)],
-            "q",
-            "quit (the session is saved)",
-        ),
-        "q",
-        "quit",
-    ),
-    bind(
-        C::Always,
-        &[(ctrl('c'), A::Quit)],
-        "Ctrl-C",
-        "quit, also while editing",
-    ),
-    bind(
-        C::Panes,
-        &[
-            (key(KeyCode::Down), A::Move(1)),
-            (key(KeyCode::Up), A::Move(-1)),
-            (ch('j'), A::Move(1)),
-            (ch('k'), A::Move(-1)),
-            (key(KeyCode::PageDown), A::Move(10)),
-            (key(KeyCode::PageUp), A::Move(-10)),
-        ],
-        "↑/↓, j/k, PgUp/PgDn",
-        "select a step, a neighbour, or scroll",
-    ),
-    bind(
-        C::Panes,
-        &[(key(KeyCode::Esc), A::Escape)],
-        "Esc",
-        "leave zoom, clear the search or the message",
-    ),
-    bind(
-        C::Panes,
-        &[(ch('/'), A::Search), (ch('n'), A::NextHit)],
-        "/ then n",
-        "search every pane, then jump to the next hit",
-    ),
-    bind(
-        C::Panes,
-        &[(ch('z'), A::Zoom)],
-        "z",
-        "zoom the focused pane",
-    ),
-    bind(
-        C::Steps,
-        &[(key(KeyCode::Enter), A::EditStep), (ch('e'), A::EditStep)],
-        "Enter, e (steps)",
-        "edit the selected step",
-    ),
-    bind(
-        C::Steps,
-        &[(ch('o'), A::InsertAfter), (ch('O'), A::InsertBefore)],
-        "o, O (steps)",
-        "insert a step after or before the selected one",
-    ),
-    bind(
-        C::Steps,
-        &[
-            (ch('d'), A::DeleteStep),
-            (key(KeyCode::Delete), A::DeleteStep),
-        ],
-        "d, Delete (steps)",
-        "delete the selected step",
-    ),
-    bind(
-        C::Steps,
-        &[
-            (ch('J'), A::StepDown),
-            (ch('K'), A::StepUp),
-            (ch('u'), A::Undo),
-        ],
-        "J, K, u (steps)",
-        "move the selected step down or up; undo a step edit (200 deep)",
-    ),
-    bind(
-        C::Plan,
-        &[(ch('c'), A::Corrupt)],
-        "c (plan)",
-        "corrupt the plan into a new run (choose how); it is scored at once",
-    ),
-    bind(
-        C::Panes,
-        &[(ch('p'), A::PublishedPlan)],
-        "p",
-        "load the task's published plan for the approach",
-    ),
-    bind(
-        C::Panes,
-        &[(ch('a'), A::NextApproach), (ch('S'), A::NextSamples)],
-        "a, S",
-        "next approach (tables if the task has one); samples 1, 3, 5, 10",
-    ),
-    bind(
-        C::Panes,
-        &[(ch('x'), A::CancelRun)],
-        "x",
-        "cancel the run in flight",
-    ),
-    bind(
-        C::Prompt,
-        &[
-            (key(KeyCode::Enter), A::EditPrompt),
-            (ch('e'), A::EditPrompt),
-            (ch('1'), A::PromptOf(0)),
-            (ch('2'), A::PromptOf(1)),
-            (ch('3'), A::PromptOf(2)),
-            (key(KeyCode::Right), A::PromptStep(1)),
-            (key(KeyCode::Left), A::PromptStep(-1)),
-            (ch('l'), A::PromptStep(1)),
-            (ch('h'), A::PromptStep(-1)),
-        ],
-        "Enter, e, 1 2 3, ←/→ (prompt)",
-        "edit the prompt; the prompt of SKM, GKM, Planner; other agent",
-    ),
-    bind(
-        C::Prompt,
-        &[(ch('S'), A::SavePromptSet), (ch('L'), A::LoadPromptSet)],
-        "S L (prompt)",
-        "save prompts as a set; load one (asks before edits are lost)",
-    ),
-    hinted(
-        bind(
-            C::PromptEditor,
-            &[(key(KeyCode::Esc), A::Leave)],
-            "Esc (editing a prompt)",
-            "done editing the prompt",
-        ),
-        "Esc",
-        "done",
-    ),
-    hinted(
-        bind(
-            C::PromptEditor,
-            &[
-                (ctrl('r'), A::RunFromEditor),
-                (key(KeyCode::F(5)), A::RunFromEditor),
-            ],
-            "Ctrl-R, F5 (editing a prompt)",
-            "run the agents with the edited prompt",
-        ),
-        "Ctrl-R",
-        "runs",
-    ),
-    hinted(
-        bind(
-            C::StepEditor,
-            &[(key(KeyCode::Enter), A::Accept)],
-            "Enter (editing a step)",
-            "keep the edit",
-        ),
-        "Enter",
-        "keeps",
-    ),
-    hinted(
-        bind(
-            C::StepEditor,
-            &[(key(KeyCode::Esc), A::Leave)],
-            "Esc (editing a step)",
-            "cancel the edit",
-        ),
-        "Esc",
-        "cancels",
-    ),
-    bind(
-        C::StepEditor,
-        &[(ctrl('z'), A::Undo)],
-        "Ctrl-Z (editing a step)",
-        "undo the last change to the text",
-    ),
-    hinted(
-        bind(
-            C::Search,
-            &[(key(KeyCode::Enter), A::Accept)],
-            "Enter (searching)",
-            "jump to the next hit",
-        ),
-        "Enter",
-        "jumps",
-    ),
-    hinted(
-        bind(
-            C::Search,
-            &[(key(KeyCode::Esc), A::Leave)],
-            "Esc (searching)",
-            "clear the search",
-        ),
-        "Esc",
-        "clears",
-    ),
-    bind(
-        C::Panes,
-        &[(ch('m'), A::ModelForm)],
-        "m",
-        "provider, model, temperature and token limit of an agent",
-    ),
-    bind(
-        C::WholeGraph,
-        &[
-            (key(KeyCode::Left), A::GraphStep(Direction::Left)),
-            (key(KeyCode::Right), A::GraphStep(Direction::Right)),
-            (key(KeyCode::Up), A::GraphStep(Direction::Up)),
-            (key(KeyCode::Down), A::GraphStep(Direction::Down)),
-            (ch('h'), A::GraphStep(Direction::Left)),
-            (ch('l'), A::GraphStep(Direction::Right)),
-            (ch('k'), A::GraphStep(Direction::Up)),
-            (ch('j'), A::GraphStep(Direction::Down)),
-            (ch(']'), A::GraphSelect(1)),
-            (ch('['), A::GraphSelect(-1)),
-        ],
-        "←↑↓→ hjkl [ ] (whole graph)",
-        "the nearest node that way; the next or previous node",
-    ),
-    bind(
-        C::WholeGraph,
-        &[
-            (ch('+'), A::GraphZoom(1)),
-            (ch('-'), A::GraphZoom(-1)),
-            (ch('v'), A::GraphMode),
-        ],
-        "+ - v (whole graph)",
-        "zoom in or out; one node's neighbourhood instead",
-    ),
-    bind(
-        C::Graph,
-        &[(ch('v'), A::GraphMode)],
-        "v (neighbourhood)",
-        "back to the whole graph",
-    ),
-    bind(
-        C::Graph,
-        &[
-            (key(KeyCode::Enter), A::GraphEnter),
-            (key(KeyCode::Right), A::GraphEnter),
-            (ch('l'), A::GraphEnter),
-            (key(KeyCode::Left), A::GraphBack),
-            (ch('h'), A::GraphBack),
-            (key(KeyCode::Backspace), A::GraphBack),
-            (ch(']'), A::GraphNode(1)),
-            (ch('['), A::GraphNode(-1)),
-        ],
-        "Enter → ← Backspace [ ] (neighbourhood)",
-        "go to the neighbour; back; other nodes",
-    ),
-    bind(
-        C::Panes,
-        &[(ch('f'), A::Actions)],
-        "f",
-        "framed actions and their matches (S_goal)",
-    ),
-    bind(
-        C::Panes,
-        &[(ch('H'), A::History)],
-        "H",
-        "run history: space marks, c compares, Enter loads the plan",
-    ),
-    bind(
-        C::Panes,
-        &[(ch('M'), A::Messages)],
-        "M",
-        "message log: every status message so far, whole, with its time",
-    ),
-    bind(
-        C::Panes,
-        &[(ch('i'), A::ToggleImage)],
-        "i",
-        "scene image on or off (for slow links)",
-    ),
-    bind(
-        C::Panes,
-        &[(ch('t'), A::NextTheme)],
-        "t",
-        "next theme (NO_COLOR turns colour off)",
-    ),
-    hinted(
-        bind(C::Picker, MOVE_KEYS, "↑↓ j k (choosing)", "move"),
-        "↑↓",
-        "move",
-    ),
-    hinted(
-        bind(
-            C::Picker,
-            &[(key(KeyCode::Enter), A::Accept)],
-            "Enter (choosing)",
-            "choose",
-        ),
-        "Enter",
-        "chooses",
-    ),
-    hinted(
-        bind(
-            C::Picker,
-            &[(key(KeyCode::Esc), A::Leave), (ch('q'), A::Leave)],
-            "Esc q (choosing)",
-            "close",
-        ),
-        "Esc",
-        "closes",
-    ),
-    hinted(
-        bind(C::History, MOVE_KEYS, "↑↓ j k (run history)", "move"),
-        "↑↓",
-        "move",
-    ),
-    hinted(
-        bind(
-            C::History,
-            &[(key(KeyCode::Enter), A::Accept)],
-            "Enter (run history)",
-            "load the run's plan",
-        ),
-        "Enter",
-        "loads the plan",
-    ),
-    hinted(
-        bind(
-            C::History,
-            &[(ch(' '), A::MarkRun), (ch('m'), A::MarkRun)],
-            "space m (run history)",
-            "mark the run for comparison",
-        ),
-        "space",
-        "marks",
-    ),
-    hinted(
-        bind(
-            C::History,
-            &[(ch('c'), A::CompareRuns), (ch('d'), A::CompareRuns)],
-            "c d (run history)",
-            "diff the marked run (or the one before) with this one",
-        ),
-        "d",
-        "diffs",
-    ),
-    hinted(
-        bind(
-            C::History,
-            &[(key(KeyCode::Esc), A::Leave), (ch('q'), A::Leave)],
-            "Esc q (run history)",
-            "close",
-        ),
-        "Esc",
-        "closes",
-    ),
-    hinted(
-        bind(
-            C::PathPrompt,
-            &[(key(KeyCode::Enter), A::Accept)],
-            "Enter (step file path)",
-            "load the step file",
-        ),
-        "Enter",
-        "loads",
-    ),
-    hinted(
-        bind(
-            C::PathPrompt,
-            &[(key(KeyCode::Esc), A::Leave)],
-            "Esc (step file path)",
-            "cancel",
-        ),
-        "Esc",
-        "cancels",
-    ),
-    hinted(
-        bind(
-            C::ModelForm,
-            &[
-                (key(KeyCode::Tab), A::NextField),
-                (key(KeyCode::Down), A::NextField),
-            ],
-            "Tab ↓ (model form)",
-            "next field",
-        ),
-        "Tab",
-        "next field",
-    ),
-    hinted(
-        bind(
-            C::ModelForm,
-            &[
-                (key(KeyCode::BackTab), A::PreviousField),
-                (key(KeyCode::Up), A::PreviousField),
-            ],
-            "Shift-Tab ↑ (model form)",
-            "previous field",
-        ),
-        "Shift-Tab",
-        "previous",
-    ),
-    hinted(
-        bind(
-            C::ModelForm,
-            &[(key(KeyCode::Enter), A::Accept)],
-            "Enter (model form)",
-            "save the settings",
-        ),
-        "Enter",
-        "saves",
-    ),
-    hinted(
-        bind(
-            C::SetName,
-            &[(key(KeyCode::Enter), A::Accept)],
-            "Enter (prompt set name)",
-            "save the prompts as this set",
-        ),
-        "Enter",
-        "saves",
-    ),
-    hinted(
-        bind(
-            C::SetName,
-            &[(key(KeyCode::Esc), A::Leave)],
-            "Esc (prompt set name)",
-            "cancel",
-        ),
-        "Esc",
-        "cancels",
-    ),
-    hinted(
-        bind(
-            C::ModelForm,
-            &[(ctrl('a'), A::EveryAgent)],
-            "Ctrl-A (model form)",
-            "save for every agent, or for this agent alone (toggle)",
-        ),
-        "Ctrl-A",
-        "every agent",
-    ),
-    hinted(
-        bind(
-            C::ModelForm,
-            &[(key(KeyCode::Esc), A::Leave)],
-            "Esc (model form)",
-            "cancel",
-        ),
-        "Esc",
-        "cancels",
-    ),
-    hinted(
-        bind(
-            C::Help,
-            SCROLL_KEYS,
-            "↑↓ j k, PgUp PgDn, Home End (help)",
-            "scroll this help (also the mouse wheel); any other key closes it",
-        ),
-        "↑↓ PgUp PgDn",
-        "scroll · any other key closes",
-    ),
-    hinted(
-        bind(
-            C::Viewer,
-            &[
-                (key(KeyCode::Esc), A::Leave),
-                (ch('q'), A::Leave),
-                (key(KeyCode::Enter), A::Leave),
-            ],
-            "Esc q Enter (actions, messages)",
-            "close",
-        ),
-        "Esc",
-        "closes",
-    ),
-    hinted(
-        bind(
-            C::Viewer,
-            SCROLL_KEYS,
-            "↑↓ j k, PgUp PgDn, Home End (actions, messages)",
-            "scroll (also the mouse wheel)",
-        ),
-        "↑↓",
-        "scroll",
-    ),
-    hinted(
-        bind(C::RunDiff, MOVE_KEYS, "↑↓ j k (run diff)", "scroll a line"),
-        "↑↓",
-        "scroll",
-    ),
-    hinted(
-        bind(
-            C::RunDiff,
-            &[
-                (key(KeyCode::PageUp), A::Move(-10)),
-                (key(KeyCode::PageDown), A::Move(10)),
-                (ch(' '), A::Move(10)),
-                (key(KeyCode::Home), A::Move(isize::MIN)),
-                (key(KeyCode::End), A::Move(isize::MAX)),
-            ],
-            "PgUp PgDn space Home End (run diff)",
-            "scroll a page, to the top or the end",
-        ),
-        "PgDn",
-        "pages",
-    ),
-    hinted(
-        bind(
-            C::RunDiff,
-            &[(key(KeyCode::Esc), A::Leave), (ch('q'), A::Leave)],
-            "Esc q (run diff)",
-            "back to the run history",
-        ),
-        "Esc",
-        "back",
-    ),
-    bind(
-        C::Panes,
-        &[],
-        "mouse",
-        "click focuses and selects; the wheel scrolls",
-    ),
+    row(C::Panes, "?", A::Help, "this help: every key, by where it works").hint("keys"),
+    row(C::Panes, "<Tab> <Right> l", A::NextPane, "the next pane (a click focuses any pane)").hint("pane"),
+    row(C::Panes, "<S-Tab> <Left> h", A::PreviousPane, "the previous pane"),
+    row(C::Panes, "r", A::Run, "run the agents whose inputs changed").hint("run"),
+    row(C::Panes, "R", A::RunAll, "run every agent afresh, priced first: the same key again sends it, any other keeps the cache"),
+    row(C::Panes, "g", A::ChooseGroundTruth, "choose a ground truth: demo, dataset task, step file, or type one").hint("ground truth"),
+    row(C::Panes, "q", A::Quit, "quit (the session is saved)").hint("quit"),
+    row(C::Panes, "<Down> j", A::Move(1), "the next step or neighbour, or scroll down a line (a click selects, the wheel scrolls)"),
+    row(C::Panes, "<Up> k", A::Move(-1), "the step or neighbour before, or scroll up a line"),
+    row(C::Panes, "<PgDn>", A::Move(10), "ten steps or lines down"),
+    row(C::Panes, "<PgUp>", A::Move(-10), "ten steps or lines up"),
+    row(C::Panes, "<Esc>", A::Escape, "leave zoom, clear the search or the message"),
+    row(C::Panes, "/", A::Search, "search every pane"),
+    row(C::Panes, "n", A::NextHit, "jump to the next hit of the search"),
+    row(C::Panes, "z", A::Zoom, "zoom the focused pane, or leave the zoom"),
+    row(C::Panes, "p", A::PublishedPlan, "load the task's published plan for the approach"),
+    row(C::Panes, "a", A::NextApproach, "the next approach (tables if the task has one)"),
+    row(C::Panes, "S", A::NextSamples, "samples each agent is asked for per run: 1, 3, 5, 10"),
+    row(C::Panes, "x", A::CancelRun, "cancel the run in flight"),
+    row(C::Panes, "m", A::ModelForm, "provider, model, temperature and token limit of an agent"),
+    row(C::Panes, "f", A::Actions, "framed actions and their matches (S_goal)"),
+    row(C::Panes, "H", A::History, "run history: mark runs, diff two, load a run's plan"),
+    row(C::Panes, "M", A::Messages, "message log: every status message so far, whole, with its time"),
+    row(C::Panes, "i", A::ToggleImage, "scene image on or off (for slow links)"),
+    row(C::Panes, "t", A::NextTheme, "the next theme (NO_COLOR turns colour off)"),
+
+    row(C::Always, "<C-c>", A::Quit, "quit, also while editing"),
+
+    row(C::Steps, "<Enter> e", A::EditStep, "edit the selected step"),
+    row(C::Steps, "o", A::InsertAfter, "insert a step after the selected one"),
+    row(C::Steps, "O", A::InsertBefore, "insert a step before the selected one"),
+    row(C::Steps, "d <Delete>", A::DeleteStep, "delete the selected step"),
+    row(C::Steps, "J", A::StepDown, "move the selected step down"),
+    row(C::Steps, "K", A::StepUp, "move the selected step up"),
+    row(C::Steps, "u", A::Undo, "undo a step edit (200 deep)"),
+
+    row(C::Plan, "c", A::Corrupt, "corrupt the plan into a new run (choose how); it is scored at once"),
+
+    row(C::Prompt, "<Enter> e", A::EditPrompt, "edit the prompt"),
+    row(C::Prompt, "1", A::PromptOf(0), "the SKM's prompt"),
+    row(C::Prompt, "2", A::PromptOf(1), "the GKM's prompt"),
+    row(C::Prompt, "3", A::PromptOf(2), "the Planner's prompt"),
+    row(C::Prompt, "<Right> l", A::PromptStep(1), "the next agent's prompt").overrides(),
+    row(C::Prompt, "<Left> h", A::PromptStep(-1), "the previous agent's prompt").overrides(),
+    row(C::Prompt, "S", A::SavePromptSet, "save the prompts as a named set").overrides(),
+    row(C::Prompt, "L", A::LoadPromptSet, "load a prompt set (asks before edits are lost)"),
+
+    row(C::WholeGraph, "<Left> h", A::GraphStep(Direction::Left), "the nearest node to the left").overrides(),
+    row(C::WholeGraph, "<Right> l", A::GraphStep(Direction::Right), "the nearest node to the right").overrides(),
+    row(C::WholeGraph, "<Up> k", A::GraphStep(Direction::Up), "the nearest node above").overrides(),
+    row(C::WholeGraph, "<Down> j", A::GraphStep(Direction::Down), "the nearest node below").overrides(),
+    row(C::WholeGraph, "]", A::GraphSelect(1), "the next node"),
+    row(C::WholeGraph, "[", A::GraphSelect(-1), "the previous node"),
+    row(C::WholeGraph, "+", A::GraphZoom(1), "zoom in"),
+    row(C::WholeGraph, "-", A::GraphZoom(-1), "zoom out"),
+    row(C::WholeGraph, "v", A::GraphMode, "one node's neighbourhood instead"),
+
+    row(C::Graph, "<Enter> <Right> l", A::GraphEnter, "go to the selected neighbour").overrides(),
+    row(C::Graph, "<Left> h <Backspace>", A::GraphBack, "back to the node before").overrides(),
+    row(C::Graph, "]", A::GraphNode(1), "the next node"),
+    row(C::Graph, "[", A::GraphNode(-1), "the previous node"),
+    row(C::Graph, "v", A::GraphMode, "back to the whole graph"),
+
+    row(C::StepEditor, "<Enter>", A::Accept, "keep the edit").hint("keeps"),
+    row(C::StepEditor, "<Esc>", A::Leave, "cancel the edit").hint("cancels"),
+    row(C::StepEditor, "<C-z>", A::Undo, "undo the last change to the text"),
+
+    row(C::PromptEditor, "<Esc>", A::Leave, "done editing the prompt").hint("done"),
+    row(C::PromptEditor, "<C-r> <F5>", A::RunFromEditor, "run the agents with the edited prompt").hint("runs"),
+
+    row(C::Search, "<Enter>", A::Accept, "jump to the next hit").hint("jumps"),
+    row(C::Search, "<Esc>", A::Leave, "clear the search").hint("clears"),
+
+    row(C::Picker, "<Up> k", A::Move(-1), "the choice above").hint("move"),
+    row(C::Picker, "<Down> j", A::Move(1), "the choice below").hint("move"),
+    row(C::Picker, "<Enter>", A::Accept, "choose").hint("chooses"),
+    row(C::Picker, "<Esc> q", A::Leave, "close").hint("closes"),
+
+    row(C::History, "<Up> k", A::Move(-1), "the run above").hint("move"),
+    row(C::History, "<Down> j", A::Move(1), "the run below").hint("move"),
+    row(C::History, "<Enter>", A::Accept, "load the run's plan").hint("loads the plan"),
+    row(C::History, "<Space> m", A::MarkRun, "mark the run for comparison, or unmark it").hint("marks"),
+    row(C::History, "d c", A::CompareRuns, "diff the marked run (or the one before) with this one").hint("diffs"),
+    row(C::History, "<Esc> q", A::Leave, "close").hint("closes"),
+
+    row(C::RunDiff, "<Up> k", A::Move(-1), "up a line").hint("scroll"),
+    row(C::RunDiff, "<Down> j", A::Move(1), "down a line").hint("scroll"),
+    row(C::RunDiff, "<PgUp>", A::Move(-10), "up a page").hint("scroll"),
+    row(C::RunDiff, "<PgDn> <Space>", A::Move(10), "down a page").hint("scroll"),
+    row(C::RunDiff, "<Home>", A::Move(isize::MIN), "to the top").hint("scroll"),
+    row(C::RunDiff, "<End>", A::Move(isize::MAX), "to the end").hint("scroll"),
+    row(C::RunDiff, "<Esc> q", A::Leave, "back to the run history").hint("back"),
+
+    row(C::PathPrompt, "<Enter>", A::Accept, "load the step file").hint("loads"),
+    row(C::PathPrompt, "<Esc>", A::Leave, "cancel").hint("cancels"),
+
+    row(C::ModelForm, "<Tab> <Down>", A::NextField, "the next field").hint("next field"),
+    row(C::ModelForm, "<S-Tab> <Up>", A::PreviousField, "the previous field").hint("previous"),
+    row(C::ModelForm, "<Enter>", A::Accept, "save the settings").hint("saves"),
+    row(C::ModelForm, "<C-a>", A::EveryAgent, "save for every agent, or for this agent alone (toggle)").hint("every agent"),
+    row(C::ModelForm, "<Esc>", A::Leave, "cancel").hint("cancels"),
+
+    row(C::SetName, "<Enter>", A::Accept, "save the prompts as this set").hint("saves"),
+    row(C::SetName, "<Esc>", A::Leave, "cancel").hint("cancels"),
+
+    row(C::Viewer, "<Up> k", A::Move(-1), "up a line (the mouse wheel scrolls too)").hint("scroll"),
+    row(C::Viewer, "<Down> j", A::Move(1), "down a line").hint("scroll"),
+    row(C::Viewer, "<PgUp>", A::Move(-10), "up a page").hint("scroll"),
+    row(C::Viewer, "<PgDn>", A::Move(10), "down a page").hint("scroll"),
+    row(C::Viewer, "<Home>", A::Move(isize::MIN), "to the top").hint("scroll"),
+    row(C::Viewer, "<End>", A::Move(isize::MAX), "to the end").hint("scroll"),
+    row(C::Viewer, "<Esc> q <Enter>", A::Leave, "close").hint("closes"),
+
+    row(C::Help, "<Up> k", A::Move(-1), "up a line (the mouse wheel scrolls too)").hint("scroll"),
+    row(C::Help, "<Down> j", A::Move(1), "down a line").hint("scroll"),
+    row(C::Help, "<PgUp>", A::Move(-10), "up a page").hint("scroll"),
+    row(C::Help, "<PgDn>", A::Move(10), "down a page").hint("scroll"),
+    row(C::Help, "<Home>", A::Move(isize::MIN), "to the top").hint("scroll"),
+    row(C::Help, "<End>", A::Move(isize::MAX), "to the end").hint("scroll"),
+    row(C::Help, "/", A::Search, "filter: type words to show only the keys they are found with").hint("filter"),
+    row(C::Help, "<Esc> q", A::Leave, "close this help (so does any key not listed here)").hint("closes"),
+
+    row(C::HelpFilter, "<Enter>", A::Accept, "keep the filter and scroll what it shows").hint("keeps"),
+    row(C::HelpFilter, "<Esc>", A::Leave, "drop the filter: every key again").hint("drops"),
 ];

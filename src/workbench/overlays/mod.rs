@@ -71,7 +71,7 @@ impl Overlay {
     /// closes.
     pub fn context(&self) -> Option<Context> {
         match self {
-            Overlay::Help(_) => Some(Context::Help),
+            Overlay::Help(help) => Some(help.context()),
             Overlay::GroundTruthPicker(_) | Overlay::CorruptPicker(_) => Some(Context::Picker),
             Overlay::StepFilePath(_) => Some(Context::PathPrompt),
             Overlay::ModelForm(_) => Some(Context::ModelForm),
