@@ -19,7 +19,7 @@ use crate::dataset::{Dataset, Task};
 use crate::demo;
 use crate::workbench::agents::{self, RunError};
 use crate::workbench::editing::Editing;
-use crate::workbench::keymap::Context;
+use crate::workbench::keymap::{self, Action, Context};
 use crate::workbench::layout::{pane_rects, Screen};
 use crate::workbench::message::Cmd;
 use crate::workbench::overlays::pickers::{ground_truth_choices, GroundTruthChoice};
@@ -699,7 +699,8 @@ impl App {
             // A start notice, so that the demo's first run does not hide it.
             let opened = wanted.as_deref().unwrap_or("the demo");
             let text = format!(
-                "{opened} opened; the session's task {id} and its runs are kept for when it is opened again (Esc hides this)"
+                "{opened} opened; the session's task {id} and its runs are kept for when it is opened again ({} hides this)",
+                keymap::key_of(Context::Panes, Action::Escape)
             );
             self.messages.notice.get_or_insert((text, Severity::Info));
         }

@@ -10,7 +10,7 @@ use crate::agents::ProviderKind;
 use crate::workbench::app::App;
 use crate::workbench::editing::Editing;
 use crate::workbench::header::Header;
-use crate::workbench::keymap::{self};
+use crate::workbench::keymap::{self, Action, Context};
 use crate::workbench::layout::{pane_rects, Screen, MIN_HEIGHT, MIN_WIDTH};
 use crate::workbench::panes::{self, Pane};
 use crate::workbench::scoring::ModelSlot;
@@ -164,7 +164,10 @@ fn render_status(frame: &mut Frame, app: &App, area: Rect) {
         .messages
         .notice
         .as_ref()
-        .map(|(text, severity)| (format!("{text} (Esc dismisses)"), *severity))
+        .map(|(text, severity)| {
+            let dismiss = keymap::key_of(Context::Panes, Action::Escape);
+            (format!("{text} ({dismiss} dismisses)"), *severity)
+        })
         .into_iter()
         .chain(app.messages.status.clone())
         .collect();

@@ -22,7 +22,7 @@ use super::state::{Focus, Judging, Mode, Scene, Severity};
 use crate::annotate::order::Unit;
 use crate::annotate::{Preference, StepLabelKind};
 use crate::sanitize::for_terminal;
-use crate::workbench::keymap::{self, Context};
+use crate::workbench::keymap::{self, Action, Context};
 use crate::workbench::overlays::help::key_lines;
 use crate::workbench::scene_image;
 use crate::workbench::scroll::{self, wrap_hanging, Scroll, Wrapped};
@@ -133,6 +133,12 @@ pub fn image_area(area: Rect, screen: &Judging) -> Option<Rect> {
     areas(area, screen)
         .image
         .map(|r| Block::bordered().inner(r))
+}
+
+/// The key that moves between the plan and the reference plan, as the
+/// titles name it.
+fn reference_key() -> String {
+    keymap::key_of(Context::AnnotateReference, Action::NextPane)
 }
 
 fn framed<'a>(theme: &Theme, title: String) -> Block<'a> {
@@ -293,16 +299,20 @@ pub fn draw(frame: &mut Frame, area: Rect, screen: &Judging, theme: &Theme) {
     let lists = lists(screen, area, theme);
     if let Some(plan) = &lists.plan {
         let title = if screen.focus == Focus::Plan {
-            "Plan (↑↓ select a step, then label it)"
+            format!(
+                "Plan ({}{} select a step, then label it)",
+                keymap::key_of(Context::AnnotateRating, Action::Move(-1)),
+                keymap::key_of(Context::AnnotateRating, Action::Move(1))
+            )
         } else {
-            "Plan (g: back here)"
+            format!("Plan ({}: back here)", reference_key())
         };
         let style = if screen.focus == Focus::Plan && screen.show_gt {
             theme.focus
         } else {
             theme.border
         };
-        let block = framed(theme, title.into()).border_style(style);
+        let block = framed(theme, title).border_style(style);
         draw_list(frame, plan, block, screen.scrolls.plan, screen.step, theme);
     }
     if let (Some(sides), Some(Unit::Pair(l, r))) = (&lists.sides, screen.units.get(screen.pos)) {
@@ -335,11 +345,17 @@ pub fn draw(frame: &mut Frame, area: Rect, screen: &Judging, theme: &Theme) {
     }
     if let Some(reference) = &lists.reference {
         let (title, style) = if screen.focus == Focus::Reference {
-            ("Reference plan (↑↓ move, g: back to the plan)", theme.focus)
+            (
+                format!("Reference plan ({}: back to the plan)", reference_key()),
+                theme.focus,
+            )
         } else {
-            ("Reference plan (g: move in it)", theme.border)
+            (
+                format!("Reference plan ({}: move in it)", reference_key()),
+                theme.border,
+            )
         };
-        let block = framed(theme, title.into()).border_style(style);
+        let block = framed(theme, title).border_style(style);
         let kept = screen.scrolls.reference;
         draw_list(frame, reference, block, kept, screen.reference_step, theme);
     }

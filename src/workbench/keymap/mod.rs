@@ -421,6 +421,19 @@ pub fn action(contexts: &[Context], event: &KeyEvent) -> Option<Action> {
     binding_of(contexts, event).map(|b| b.action)
 }
 
+/// The first key bound to `action` in `context`, as the help shows it: for
+/// a sentence that names the key to press (`Enter edits`), so that it says
+/// what the table binds. Empty when nothing binds it (the test
+/// `every_key_a_sentence_names_is_bound` holds the sentences' keys to the
+/// table).
+pub fn key_of(context: Context, action: Action) -> String {
+    BINDINGS
+        .iter()
+        .find(|b| b.context == context && b.action == action)
+        .and_then(|b| b.keys().first())
+        .map_or_else(String::new, |key| notation::label(&[*key]))
+}
+
 /// The status-bar hints of `context`: "key hint" pairs joined by dots.
 pub fn hints(context: Context) -> String {
     hints_of(&[context]).join(" · ")
@@ -661,5 +674,27 @@ mod tests {
         }
         let capital = with('O', KeyModifiers::SHIFT);
         assert_eq!(action(&steps, &capital), Some(Action::InsertBefore));
+    }
+
+    #[test]
+    fn every_key_a_sentence_names_is_bound() {
+        let named = [
+            (Context::Panes, Action::Run, "r"),
+            (Context::Panes, Action::CancelRun, "x"),
+            (Context::Panes, Action::ModelForm, "m"),
+            (Context::Panes, Action::Escape, "Esc"),
+            (Context::Prompt, Action::EditPrompt, "Enter"),
+            (Context::Prompt, Action::PromptStep(-1), "←"),
+            (Context::Prompt, Action::PromptStep(1), "→"),
+            (Context::Picker, Action::Accept, "Enter"),
+            (Context::Picker, Action::Leave, "Esc"),
+            (Context::AnnotateRating, Action::Move(-1), "↑"),
+            (Context::AnnotateRating, Action::Move(1), "↓"),
+            (Context::AnnotateReference, Action::NextPane, "g"),
+        ];
+        for (context, action, key) in named {
+            assert_eq!(key_of(context, action), key, "{context:?} {action:?}");
+        }
+        assert_eq!(key_of(Context::Help, Action::Run), "");
     }
 }

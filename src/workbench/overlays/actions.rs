@@ -11,7 +11,7 @@ use ratatui::widgets::Clear;
 use ratatui::Frame;
 
 use crate::workbench::component::Component;
-use crate::workbench::keymap::{Action, Context};
+use crate::workbench::keymap::{self, Action, Context};
 use crate::workbench::overlays::{centred, themed_box, Picked};
 use crate::workbench::scoring::{Pg2sOutcome, ScoreOutcome};
 use crate::workbench::scroll::{self, Motion, Scroll, ScrolledBox};
@@ -80,10 +80,11 @@ impl Component for ActionsView {
     fn draw(&self, frame: &mut Frame, area: Rect, theme: &Theme) {
         let (rect, lines, _) = layout(self.scores.as_ref(), area, theme);
         frame.render_widget(Clear, rect);
-        let block = themed_box(
-            theme,
-            "Framed actions and their matches (↑↓ PgUp PgDn scroll · Esc closes)",
+        let title = format!(
+            "Framed actions and their matches ({})",
+            keymap::hints(Context::Viewer)
         );
+        let block = themed_box(theme, &title);
         scroll::render(frame, rect, block, &lines, self.scroll, theme.accent);
     }
 }

@@ -13,7 +13,7 @@ use ratatui::Frame;
 
 use super::{centred, themed_box, Picked};
 use crate::workbench::component::Component;
-use crate::workbench::keymap::{Action, Context};
+use crate::workbench::keymap::{self, Action, Context};
 use crate::workbench::scroll::{self, wrap_hanging, Motion, Scroll, ScrolledBox};
 use crate::workbench::shared::{LogEntry, Severity};
 use crate::workbench::theme::Theme;
@@ -97,10 +97,8 @@ impl Component for MessageLog {
     fn draw(&self, frame: &mut Frame, area: Rect, theme: &Theme) {
         let (rect, lines, _) = layout(&self.entries, area, theme);
         frame.render_widget(Clear, rect);
-        let block = themed_box(
-            theme,
-            "Messages, newest last (↑↓ PgUp PgDn scroll · Esc closes)",
-        );
+        let title = format!("Messages, newest last ({})", keymap::hints(Context::Viewer));
+        let block = themed_box(theme, &title);
         scroll::render(frame, rect, block, &lines, self.scroll, theme.accent);
     }
 }

@@ -233,10 +233,8 @@ impl Component for ModelForm {
     fn draw(&self, frame: &mut Frame, area: Rect, theme: &Theme) {
         let rect = centred(area, 86, 10);
         frame.render_widget(Clear, rect);
-        let title = format!(
-            "{}: provider, base URL and model (Tab next, Enter saves)",
-            self.agent.label()
-        );
+        // The keys are on the status line: every one is a hint there.
+        let title = format!("{}: provider, base URL and model", self.agent.label());
         let block = themed_box(theme, &title);
         let inner = block.inner(rect);
         frame.render_widget(block, rect);

@@ -12,7 +12,7 @@ use ratatui::Frame;
 use ratatui_textarea::TextArea;
 
 use crate::workbench::component::Component;
-use crate::workbench::keymap::{Action, Context};
+use crate::workbench::keymap::{self, Action, Context};
 use crate::workbench::overlays::{list_box, list_mouse, moved, open_box, themed_box, Picked};
 use crate::workbench::session::GroundTruthSource;
 use crate::workbench::theme::Theme;
@@ -162,7 +162,10 @@ impl Component for GroundTruthPicker {
             .collect();
         frame.render_widget(Clear, rect);
         frame.render_widget(
-            Paragraph::new(lines).block(themed_box(theme, "Ground truth (Enter chooses)")),
+            Paragraph::new(lines).block(themed_box(
+                theme,
+                &format!("Ground truth ({})", keymap::hints(Context::Picker)),
+            )),
             rect,
         );
     }
@@ -200,7 +203,7 @@ impl Component for PathPrompt {
             theme,
             area,
             (80, 3),
-            "Step file path (Enter loads, Esc cancels)",
+            &format!("Step file path ({})", keymap::hints(Context::PathPrompt)),
         );
         frame.render_widget(&self.editor, inner);
     }

@@ -13,7 +13,7 @@ use ratatui_textarea::TextArea;
 
 use crate::agents::prompt_sets::check_name;
 use crate::workbench::component::Component;
-use crate::workbench::keymap::{Action, Context};
+use crate::workbench::keymap::{self, Action, Context};
 use crate::workbench::overlays::{centred, list_box, list_mouse, moved, themed_box, Picked};
 use crate::workbench::shared::single_line_editor;
 use crate::workbench::theme::Theme;
@@ -72,10 +72,11 @@ impl Component for SetName {
     fn draw(&self, frame: &mut Frame, area: Rect, theme: &Theme) {
         let rect = centred(area, 80, 4);
         frame.render_widget(Clear, rect);
-        let block = themed_box(
-            theme,
-            "Save the prompts as the set (Enter saves, Esc cancels)",
+        let title = format!(
+            "Save the prompts as the set ({})",
+            keymap::hints(Context::SetName)
         );
+        let block = themed_box(theme, &title);
         let inner = block.inner(rect);
         frame.render_widget(block, rect);
         let [field, problem] = Layout::vertical([Constraint::Length(1); 2]).areas(inner);
@@ -165,13 +166,19 @@ impl Component for SetPicker {
     }
 
     fn draw(&self, frame: &mut Frame, area: Rect, theme: &Theme) {
+        let (accept, leave) = (
+            keymap::key_of(Context::Picker, Action::Accept),
+            keymap::key_of(Context::Picker, Action::Leave),
+        );
         let title = match &self.armed {
-            Some(_) => "The prompts have unsaved edits: Enter again discards them, Esc keeps them",
-            None => "Load a prompt set (Enter loads)",
+            Some(_) => format!(
+                "The prompts have unsaved edits: {accept} again discards them, {leave} keeps them"
+            ),
+            None => format!("Load a prompt set ({accept} loads)"),
         };
         let (rect, first, count) = list_box(area, self.width(), self.names.len(), self.selected);
         frame.render_widget(Clear, rect);
-        let block = themed_box(theme, title);
+        let block = themed_box(theme, &title);
         let inner = block.inner(rect);
         frame.render_widget(block, rect);
         let lines: Vec<Line> = self

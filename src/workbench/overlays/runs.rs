@@ -15,7 +15,7 @@ use crate::agents::cost::PriceTable;
 use crate::metrics::shown;
 use crate::stats::summary::Spread;
 use crate::workbench::component::{wheel_step, Component};
-use crate::workbench::keymap::{Action, Context};
+use crate::workbench::keymap::{self, Action, Context};
 use crate::workbench::overlays::diff_page::{diff_lines, wrap};
 use crate::workbench::overlays::{centred, moved, themed_box};
 use crate::workbench::panes::list_window;
@@ -136,7 +136,8 @@ impl RunsOverlay {
     fn draw_history(&self, frame: &mut Frame, area: Rect, t: &Theme) {
         let rect = centred(area, 100, 26);
         frame.render_widget(Clear, rect);
-        let block = themed_box(t, "Runs (space marks, d diffs, Enter loads the plan)");
+        let title = format!("Runs ({})", keymap::hints(Context::History));
+        let block = themed_box(t, &title);
         let inner = block.inner(rect);
         frame.render_widget(block, rect);
         let Some(current) = self.runs.get(self.selected) else {

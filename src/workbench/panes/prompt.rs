@@ -14,6 +14,7 @@ use crate::agents::prompts::template_name;
 use crate::agents::{AgentRole, Approach};
 use crate::workbench::agents;
 use crate::workbench::editing::Editing;
+use crate::workbench::keymap::{self, Action, Context};
 use crate::workbench::panes::{agent_badge, draw_scrolled, highlighted, pane_block, Pane};
 use crate::workbench::runs::AgentStatus;
 use crate::workbench::scroll;
@@ -153,7 +154,10 @@ pub(crate) fn draw(frame: &mut Frame, app: &Shared, area: Rect) {
     }
     frame.render_widget(Paragraph::new(Line::from(tabs)), tab_row);
     let (state, warn) = if matches!(app.editing, Editing::Prompt) {
-        ("editing · Esc done · Ctrl-R run", false)
+        (
+            format!("editing · {}", keymap::hints(Context::PromptEditor)),
+            false,
+        )
     } else {
         run_state(app)
     };
@@ -173,26 +177,51 @@ pub(crate) fn draw(frame: &mut Frame, app: &Shared, area: Rect) {
 /// What the footer says of the selected agent's last run on this task, and
 /// whether it is a warning: a prompt that never ran is not "changed", and a
 /// failed or cancelled run is not an output the prompt made.
-fn run_state(app: &Shared) -> (&'static str, bool) {
+fn run_state(app: &Shared) -> (String, bool) {
     let agent = app.panes.prompt.agent;
+    let run = keymap::key_of(Context::Panes, Action::Run);
+    let edit = format!(
+        "{} edits",
+        keymap::key_of(Context::Prompt, Action::EditPrompt)
+    );
     let Some(view) = app.runs.agents.get(&agent) else {
-        return (IDLE_HINTS, false);
+        return (idle_hints(&edit), false);
     };
     match view.status {
-        AgentStatus::Waiting | AgentStatus::Running => ("running · x cancels · Enter edits", false),
-        AgentStatus::Failed(_) => ("its last run failed · r runs it again · Enter edits", true),
-        AgentStatus::Cancelled => ("its last run was cancelled · r runs it · Enter edits", true),
-        AgentStatus::Idle => ("not run yet on this task · r runs it · Enter edits", false),
-        AgentStatus::Done if app.agent_changed(agent) => (
-            "changed since its last run · r runs what changed · Enter edits",
+        AgentStatus::Waiting | AgentStatus::Running => {
+            let cancel = keymap::key_of(Context::Panes, Action::CancelRun);
+            (format!("running · {cancel} cancels · {edit}"), false)
+        }
+        AgentStatus::Failed(_) => (
+            format!("its last run failed · {run} runs it again · {edit}"),
             true,
         ),
-        AgentStatus::Done => (IDLE_HINTS, false),
+        AgentStatus::Cancelled => (
+            format!("its last run was cancelled · {run} runs it · {edit}"),
+            true,
+        ),
+        AgentStatus::Idle => (
+            format!("not run yet on this task · {run} runs it · {edit}"),
+            false,
+        ),
+        AgentStatus::Done if app.agent_changed(agent) => (
+            format!("changed since its last run · {run} runs what changed · {edit}"),
+            true,
+        ),
+        AgentStatus::Done => (idle_hints(&edit), false),
     }
 }
 
-/// The footer of an agent whose output is its prompt's: the pane's keys.
-const IDLE_HINTS: &str = "Enter edits · ←/→ agent · m provider and model";
+/// The footer of an agent whose output is its prompt's: the pane's keys
+/// (`edit`: the key that edits, with its word).
+fn idle_hints(edit: &str) -> String {
+    format!(
+        "{edit} · {}/{} agent · {} provider and model",
+        keymap::key_of(Context::Prompt, Action::PromptStep(-1)),
+        keymap::key_of(Context::Prompt, Action::PromptStep(1)),
+        keymap::key_of(Context::Panes, Action::ModelForm)
+    )
+}
 
 /// The tab of the agent at `position` of the approach.
 fn agent_tab(position: usize, agent: AgentRole) -> String {
