@@ -33,6 +33,8 @@ pub enum Motion {
     Line(isize),
     /// One page down (+1) or up (-1): PgDn PgUp.
     Page(isize),
+    /// Half a page down (+1) or up (-1): Ctrl-D Ctrl-U.
+    HalfPage(isize),
     /// To the top: Home.
     Home,
     /// To the bottom: End.
@@ -368,9 +370,10 @@ impl Scroll {
                 previous
             }
             Motion::Line(_) => selected,
-            Motion::Page(d) | Motion::Wheel(d) => {
+            Motion::Page(d) | Motion::HalfPage(d) | Motion::Wheel(d) => {
                 let lines = match motion {
                     Motion::Page(_) => viewport.saturating_sub(1).max(1),
+                    Motion::HalfPage(_) => (viewport / 2).max(1),
                     _ => d.unsigned_abs(),
                 };
                 self.offset = if d > 0 {
@@ -413,6 +416,9 @@ impl Scroll {
         self.offset = match motion {
             Motion::Line(d) | Motion::Wheel(d) => self.offset.saturating_add_signed(d),
             Motion::Page(d) => self.offset.saturating_add_signed(d * page as isize),
+            Motion::HalfPage(d) => self
+                .offset
+                .saturating_add_signed(d * (viewport / 2).max(1) as isize),
             Motion::Home => 0,
             Motion::End => usize::MAX,
         };

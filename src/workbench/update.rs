@@ -228,6 +228,12 @@ impl App {
             }
             Action::NextHit => self.jump_to_search(),
             Action::Move(delta) => self.move_selection(self.focus, delta),
+            Action::HalfPage(delta) => {
+                let half = self
+                    .pane_rect(self.focus)
+                    .map_or(1, |r| (r.height.saturating_sub(2) / 2).max(1));
+                self.move_selection(self.focus, delta.saturating_mul(half as isize));
+            }
             Action::GraphEnter
             | Action::GraphBack
             | Action::GraphNode(_)
@@ -430,7 +436,7 @@ impl App {
 
     pub(crate) fn move_selection(&mut self, pane: Pane, delta: isize) {
         let moved = |sel: usize, len: usize| -> usize {
-            (sel as isize + delta).clamp(0, len.saturating_sub(1) as isize) as usize
+            sel.saturating_add_signed(delta).min(len.saturating_sub(1))
         };
         match pane {
             Pane::Plan => {
@@ -459,7 +465,10 @@ impl App {
                     })
                     .unwrap_or(500);
                 let s = self.panes.scroll.entry(pane).or_insert(0);
-                *s = (i64::from(*s) + delta as i64).clamp(0, limit.min(500) as i64) as u16;
+                let to = usize::from(*s)
+                    .saturating_add_signed(delta)
+                    .min(limit.min(500));
+                *s = u16::try_from(to).unwrap_or(u16::MAX);
             }
         }
     }

@@ -2184,3 +2184,40 @@ fn the_wheel_scrolls_the_help_and_a_click_closes_it() {
     click(&mut h, (40, 12));
     assert!(h.app.overlay.is_none());
 }
+
+#[test]
+fn ctrl_d_ctrl_u_home_and_end_move_by_half_a_pane_and_to_the_ends_in_panes_and_the_help() {
+    let ctrl = |c| KeyEvent::new(KeyCode::Char(c), KeyModifiers::CONTROL);
+    let mut h = Harness::new((120, 40), None, false, unavailable());
+    let steps = h.app.panes.plan.items.len();
+    assert!(steps >= 6, "{steps}");
+    h.key(KeyCode::End);
+    assert_eq!(h.app.panes.plan.selected, steps - 1);
+    h.key(KeyCode::Home);
+    assert_eq!(h.app.panes.plan.selected, 0);
+    let cmds = h.app.update(Msg::Key(ctrl('d')));
+    h.run(cmds);
+    let half = h.app.panes.plan.selected;
+    assert!(half > 1, "{half} of {steps}");
+    assert_eq!(h.app.panes.plan.items.len(), steps, "Ctrl-D deleted a step");
+    let cmds = h.app.update(Msg::Key(ctrl('u')));
+    h.run(cmds);
+    assert_eq!(h.app.panes.plan.selected, 0);
+    // The message log: Ctrl-D scrolls half of what a page does.
+    for i in 0..60 {
+        h.app.log(
+            format!("message {i}"),
+            mapvlm::workbench::shared::Severity::Info,
+        );
+    }
+    h.keys("M");
+    h.key(KeyCode::Home);
+    let top = h.screen();
+    let cmds = h.app.update(Msg::Key(ctrl('d')));
+    h.run(cmds);
+    let half_down = h.screen();
+    assert_ne!(top, half_down);
+    let cmds = h.app.update(Msg::Key(ctrl('u')));
+    h.run(cmds);
+    assert_eq!(h.screen(), top);
+}

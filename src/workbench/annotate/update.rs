@@ -101,6 +101,10 @@ impl Component for Judging {
                         self.mode = Mode::Help;
                         self.scroll_help(Motion::of_move(delta));
                     }
+                    Action::HalfPage(delta) => {
+                        self.mode = Mode::Help;
+                        self.scroll_help(Motion::HalfPage(delta));
+                    }
                     _ => {}
                 }
                 vec![]
@@ -271,6 +275,10 @@ impl Judging {
                     .max(1),
                 d.signum(),
             ),
+            Motion::HalfPage(d) => (
+                (sides.iter().map(|s| s.viewport).min().unwrap_or(1) / 2).max(1),
+                d.signum(),
+            ),
             Motion::Wheel(d) => (d.unsigned_abs(), d.signum()),
         };
         for _ in 0..times {
@@ -342,6 +350,7 @@ impl Judging {
                 return self.save_draft();
             }
             Action::Move(delta) => self.move_by(Motion::of_move(delta)),
+            Action::HalfPage(delta) => self.move_by(Motion::HalfPage(delta)),
             Action::NextPane if self.show_gt => {
                 self.focus = match self.focus {
                     Focus::Plan => Focus::Reference,

@@ -171,6 +171,9 @@ pub enum Action {
     NextHit,
     /// Move the selection or scroll by this many lines.
     Move(isize),
+    /// Move the selection or scroll by half the view, down (+1) or up
+    /// (-1): Ctrl-D and Ctrl-U where they do not edit.
+    HalfPage(isize),
     /// Edit the selected step.
     EditStep,
     /// Insert a step after the selected one.
@@ -669,9 +672,14 @@ mod tests {
             Some(Action::Zoom)
         );
         for modifiers in [KeyModifiers::CONTROL, KeyModifiers::ALT] {
-            assert_eq!(action(&steps, &with('d', modifiers)), None, "{modifiers:?}");
             assert_eq!(action(&steps, &with('z', modifiers)), None, "{modifiers:?}");
         }
+        // Ctrl-D is half a page down, never the delete of a plain d.
+        assert_eq!(
+            action(&steps, &with('d', KeyModifiers::CONTROL)),
+            Some(Action::HalfPage(1))
+        );
+        assert_eq!(action(&steps, &with('d', KeyModifiers::ALT)), None);
         let capital = with('O', KeyModifiers::SHIFT);
         assert_eq!(action(&steps, &capital), Some(Action::InsertBefore));
     }

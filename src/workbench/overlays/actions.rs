@@ -63,6 +63,10 @@ impl Component for ActionsView {
                 self.scroll_by(Motion::of_move(delta));
                 Picked::Open
             }
+            Action::HalfPage(delta) => {
+                self.scroll_by(Motion::HalfPage(delta));
+                Picked::Open
+            }
             _ => Picked::Open,
         }
     }

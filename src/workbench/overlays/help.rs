@@ -116,6 +116,10 @@ impl Component for Help {
                 self.scroll_by(Motion::of_move(delta));
                 Picked::Open
             }
+            (false, Action::HalfPage(delta)) => {
+                self.scroll_by(Motion::HalfPage(delta));
+                Picked::Open
+            }
             (false, Action::Search) => {
                 self.typing = true;
                 Picked::Open

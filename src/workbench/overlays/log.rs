@@ -79,6 +79,10 @@ impl Component for MessageLog {
                 self.scroll_by(Motion::of_move(delta));
                 Picked::Open
             }
+            Action::HalfPage(delta) => {
+                self.scroll_by(Motion::HalfPage(delta));
+                Picked::Open
+            }
             Action::Leave => Picked::Cancelled,
             _ => Picked::Open,
         }

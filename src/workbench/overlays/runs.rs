@@ -345,11 +345,16 @@ impl Component for RunsOverlay {
         };
         match action {
             Action::Leave => self.diff = None,
-            Action::Move(delta) => {
+            Action::Move(_) | Action::HalfPage(_) => {
                 // Past the end stops at the end once a draw has measured it.
-                let last = match page.extent.get() {
-                    (0, 0) => usize::MAX,
-                    (total, shown) => total.saturating_sub(shown),
+                let (last, half) = match page.extent.get() {
+                    (0, 0) => (usize::MAX, 1),
+                    (total, shown) => (total.saturating_sub(shown), (shown / 2).max(1)),
+                };
+                let delta = match action {
+                    Action::HalfPage(d) => d.saturating_mul(half as isize),
+                    Action::Move(d) => d,
+                    _ => 0,
                 };
                 page.scroll = page.scroll.min(last).saturating_add_signed(delta).min(last);
             }
