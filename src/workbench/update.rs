@@ -461,13 +461,11 @@ impl App {
                         Pane::Prompt => panes::prompt::scroll_limit(&shared, area),
                         Pane::Description => panes::description::scroll_limit(&shared, area),
                         Pane::Scene => panes::scene::scroll_limit(&shared, area),
-                        _ => 500,
+                        _ => panes::scores::scroll_limit(&shared, area),
                     })
-                    .unwrap_or(500);
+                    .unwrap_or(0);
                 let s = self.panes.scroll.entry(pane).or_insert(0);
-                let to = usize::from(*s)
-                    .saturating_add_signed(delta)
-                    .min(limit.min(500));
+                let to = usize::from(*s).saturating_add_signed(delta).min(limit);
                 *s = u16::try_from(to).unwrap_or(u16::MAX);
             }
         }

@@ -2221,3 +2221,26 @@ fn ctrl_d_ctrl_u_home_and_end_move_by_half_a_pane_and_to_the_ends_in_panes_and_t
     h.run(cmds);
     assert_eq!(h.screen(), top);
 }
+
+#[test]
+fn the_scores_pane_scrolls_to_its_oldest_run_and_says_what_is_out_of_sight() {
+    let mut h = Harness::new((120, 40), None, false, unavailable());
+    // Twelve runs: more than the pane has rows for.
+    for _ in 0..11 {
+        h.keys("R");
+    }
+    assert_eq!(h.app.runs.history.len(), 12);
+    while h.app.focus != Pane::Scores {
+        h.key(KeyCode::Tab);
+    }
+    let top = h.screen();
+    assert!(top.contains("#12 "), "{top}");
+    assert!(!top.contains("#1  "), "{top}");
+    assert!(top.contains("more ┘"), "{top}");
+    h.key(KeyCode::End);
+    let end = h.screen();
+    assert!(end.contains("#1  "), "{end}");
+    assert!(end.contains("↑ "), "{end}");
+    h.key(KeyCode::Home);
+    assert_eq!(h.screen(), top);
+}

@@ -1,15 +1,15 @@
 //! The Scores pane: KAS, PG2S and its parts, and the runs' scores.
 
-use ratatui::layout::{Constraint, Layout, Rect};
+use ratatui::layout::Rect;
 use ratatui::text::{Line, Span};
-use ratatui::widgets::{Paragraph, Sparkline, SparklineBar, Wrap};
 use ratatui::Frame;
 
 use super::Shared;
 use crate::metrics::pg2s::Pg2sReport;
 use crate::stats::summary::Spread;
-use crate::workbench::panes::{pane_block, Pane};
+use crate::workbench::panes::{draw_scrolled, pane_block, Pane};
 use crate::workbench::scoring::Pg2sOutcome;
+use crate::workbench::scroll;
 use crate::workbench::session::{PlanSource, RunRecord, RunState, ScoreRecord};
 use crate::workbench::theme::Theme;
 
@@ -74,29 +74,35 @@ fn spread_lines(theme: &Theme, run: &RunRecord, scores: &[ScoreRecord]) -> Vec<L
     lines
 }
 
-/// The sparkline bars of the run history: one bar a run of one sample;
-/// for a sampled run its min, mean and max (the ends dimmed), so the spread
-/// shows beside the level.
-fn history_bars(theme: &Theme, history: &[RunRecord]) -> Vec<SparklineBar> {
-    let height = |v: f64| (v * 100.0).round().max(0.0) as u64;
+/// The runs' scores as one line of bars, oldest first, the last a run at
+/// the pane's right edge once there are more than `width`: a sampled run
+/// as its min, mean and max (min and max muted), a run without any score
+/// as an empty bar; a run not scored (failed, cancelled) has none.
+fn history_bars(theme: &Theme, history: &[RunRecord], width: usize) -> Line<'static> {
+    const LEVELS: [char; 9] = [' ', '▁', '▂', '▃', '▄', '▅', '▆', '▇', '█'];
+    let bar = |v: f64, style| {
+        let level = (v.clamp(0.0, 1.0) * 8.0).round() as usize;
+        Span::styled(LEVELS[level].to_string(), style)
+    };
     let mut bars = Vec::new();
     for run in history {
         let scores = run.sample_scores();
         let Some(spread) = spread_of(&scores, |s| s.pg2s.or(s.kas)) else {
             if run.state.is_scored() && run.scores.is_some() {
-                bars.push(SparklineBar::from(0));
+                bars.push(bar(0.0, theme.accent));
             }
             continue;
         };
         if spread.count > 1 {
-            bars.push(SparklineBar::from(height(spread.min)).style(theme.muted));
-            bars.push(SparklineBar::from(height(spread.mean)));
-            bars.push(SparklineBar::from(height(spread.max)).style(theme.muted));
+            bars.push(bar(spread.min, theme.muted));
+            bars.push(bar(spread.mean, theme.accent));
+            bars.push(bar(spread.max, theme.muted));
         } else {
-            bars.push(SparklineBar::from(height(spread.mean)));
+            bars.push(bar(spread.mean, theme.accent));
         }
     }
-    bars
+    let skip = bars.len().saturating_sub(width);
+    Line::from(bars.split_off(skip))
 }
 
 /// The style of a score: good, middling, bad or absent.
@@ -133,7 +139,23 @@ pub(crate) fn draw(frame: &mut Frame, app: &Shared, area: Rect) {
         });
     let block = pane_block(app, Pane::Scores, extra, area.width);
     let inner = block.inner(area);
-    frame.render_widget(block, area);
+    let lines = body(app, usize::from(inner.width.max(1)));
+    draw_scrolled(frame, app, Pane::Scores, block, area, inner, lines);
+}
+
+/// The furthest the pane scrolls when drawn in `area`.
+pub(crate) fn scroll_limit(app: &Shared, area: Rect) -> usize {
+    let inner = pane_block(app, Pane::Scores, None, area.width).inner(area);
+    body(app, usize::from(inner.width.max(1)))
+        .len()
+        .saturating_sub(usize::from(inner.height))
+}
+
+/// What the pane shows, `width` columns wide: the scores of the plan shown
+/// (why a run that did not finish is not among them, a sampled run's
+/// spread), then the runs' scores as bars and a line each, newest first.
+fn body(app: &Shared, width: usize) -> Vec<Line<'static>> {
+    let t = app.theme;
     let mut lines = Vec::new();
     if let Some(run) = app.unfinished_latest() {
         lines.push(Line::from(Span::styled(
@@ -183,26 +205,9 @@ pub(crate) fn draw(frame: &mut Frame, app: &Shared, area: Rect) {
             }
         }
     }
-    let history = history_bars(t, &app.runs.history);
-    let width = usize::from(inner.width.max(1));
-    let text_height = lines
-        .iter()
-        .map(|l| l.width().max(1).div_ceil(width) as u16)
-        .sum::<u16>();
-    let [text_area, rest] =
-        Layout::vertical([Constraint::Length(text_height), Constraint::Min(0)]).areas(inner);
-    frame.render_widget(Paragraph::new(lines).wrap(Wrap { trim: true }), text_area);
-    if rest.height < 2 {
-        return;
-    }
-    let [label, spark, table] = Layout::vertical([
-        Constraint::Length(1),
-        Constraint::Length(2.min(rest.height - 1)),
-        Constraint::Min(0),
-    ])
-    .areas(rest);
-    frame.render_widget(
-        Paragraph::new(Span::styled(
+    let mut lines = scroll::wrap_text(&lines, width);
+    if !app.runs.history.is_empty() {
+        lines.push(Line::from(Span::styled(
             format!(
                 "runs: {} (H lists and compares them{})",
                 app.runs.history.len(),
@@ -213,19 +218,14 @@ pub(crate) fn draw(frame: &mut Frame, app: &Shared, area: Rect) {
                 }
             ),
             t.muted,
-        )),
-        label,
-    );
-    frame.render_widget(
-        Sparkline::default().data(history).max(100).style(t.accent),
-        spark,
-    );
+        )));
+        lines.push(history_bars(t, &app.runs.history, width));
+    }
     let rows: Vec<Line> = app
         .runs
         .history
         .iter()
         .rev()
-        .take(table.height as usize)
         .map(|r| {
             let scores = r.sample_scores();
             let f = |of: ScoreOf| {
@@ -249,5 +249,6 @@ pub(crate) fn draw(frame: &mut Frame, app: &Shared, area: Rect) {
             ))
         })
         .collect();
-    frame.render_widget(Paragraph::new(rows), table);
+    lines.extend(scroll::wrap_text(&rows, width));
+    lines
 }
