@@ -160,7 +160,7 @@ impl GraphView {
         self.set_zoom(self.zoom().zoom_in());
     }
 
-    /// Shows less: shorter names, no labels, less room.
+    /// Shows less: borderless nodes, no blank rows, shorter labels.
     pub fn zoom_out(&mut self) {
         self.set_zoom(self.zoom().zoom_out());
     }
