@@ -15,6 +15,7 @@ use crate::workbench::overlays::actions::ActionsView;
 use crate::workbench::overlays::help::Help;
 use crate::workbench::overlays::log::MessageLog;
 use crate::workbench::overlays::Overlay;
+use crate::workbench::panes::graph;
 use crate::workbench::panes::steps::{self, StepList, StepsBefore};
 use crate::workbench::panes::{self, Pane};
 use crate::workbench::runs::FreshRun;
@@ -214,7 +215,10 @@ impl App {
             | Action::GraphSelect(_)
             | Action::GraphStep(_)
             | Action::GraphZoom(_)
-            | Action::GraphMode => self.panes.graph.on_action(action),
+            | Action::GraphMode => {
+                let body = self.pane_rect(Pane::Graph).map(graph::body);
+                self.panes.graph.on_action(action, body.unwrap_or_default());
+            }
             Action::PromptStep(step) => self.step_prompt_agent(step),
             Action::EditPrompt => {
                 self.panes
@@ -423,7 +427,10 @@ impl App {
                     self.panes.ground_truth.items.len(),
                 )
             }
-            Pane::Graph => self.panes.graph.move_neighbour(delta),
+            Pane::Graph => {
+                let body = self.pane_rect(pane).map(graph::body);
+                self.panes.graph.on_move(delta, body.unwrap_or_default());
+            }
             Pane::Scene | Pane::Description | Pane::Scores | Pane::Prompt => {
                 // A text pane scrolls within its text where its length is
                 // known (drawn where it is now), so the way back is never

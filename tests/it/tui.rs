@@ -154,7 +154,7 @@ fn demo_fills_every_pane_at_200x60() {
     }
     assert!(screen.contains("KAS 0.720"), "{screen}");
     assert!(screen.contains("PG2S is waiting for models"));
-    assert!(screen.contains("│ robot "), "{screen}");
+    assert!(screen.contains("[robot]"), "{screen}");
     insta::assert_snapshot!("demo_200x60", screen);
 }
 
@@ -770,7 +770,8 @@ fn state_for(context: Context, action: Action, warm: bool) -> Harness {
     open_overlay(&mut h, context, warm);
     if warm {
         match context {
-            Context::WholeGraph => h.keys("]]]"),
+            // Zoomed in, so that `-` has a level to go back to.
+            Context::WholeGraph => h.keys("]]+"),
             Context::Graph => {
                 h.key(KeyCode::Down);
                 h.key(KeyCode::Enter);
@@ -948,13 +949,156 @@ fn the_whole_graph_is_the_default_and_the_neighbourhood_a_mode() {
     let whole = h.screen();
     assert!(!whole.contains("node 1/13"), "{whole}");
     let first = h.app.panes.graph.view.selected();
+    let drawn = h.terminal().backend().buffer().clone();
     h.key(KeyCode::Char(']'));
     assert_ne!(h.app.panes.graph.view.selected(), first);
-    assert_ne!(h.screen(), whole);
+    assert_ne!(
+        h.terminal().backend().buffer(),
+        &drawn,
+        "the selection moved"
+    );
     h.key(KeyCode::Char('v'));
     assert!(h.screen().contains("node 1/13"));
     h.key(KeyCode::Char('v'));
     assert!(!h.screen().contains("node 1/13"));
+}
+
+/// Thirty triples of a kitchen (33 objects, no name inside another's
+/// brackets): more than a pane of a normal terminal shows at once.
+const KITCHEN: &str = "(robot, faces, kitchen table)
+(kitchen table, left of, fridge)
+(fridge, next to, pantry door)
+(stove, right of, sink)
+(sink, under, window)
+(tap, above, sink)
+(kettle, on, stove)
+(frying pan, on, stove)
+(blue mug, on, counter)
+(red mug, on, kitchen table)
+(counter, under, window)
+(coffee machine, on, counter)
+(spout, part of, coffee machine)
+(drip tray, part of, coffee machine)
+(toaster, next to, coffee machine)
+(bread box, left of, toaster)
+(cutting board, on, counter)
+(knife, on, cutting board)
+(fruit bowl, on, kitchen table)
+(apple, in, fruit bowl)
+(banana, in, fruit bowl)
+(chair, in front of, kitchen table)
+(second chair, behind, kitchen table)
+(dish rack, right of, sink)
+(plate, in, dish rack)
+(dish towel, hangs on, oven door)
+(oven door, part of, stove)
+(trash can, under, sink)
+(spice rack, above, stove)
+(plant, on, window sill)";
+
+/// The inside of the Knowledge Graph pane as drawn now: where it is on
+/// screen, and its rows of text.
+fn graph_pane(h: &mut Harness) -> (Rect, Vec<String>) {
+    use mapvlm::workbench::layout::{pane_rects, Screen};
+    let (w, height) = h.app.size;
+    let Screen::Panes { panes, .. } =
+        pane_rects(Rect::new(0, 0, w, height), h.app.focus, h.app.panes.zoom)
+    else {
+        panic!("no panes at {w}x{height}")
+    };
+    let area = panes.iter().find(|(p, _)| *p == Pane::Graph).unwrap().1;
+    let inner = Rect::new(area.x + 1, area.y + 1, area.width - 2, area.height - 2);
+    let buf = h.terminal().backend().buffer().clone();
+    let rows = (inner.y..inner.y + inner.height)
+        .map(|y| {
+            (inner.x..inner.x + inner.width)
+                .map(|x| buf[(x, y)].symbol().to_string())
+                .collect::<String>()
+        })
+        .collect();
+    (inner, rows)
+}
+
+/// Whether the pane shows node `name` whole: `[name]` in the compact
+/// drawing, `│ name │` or `│ name ├` in a boxed one.
+fn shows_whole(rows: &[String], name: &str) -> bool {
+    let text = rows.join("\n");
+    [
+        format!("[{name}]"),
+        format!("│ {name} │"),
+        format!("│ {name} ├"),
+    ]
+    .iter()
+    .any(|n| text.contains(n))
+}
+
+#[test]
+fn the_demo_graph_at_200x60_draws_every_triple_whole() {
+    let mut h = Harness::new((200, 60), None, false, unavailable());
+    let (_, rows) = graph_pane(&mut h);
+    let text = rows.join("\n");
+    let g = h.app.panes.graph.kg.clone();
+    assert_eq!(g.edges.len(), 11, "the demo's SKM triples");
+    for name in &g.nodes {
+        assert!(shows_whole(&rows, name), "{name} whole in\n{text}");
+    }
+    assert!(text.contains("[blue mug]─on─"), "{text}");
+    for e in &g.edges {
+        let drawn = text.matches(&format!("─{}─", e.label)).count();
+        let wanted = g.edges.iter().filter(|o| o.label == e.label).count();
+        assert!(drawn >= wanted, "{} drawn {drawn} times\n{text}", e.label);
+    }
+    assert!(!text.contains("hidden"), "{text}");
+}
+
+#[test]
+fn a_30_triple_graph_shows_every_node_or_says_how_many_are_hidden() {
+    for size in [(200, 60), (120, 40), (80, 24)] {
+        let mut h = Harness::new(size, None, false, unavailable());
+        h.focus(Pane::Graph);
+        h.app.panes.graph.set_output(KITCHEN);
+        let g = h.app.panes.graph.kg.clone();
+        assert_eq!((g.nodes.len(), g.edges.len()), (33, 30));
+        // As drawn first, then a page down and another.
+        for pan in 0..3 {
+            let (_, rows) = graph_pane(&mut h);
+            let text = rows.join("\n");
+            let shown = g.nodes.iter().filter(|n| shows_whole(&rows, n)).count();
+            let note = rows.last().unwrap().trim_end();
+            if shown < g.nodes.len() {
+                let hidden = g.nodes.len() - shown;
+                assert!(
+                    note.starts_with(&format!("hidden: {hidden} of 33 nodes, ")),
+                    "{size:?}, pan {pan}: {hidden} hidden but the pane says\n{text}"
+                );
+                assert!(note.contains(" of 30 edges"), "{note}");
+            } else {
+                assert!(!text.contains("hidden"), "{size:?}: {text}");
+            }
+            h.key(KeyCode::PageDown);
+        }
+    }
+}
+
+#[test]
+fn the_compact_view_keeps_relation_labels_and_whole_names() {
+    let mut h = Harness::new((200, 60), None, false, unavailable());
+    h.focus(Pane::Graph);
+    h.key(KeyCode::Char('z'));
+    let (_, rows) = graph_pane(&mut h);
+    assert!(shows_whole(&rows, "coffee machine"), "{}", rows.join("\n"));
+    assert!(!rows.join("").contains('['), "boxes when the pane has room");
+    h.keys("--");
+    let (_, rows) = graph_pane(&mut h);
+    let text = rows.join("\n");
+    assert!(text.contains("[coffee machine]"), "{text}");
+    for e in &h.app.panes.graph.kg.edges {
+        assert!(
+            text.contains(&format!("─{}─", e.label)),
+            "{}\n{text}",
+            e.label
+        );
+    }
 }
 
 /// A run whose agents asked gpt-4o (the Planner's answer from the cache),

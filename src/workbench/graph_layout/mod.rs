@@ -230,6 +230,15 @@ pub fn layout(graph: &KnowledgeGraph, zoom: Zoom) -> GraphLayout {
     Layering::of(graph).place(graph, zoom)
 }
 
+/// The layouts of `graph` at every level of [`Zoom::ALL`], in that order:
+/// the graph is layered once (the costly part, the same at every zoom) and
+/// placed three times, so that a view can pick the level that fits its
+/// pane when it is drawn.
+pub fn layouts(graph: &KnowledgeGraph) -> [GraphLayout; 3] {
+    let layering = Layering::of(graph);
+    Zoom::ALL.map(|zoom| layering.place(graph, zoom))
+}
+
 /// A graph's components layered and ordered, before any zoom's sizes.
 struct Layering {
     /// Each component, in order of its first node.

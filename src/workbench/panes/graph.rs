@@ -1,9 +1,11 @@
-//! The Knowledge Graph pane: the SKM's triples as a whole graph, or one
-//! node's neighbourhood.
+//! The Knowledge Graph pane: the SKM's triples as a whole graph (fitted to
+//! the pane, or scrolled with what is hidden said), or one node's
+//! neighbourhood.
 
 use ratatui::layout::{Constraint, Layout, Rect};
+use ratatui::style::Style;
 use ratatui::text::{Line, Span};
-use ratatui::widgets::{Paragraph, Wrap};
+use ratatui::widgets::{Block, Paragraph, Wrap};
 use ratatui::Frame;
 
 use crate::agents::graph::{parse_triples, KnowledgeGraph};
@@ -12,6 +14,11 @@ use crate::workbench::app::App;
 use crate::workbench::graph_view::{GraphView, GraphWidget};
 use crate::workbench::keymap::{Action, Context};
 use crate::workbench::panes::{agent_badge, pane_block, Pane};
+use crate::workbench::scroll::{self, Motion};
+
+/// What the pane says before the SKM has given any triple.
+const NO_TRIPLES: &str =
+    "No triples yet: the SKM's (subject, relation, object) lines appear here as a graph.";
 
 /// The graph view's position.
 #[derive(Debug, Clone, Default, PartialEq, Eq)]
@@ -42,7 +49,7 @@ pub struct GraphPane {
     pub kg: KnowledgeGraph,
     /// The neighbourhood view's position.
     pub cursor: GraphCursor,
-    /// The whole-graph view: layout, selection, zoom and pan.
+    /// The whole-graph view: layouts, selection, zoom and what is in sight.
     pub view: GraphView,
     /// Which of the two drawings the pane shows.
     pub mode: GraphMode,
@@ -84,8 +91,10 @@ impl GraphPane {
         self.cursor.neighbour = self.cursor.neighbour.saturating_add_signed(delta).min(last);
     }
 
-    /// A key of the graph contexts; other actions do nothing.
-    pub fn on_action(&mut self, action: Action) {
+    /// A key of the graph contexts, in a pane whose inside is `body`;
+    /// other actions do nothing.
+    pub fn on_action(&mut self, action: Action, body: Rect) {
+        let (width, height) = (body.width, body.height);
         match action {
             Action::GraphEnter => {
                 if let Some(&next) = self.neighbours().get(self.cursor.neighbour) {
@@ -111,10 +120,10 @@ impl GraphPane {
             Action::GraphSelect(step) if step > 0 => self.view.select_next(),
             Action::GraphSelect(_) => self.view.select_prev(),
             Action::GraphStep(direction) => {
-                self.view.step(direction);
+                self.view.step(direction, width, height);
             }
-            Action::GraphZoom(step) if step > 0 => self.view.zoom_in(),
-            Action::GraphZoom(_) => self.view.zoom_out(),
+            Action::GraphZoom(step) if step > 0 => self.view.zoom_in(width, height),
+            Action::GraphZoom(_) => self.view.zoom_out(width, height),
             Action::GraphMode => {
                 self.mode = match self.mode {
                     GraphMode::Whole => GraphMode::Neighbourhood,
@@ -124,6 +133,39 @@ impl GraphPane {
             _ => {}
         }
     }
+
+    /// The panes' `Move(delta)` (↑↓ PgUp PgDn) in a pane whose inside is
+    /// `body`: the next or previous neighbour, a row or page of the whole
+    /// graph.
+    pub fn on_move(&mut self, delta: isize, body: Rect) {
+        let motion = Motion::of_move(delta);
+        match (self.mode, motion) {
+            (GraphMode::Neighbourhood, _) => self.move_neighbour(delta),
+            (GraphMode::Whole, Motion::Page(d)) => {
+                let page = body.height.saturating_sub(2).max(1) as isize;
+                self.view.scroll(0, d * page, body.width, body.height);
+            }
+            (GraphMode::Whole, _) => self.view.scroll(0, delta, body.width, body.height),
+        }
+    }
+
+    /// `block` with `↑ N more` / `↓ N more` on its frame when the whole
+    /// graph drawn in `body` goes on above or below the pane (N rows of the
+    /// drawing), as on every scrolled pane.
+    pub fn framed<'a>(&self, block: Block<'a>, body: Rect, marker_style: Style) -> Block<'a> {
+        if self.mode != GraphMode::Whole || self.kg.nodes.is_empty() {
+            return block;
+        }
+        let sight = self.view.sight(body.width, body.height);
+        let rows = usize::from(sight.rows);
+        scroll::framed(block, sight.origin.y, sight.extent.1, rows, marker_style)
+    }
+}
+
+/// The inside of the pane drawn over `area` (every pane is framed all
+/// round): what its key handlers measure against.
+pub(crate) fn body(area: Rect) -> Rect {
+    Block::bordered().inner(area)
 }
 
 /// Draws the Knowledge Graph pane.
@@ -137,14 +179,11 @@ pub(crate) fn draw(frame: &mut Frame, app: &App, area: Rect) {
         area.width,
     );
     let inner = block.inner(area);
+    let block = app.panes.graph.framed(block, inner, t.accent);
     frame.render_widget(block, area);
     if g.nodes.is_empty() {
         frame.render_widget(
-            Paragraph::new(Span::styled(
-                "No triples yet: the SKM's (subject, relation, object) lines appear here as a graph.",
-                t.muted,
-            ))
-            .wrap(Wrap { trim: true }),
+            Paragraph::new(Span::styled(NO_TRIPLES, t.muted)).wrap(Wrap { trim: true }),
             inner,
         );
         return;
