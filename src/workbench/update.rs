@@ -219,6 +219,10 @@ impl App {
                 let body = self.pane_rect(Pane::Graph).map(graph::body);
                 self.panes.graph.on_action(action, body.unwrap_or_default());
             }
+            Action::GraphList => {
+                self.panes.graph.toggle_list(self.focus == Pane::Graph);
+                self.focus = Pane::Graph;
+            }
             Action::PromptStep(step) => self.step_prompt_agent(step),
             Action::EditPrompt => {
                 self.panes

@@ -1101,6 +1101,60 @@ fn the_compact_view_keeps_relation_labels_and_whole_names() {
     }
 }
 
+#[test]
+fn the_list_of_triples_shows_each_one_and_scrolls_with_markers() {
+    let mut h = Harness::new((200, 60), None, false, unavailable());
+    h.focus(Pane::Plan);
+    h.key(KeyCode::Char('T'));
+    assert_eq!(h.app.focus, Pane::Graph, "T from any pane");
+    let (_, rows) = graph_pane(&mut h);
+    let text = rows.join("\n");
+    assert!(text.contains(" 1. robot —faces→ table"), "{text}");
+    assert!(text.contains("11. plant —on→ window sill"), "{text}");
+    h.key(KeyCode::Char('T'));
+    let (_, rows) = graph_pane(&mut h);
+    assert!(rows.join("").contains("[blue mug]"), "drawn again");
+
+    // Thirty triples in an 80×24 terminal: the list scrolls, the frame
+    // says how many lines are out of sight, and every triple is seen.
+    let mut h = Harness::new((80, 24), None, false, unavailable());
+    h.app.panes.graph.set_output(KITCHEN);
+    h.key(KeyCode::Char('T'));
+    let g = h.app.panes.graph.kg.clone();
+    let triple = |i: usize| {
+        let e = &g.edges[i];
+        format!(
+            "{}. {} —{}→ {}",
+            i + 1,
+            g.nodes[e.from],
+            e.label,
+            g.nodes[e.to]
+        )
+    };
+    // The pane's top and bottom edges, where the markers are.
+    let edges = |h: &mut Harness| {
+        let (inner, _) = graph_pane(h);
+        let screen = h.screen();
+        let lines: Vec<&str> = screen.lines().collect();
+        let top = usize::from(inner.y - 1);
+        let bottom = usize::from(inner.y + inner.height);
+        format!("{}\n{}", lines[top], lines[bottom])
+    };
+    let frame = edges(&mut h);
+    assert!(frame.contains("↓ ") && !frame.contains("↑ "), "{frame}");
+    let mut seen = String::new();
+    for _ in 0..30 {
+        let (_, rows) = graph_pane(&mut h);
+        seen.push_str(&rows.join("\n"));
+        h.key(KeyCode::PageDown);
+    }
+    for i in 0..g.edges.len() {
+        assert!(seen.contains(&triple(i)), "{} never shown", triple(i));
+    }
+    let frame = edges(&mut h);
+    assert!(frame.contains("↑ ") && !frame.contains("↓ "), "{frame}");
+}
+
 /// A run whose agents asked gpt-4o (the Planner's answer from the cache),
 /// with a price table for gpt-4o: the history and the comparison show what
 /// each agent and the run cost; an unpriced model shows `no price`.

@@ -282,6 +282,12 @@ pub(super) const WORKBENCH: &[Binding] = &[
         "zoom in or out; one node's neighbourhood instead",
     ),
     bind(
+        C::Panes,
+        &[(ch('T'), A::GraphList)],
+        "T",
+        "the knowledge graph's triples as a list, or drawn again",
+    ),
+    bind(
         C::Graph,
         &[(ch('v'), A::GraphMode)],
         "v (neighbourhood)",

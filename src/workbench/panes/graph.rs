@@ -1,6 +1,6 @@
 //! The Knowledge Graph pane: the SKM's triples as a whole graph (fitted to
-//! the pane, or scrolled with what is hidden said), or one node's
-//! neighbourhood.
+//! the pane, or scrolled with what is hidden said), one node's
+//! neighbourhood, or a list of the triples.
 
 use ratatui::layout::{Constraint, Layout, Rect};
 use ratatui::style::Style;
@@ -14,7 +14,8 @@ use crate::workbench::app::App;
 use crate::workbench::graph_view::{GraphView, GraphWidget};
 use crate::workbench::keymap::{Action, Context};
 use crate::workbench::panes::{agent_badge, pane_block, Pane};
-use crate::workbench::scroll::{self, Motion};
+use crate::workbench::scroll::{self, wrap_hanging, Motion, Scroll};
+use crate::workbench::theme::Theme;
 
 /// What the pane says before the SKM has given any triple.
 const NO_TRIPLES: &str =
@@ -42,7 +43,7 @@ pub enum GraphMode {
 }
 
 /// The Knowledge Graph pane's state: the graph of the SKM's output, the
-/// whole-graph view and the neighbourhood cursor.
+/// whole-graph view, the neighbourhood cursor and the list of triples.
 #[derive(Debug, Clone, Default)]
 pub struct GraphPane {
     /// The knowledge graph of the SKM output.
@@ -53,6 +54,11 @@ pub struct GraphPane {
     pub view: GraphView,
     /// Which of the two drawings the pane shows.
     pub mode: GraphMode,
+    /// Whether the pane lists the triples instead of drawing them (`T`):
+    /// every triple, readable whatever the graph's shape.
+    pub list: bool,
+    /// How far the list of triples is scrolled.
+    pub list_scroll: Scroll,
 }
 
 impl GraphPane {
@@ -65,12 +71,20 @@ impl GraphPane {
         self.view.set_graph(&self.kg);
     }
 
-    /// The key context of the mode shown.
+    /// The key context of the mode shown; the list of triples has no keys
+    /// of its own (the panes' ↑↓ PgUp PgDn scroll it).
     pub fn context(&self) -> Context {
-        match self.mode {
-            GraphMode::Whole => Context::WholeGraph,
-            GraphMode::Neighbourhood => Context::Graph,
+        match (self.list, self.mode) {
+            (true, _) => Context::Panes,
+            (false, GraphMode::Whole) => Context::WholeGraph,
+            (false, GraphMode::Neighbourhood) => Context::Graph,
         }
+    }
+
+    /// `T`: in the focused pane, the list of triples instead of the drawing
+    /// or the drawing again; from another pane, the list.
+    pub fn toggle_list(&mut self, focused: bool) {
+        self.list = !(focused && self.list);
     }
 
     /// The neighbours of the cursor's node in the order the view lists
@@ -135,10 +149,18 @@ impl GraphPane {
     }
 
     /// The panes' `Move(delta)` (↑↓ PgUp PgDn) in a pane whose inside is
-    /// `body`: the next or previous neighbour, a row or page of the whole
-    /// graph.
+    /// `body`: the next or previous neighbour, a line or page of the list,
+    /// a row or page of the whole graph.
     pub fn on_move(&mut self, delta: isize, body: Rect) {
         let motion = Motion::of_move(delta);
+        if self.list {
+            let total = self
+                .list_lines(usize::from(body.width), &Styles::default())
+                .len();
+            self.list_scroll
+                .scroll(total, usize::from(body.height), motion);
+            return;
+        }
         match (self.mode, motion) {
             (GraphMode::Neighbourhood, _) => self.move_neighbour(delta),
             (GraphMode::Whole, Motion::Page(d)) => {
@@ -149,16 +171,69 @@ impl GraphPane {
         }
     }
 
+    /// The triples as numbered lines `subject —relation→ object`, in the
+    /// SKM's order, each wrapped by words to `width` columns under its
+    /// number.
+    fn list_lines(&self, width: usize, styles: &Styles) -> Vec<Line<'static>> {
+        let digits = self.kg.edges.len().to_string().len();
+        self.kg
+            .edges
+            .iter()
+            .enumerate()
+            .flat_map(|(i, e)| {
+                let number = Span::styled(format!("{:>digits$}. ", i + 1), styles.muted);
+                let body = [
+                    Span::styled(self.kg.nodes[e.from].clone(), styles.name),
+                    Span::styled(" —", styles.muted),
+                    Span::styled(e.label.clone(), styles.relation),
+                    Span::styled("→ ", styles.muted),
+                    Span::styled(self.kg.nodes[e.to].clone(), styles.name),
+                ];
+                wrap_hanging(&[number], &body, width)
+            })
+            .collect()
+    }
+
     /// `block` with `↑ N more` / `↓ N more` on its frame when the whole
     /// graph drawn in `body` goes on above or below the pane (N rows of the
     /// drawing), as on every scrolled pane.
     pub fn framed<'a>(&self, block: Block<'a>, body: Rect, marker_style: Style) -> Block<'a> {
-        if self.mode != GraphMode::Whole || self.kg.nodes.is_empty() {
+        if self.list || self.mode != GraphMode::Whole || self.kg.nodes.is_empty() {
             return block;
         }
         let sight = self.view.sight(body.width, body.height);
         let rows = usize::from(sight.rows);
         scroll::framed(block, sight.origin.y, sight.extent.1, rows, marker_style)
+    }
+
+    /// Draws the list of triples in `block` over `area`, scrolled, with
+    /// `↑ N more` / `↓ N more` on the frame when lines are out of sight.
+    pub fn render_list(&self, frame: &mut Frame, area: Rect, block: Block<'_>, t: &Theme) {
+        let width = usize::from(block.inner(area).width);
+        let lines = if self.kg.edges.is_empty() {
+            scroll::wrap_text(&[Line::styled(NO_TRIPLES, t.muted)], width)
+        } else {
+            self.list_lines(width, &Styles::of(t))
+        };
+        scroll::render(frame, area, block, &lines, self.list_scroll, t.accent);
+    }
+}
+
+/// The styles of the list of triples.
+#[derive(Debug, Default)]
+struct Styles {
+    name: Style,
+    relation: Style,
+    muted: Style,
+}
+
+impl Styles {
+    fn of(t: &Theme) -> Styles {
+        Styles {
+            name: t.base,
+            relation: t.accent,
+            muted: t.muted,
+        }
     }
 }
 
@@ -179,6 +254,10 @@ pub(crate) fn draw(frame: &mut Frame, app: &App, area: Rect) {
         area.width,
     );
     let inner = block.inner(area);
+    if app.panes.graph.list {
+        app.panes.graph.render_list(frame, area, block, t);
+        return;
+    }
     let block = app.panes.graph.framed(block, inner, t.accent);
     frame.render_widget(block, area);
     if g.nodes.is_empty() {
