@@ -507,6 +507,13 @@ impl App {
         let Some((pane, rect)) = self.pane_at(mouse.column, mouse.row) else {
             return Vec::new();
         };
+        if pane == Pane::Graph {
+            if mouse.kind == MouseEventKind::Down(MouseButton::Left) {
+                self.focus = pane;
+            }
+            self.panes.graph.on_mouse(mouse, graph::body(rect));
+            return Vec::new();
+        }
         match mouse.kind {
             MouseEventKind::Down(MouseButton::Left) => {
                 self.focus = pane;

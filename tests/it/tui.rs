@@ -6,7 +6,7 @@ use std::time::{Duration, Instant};
 
 use crate::common;
 
-use crossterm::event::{KeyCode, KeyEvent, KeyModifiers};
+use crossterm::event::{KeyCode, KeyEvent, KeyModifiers, MouseButton, MouseEvent, MouseEventKind};
 use mapvlm::agents::pipeline::AgentEvent;
 use mapvlm::agents::replay::Pace;
 use mapvlm::agents::AgentRole;
@@ -204,7 +204,6 @@ fn collapsed(screen: &str, columns: std::ops::Range<usize>) -> String {
 
 #[test]
 fn long_steps_wrap_whole_in_their_pane_and_a_click_selects_the_step_drawn_there() {
-    use crossterm::event::{MouseButton, MouseEvent, MouseEventKind};
     use mapvlm::workbench::layout::{pane_rects, Screen};
     let mut h = Harness::new((120, 40), None, false, unavailable());
     let long = "Walk over to the kitchen counter beside the sink, pick up the blue mug \
@@ -1019,6 +1018,17 @@ fn graph_pane(h: &mut Harness) -> (Rect, Vec<String>) {
     (inner, rows)
 }
 
+/// Where `needle` is drawn in the Knowledge Graph pane: its column and
+/// row on screen.
+fn drawn_at(h: &mut Harness, needle: &str) -> Option<(u16, u16)> {
+    let (inner, rows) = graph_pane(h);
+    rows.iter().enumerate().find_map(|(y, row)| {
+        let at = row.find(needle)?;
+        let column = row[..at].chars().count() as u16;
+        Some((inner.x + column, inner.y + y as u16))
+    })
+}
+
 /// Whether the pane shows node `name` whole: `[name]` in the compact
 /// drawing, `│ name │` or `│ name ├` in a boxed one.
 fn shows_whole(rows: &[String], name: &str) -> bool {
@@ -1059,9 +1069,9 @@ fn a_30_triple_graph_shows_every_node_or_says_how_many_are_hidden() {
         h.app.panes.graph.set_output(KITCHEN);
         let g = h.app.panes.graph.kg.clone();
         assert_eq!((g.nodes.len(), g.edges.len()), (33, 30));
-        // As drawn first, then a page down and another.
+        // As drawn first, then panned with the wheel right and down.
         for pan in 0..3 {
-            let (_, rows) = graph_pane(&mut h);
+            let (inner, rows) = graph_pane(&mut h);
             let text = rows.join("\n");
             let shown = g.nodes.iter().filter(|n| shows_whole(&rows, n)).count();
             let note = rows.last().unwrap().trim_end();
@@ -1075,7 +1085,14 @@ fn a_30_triple_graph_shows_every_node_or_says_how_many_are_hidden() {
             } else {
                 assert!(!text.contains("hidden"), "{size:?}: {text}");
             }
-            h.key(KeyCode::PageDown);
+            for kind in [MouseEventKind::ScrollDown, MouseEventKind::ScrollRight] {
+                h.app.update(Msg::Mouse(MouseEvent {
+                    kind,
+                    column: inner.x + 2,
+                    row: inner.y + 2,
+                    modifiers: KeyModifiers::NONE,
+                }));
+            }
         }
     }
 }
@@ -1153,6 +1170,46 @@ fn the_list_of_triples_shows_each_one_and_scrolls_with_markers() {
     }
     let frame = edges(&mut h);
     assert!(frame.contains("↑ ") && !frame.contains("↓ "), "{frame}");
+    let (inner, _) = graph_pane(&mut h);
+    let before = h.screen();
+    h.app.update(Msg::Mouse(MouseEvent {
+        kind: MouseEventKind::ScrollUp,
+        column: inner.x + 3,
+        row: inner.y + 3,
+        modifiers: KeyModifiers::NONE,
+    }));
+    assert_ne!(h.screen(), before, "the wheel scrolls the list");
+}
+
+#[test]
+fn a_click_on_a_node_selects_it_and_on_a_neighbour_highlights_it() {
+    let mut h = Harness::new((200, 60), None, false, unavailable());
+    h.focus(Pane::Plan);
+    let g = h.app.panes.graph.kg.clone();
+    let click = |h: &mut Harness, (column, row): (u16, u16)| {
+        h.app.update(Msg::Mouse(MouseEvent {
+            kind: MouseEventKind::Down(MouseButton::Left),
+            column,
+            row,
+            modifiers: KeyModifiers::NONE,
+        }));
+    };
+    for name in ["counter", "window sill", "blue mug"] {
+        let at = drawn_at(&mut h, &format!("[{name}]")).unwrap();
+        click(&mut h, (at.0 + 2, at.1));
+        assert_eq!(h.app.focus, Pane::Graph);
+        assert_eq!(h.app.panes.graph.view.selected(), g.find(name), "{name}");
+    }
+    h.key(KeyCode::Char('v'));
+    // The robot's neighbourhood: counter, sink and coffee machine lead into
+    // it, table is out of it.
+    let at = drawn_at(&mut h, "coffee machine ─behind─▶").unwrap();
+    click(&mut h, at);
+    let neighbours = h.app.panes.graph.neighbours();
+    let chosen = neighbours[h.app.panes.graph.cursor.neighbour];
+    assert_eq!(g.nodes[chosen], "coffee machine");
+    h.key(KeyCode::Enter);
+    assert_eq!(g.nodes[h.app.panes.graph.cursor.node], "coffee machine");
 }
 
 /// A run whose agents asked gpt-4o (the Planner's answer from the cache),

@@ -9,7 +9,7 @@
 //! into view on a copy, as [`Scroll::following`] does for a list.
 //!
 //! It knows nothing of the workbench: a pane calls its methods from its key
-//! handlers with its size, and [`GraphView::set_graph`] when
+//! and mouse handlers with its size, and [`GraphView::set_graph`] when
 //! SKM's graph changes.
 
 mod draw;
@@ -341,6 +341,24 @@ impl GraphView {
         y.scroll(layout.height, usize::from(sight.rows), Motion::Line(dy));
         self.origin = (x, y);
         self.follow = false;
+    }
+
+    /// The node drawn at `column`, `row` of a `width` × `height` pane (its
+    /// top-left is 0, 0), if any.
+    pub fn node_at(&self, column: u16, row: u16, width: u16, height: u16) -> Option<usize> {
+        let sight = self.sight(width, height);
+        if column >= width || row >= sight.rows {
+            return None;
+        }
+        let p = Point {
+            x: sight.origin.x + usize::from(column),
+            y: sight.origin.y + usize::from(row),
+        };
+        self.layout(sight.zoom)
+            .nodes
+            .iter()
+            .find(|b| b.contains(p))
+            .map(|b| b.node)
     }
 
     /// Shows more (longer names and labels, more room) than a `width` ×

@@ -230,6 +230,19 @@ fn panning_says_how_many_nodes_and_edges_are_hidden_and_which_way() {
 }
 
 #[test]
+fn a_click_finds_the_node_drawn_there() {
+    let g = demo();
+    let view = GraphView::fitting(&g);
+    let sight = view.sight(78, 15);
+    for b in &view.layout(sight.zoom).nodes {
+        let (column, row) = ((b.x + 1) as u16, b.text_row() as u16);
+        assert_eq!(view.node_at(column, row, 78, 15), Some(b.node));
+    }
+    assert_eq!(view.node_at(77, 14, 78, 15), None, "a blank cell");
+    assert_eq!(view.node_at(200, 0, 78, 15), None, "outside the pane");
+}
+
+#[test]
 fn a_new_graph_keeps_the_picked_name_else_selects_the_node_drawn_first() {
     let mut view = GraphView::new(&small(), Zoom::Normal);
     view.select(view.graph().find("lamp").unwrap());

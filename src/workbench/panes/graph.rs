@@ -2,6 +2,7 @@
 //! the pane, or scrolled with what is hidden said), one node's
 //! neighbourhood, or a list of the triples.
 
+use crossterm::event::{KeyModifiers, MouseButton, MouseEvent, MouseEventKind};
 use ratatui::layout::{Constraint, Layout, Rect};
 use ratatui::style::Style;
 use ratatui::text::{Line, Span};
@@ -14,7 +15,7 @@ use crate::workbench::app::App;
 use crate::workbench::graph_view::{GraphView, GraphWidget};
 use crate::workbench::keymap::{Action, Context};
 use crate::workbench::panes::{agent_badge, pane_block, Pane};
-use crate::workbench::scroll::{self, wrap_hanging, Motion, Scroll};
+use crate::workbench::scroll::{self, wrap_hanging, Motion, Scroll, WHEEL_LINES};
 use crate::workbench::theme::Theme;
 
 /// What the pane says before the SKM has given any triple.
@@ -171,6 +172,72 @@ impl GraphPane {
         }
     }
 
+    /// A mouse event over the pane, whose inside is `body`: the wheel
+    /// scrolls the list, pans the whole graph (sideways with Shift, or a
+    /// tilted wheel) or moves along the neighbours; a click on a node of the
+    /// graph selects it, on a neighbour highlights it.
+    pub fn on_mouse(&mut self, mouse: MouseEvent, body: Rect) {
+        let wheel = match mouse.kind {
+            MouseEventKind::ScrollDown => (0, WHEEL_LINES),
+            MouseEventKind::ScrollUp => (0, -WHEEL_LINES),
+            MouseEventKind::ScrollRight => (WHEEL_LINES, 0),
+            MouseEventKind::ScrollLeft => (-WHEEL_LINES, 0),
+            MouseEventKind::Down(MouseButton::Left) => (0, 0),
+            _ => return,
+        };
+        let wheel = if mouse.modifiers.contains(KeyModifiers::SHIFT) {
+            (2 * wheel.1, wheel.0)
+        } else {
+            wheel
+        };
+        let inside = (
+            mouse.column.checked_sub(body.x).filter(|&c| c < body.width),
+            mouse.row.checked_sub(body.y).filter(|&r| r < body.height),
+        );
+        let (width, height) = (body.width, body.height);
+        match (self.list, self.mode, wheel) {
+            (true, _, (_, dy)) => {
+                let total = self
+                    .list_lines(usize::from(width), &Styles::default())
+                    .len();
+                self.list_scroll
+                    .scroll(total, usize::from(height), Motion::Wheel(dy));
+            }
+            (false, GraphMode::Whole, (0, 0)) => {
+                if let (Some(column), Some(row)) = inside {
+                    if let Some(node) = self.view.node_at(column, row, width, height) {
+                        self.view.select(node);
+                    }
+                }
+            }
+            (false, GraphMode::Whole, (dx, dy)) => self.view.scroll(dx, dy, width, height),
+            (false, GraphMode::Neighbourhood, (0, 0)) => {
+                if let Some(i) = self.neighbour_at(mouse.column, mouse.row, body) {
+                    self.cursor.neighbour = i;
+                }
+            }
+            (false, GraphMode::Neighbourhood, (_, dy)) => self.move_neighbour(dy.signum()),
+        }
+    }
+
+    /// The neighbour listed at `column`, `row` of the neighbourhood drawn in
+    /// `body`, by its place in [`GraphPane::neighbours`].
+    fn neighbour_at(&self, column: u16, row: u16, body: Rect) -> Option<usize> {
+        let [_, left, right, _] = neighbourhood_areas(body);
+        let node = self.cursor.node;
+        let (area, first, count) = if left.contains((column, row).into()) {
+            (left, 0, self.kg.incoming(node).count())
+        } else if right.contains((column, row).into()) {
+            let before = self.kg.incoming(node).count();
+            (right, before, self.kg.outgoing(node).count())
+        } else {
+            return None;
+        };
+        // The first row of each half is its heading.
+        let k = usize::from(row - area.y).checked_sub(1)?;
+        (k < count).then_some(first + k)
+    }
+
     /// The triples as numbered lines `subject —relation→ object`, in the
     /// SKM's order, each wrapped by words to `width` columns under its
     /// number.
@@ -238,9 +305,23 @@ impl Styles {
 }
 
 /// The inside of the pane drawn over `area` (every pane is framed all
-/// round): what its key handlers measure against.
+/// round): what its key and mouse handlers measure against.
 pub(crate) fn body(area: Rect) -> Rect {
     Block::bordered().inner(area)
+}
+
+/// The neighbourhood's parts in the pane's inside `body`: the node's box,
+/// the edges into it, the edges out of it, and the other nodes.
+fn neighbourhood_areas(body: Rect) -> [Rect; 4] {
+    let [header, middle, footer] = Layout::vertical([
+        Constraint::Length(3),
+        Constraint::Min(1),
+        Constraint::Length(1),
+    ])
+    .areas(body);
+    let [left, right] =
+        Layout::horizontal([Constraint::Percentage(50), Constraint::Percentage(50)]).areas(middle);
+    [header, left, right, footer]
 }
 
 /// Draws the Knowledge Graph pane.
@@ -281,12 +362,7 @@ pub(crate) fn draw(frame: &mut Frame, app: &App, area: Rect) {
     let outgoing: Vec<(&str, usize)> = g.outgoing(node).map(|e| (e.label.as_str(), e.to)).collect();
     let selected = app.panes.graph.cursor.neighbour;
     let box_width = name.chars().count() + 4;
-    let [header, body, footer] = Layout::vertical([
-        Constraint::Length(3),
-        Constraint::Min(1),
-        Constraint::Length(1),
-    ])
-    .areas(inner);
+    let [header, left, right, footer] = neighbourhood_areas(inner);
     let pad = (header.width as usize).saturating_sub(box_width) / 2;
     let indent = " ".repeat(pad);
     let edge = "─".repeat(box_width.saturating_sub(2));
@@ -304,8 +380,6 @@ pub(crate) fn draw(frame: &mut Frame, app: &App, area: Rect) {
         Line::from(Span::styled(format!("{indent}└{edge}┘"), t.accent)),
     ];
     frame.render_widget(Paragraph::new(header_lines), header);
-    let [left, right] =
-        Layout::horizontal([Constraint::Percentage(50), Constraint::Percentage(50)]).areas(body);
     let style_for = |i: usize| {
         if i == selected && app.focus == Pane::Graph {
             t.selection
