@@ -1212,6 +1212,42 @@ fn a_click_on_a_node_selects_it_and_on_a_neighbour_highlights_it() {
     assert_eq!(g.nodes[h.app.panes.graph.cursor.node], "coffee machine");
 }
 
+#[test]
+fn a_neighbourhood_taller_than_its_pane_follows_the_highlight_and_says_what_is_out_of_sight() {
+    let mut h = Harness::new((120, 40), None, false, unavailable());
+    h.focus(Pane::Graph);
+    h.app.panes.graph.set_output(KITCHEN);
+    h.keys("v]");
+    let g = h.app.panes.graph.kg.clone();
+    let table = h.app.panes.graph.cursor.node;
+    assert_eq!(g.nodes[table], "kitchen table");
+    assert_eq!(g.incoming(table).count(), 5, "more than the pane's 4 rows");
+    let (_, rows) = graph_pane(&mut h);
+    let text = rows.join("\n");
+    assert!(text.contains("◀ into it · ↓ 1 more"), "{text}");
+    assert!(!text.contains("second chair ─behind"), "{text}");
+    for _ in 0..4 {
+        h.key(KeyCode::Down);
+    }
+    let (_, rows) = graph_pane(&mut h);
+    let text = rows.join("\n");
+    assert!(text.contains("◀ into it · ↑ 1 more"), "{text}");
+    // Wider than the half: cut with `…`, not at the edge.
+    assert!(text.contains("second chair ─behind─▶…"), "{text}");
+    let at = drawn_at(&mut h, "red mug ─on─▶").unwrap();
+    h.app.update(Msg::Mouse(MouseEvent {
+        kind: MouseEventKind::Down(MouseButton::Left),
+        column: at.0,
+        row: at.1,
+        modifiers: KeyModifiers::NONE,
+    }));
+    let neighbours = h.app.panes.graph.neighbours();
+    assert_eq!(
+        g.nodes[neighbours[h.app.panes.graph.cursor.neighbour]],
+        "red mug"
+    );
+}
+
 /// A run whose agents asked gpt-4o (the Planner's answer from the cache),
 /// with a price table for gpt-4o: the history and the comparison show what
 /// each agent and the run cost; an unpriced model shows `no price`.

@@ -233,9 +233,12 @@ impl GraphPane {
         } else {
             return None;
         };
+        let selected = self.cursor.neighbour.checked_sub(first);
+        let viewport = usize::from(area.height).saturating_sub(1);
+        let offset = half_offset(count, selected, viewport);
         // The first row of each half is its heading.
         let k = usize::from(row - area.y).checked_sub(1)?;
-        (k < count).then_some(first + k)
+        (k < viewport && offset + k < count).then_some(first + offset + k)
     }
 
     /// The triples as numbered lines `subject —relation→ object`, in the
@@ -324,6 +327,43 @@ fn neighbourhood_areas(body: Rect) -> [Rect; 4] {
     [header, left, right, footer]
 }
 
+/// How far one half of the neighbourhood, `count` neighbours under its
+/// heading in `viewport` rows, is scrolled: enough to show the highlighted
+/// one (`selected`, counted within the half), if it is in this half.
+fn half_offset(count: usize, selected: Option<usize>, viewport: usize) -> usize {
+    let mut scroll = Scroll::default();
+    match selected.filter(|&i| i < count) {
+        Some(i) => scroll.reveal(i..i + 1, count, viewport),
+        None => scroll.scroll(count, viewport, Motion::Line(0)),
+    }
+    scroll.offset()
+}
+
+/// One half of the neighbourhood drawn in `area`: its heading, saying how
+/// many neighbours are above or below, then the neighbours' `lines` that
+/// fit, scrolled to the highlighted one and cut with `…` at the half's
+/// width.
+fn half_lines(
+    heading: &str,
+    lines: Vec<Line<'static>>,
+    selected: Option<usize>,
+    area: Rect,
+    muted: Style,
+) -> Vec<Line<'static>> {
+    let viewport = usize::from(area.height).saturating_sub(1);
+    let offset = half_offset(lines.len(), selected, viewport);
+    let (up, down) = scroll::markers(offset, lines.len(), viewport);
+    let title = [Some(heading.to_string()), up, down]
+        .into_iter()
+        .flatten()
+        .collect::<Vec<_>>()
+        .join(" · ");
+    std::iter::once(Line::styled(title, muted))
+        .chain(lines.into_iter().skip(offset).take(viewport))
+        .map(|line| scroll::cut_line(line, usize::from(area.width)))
+        .collect()
+}
+
 /// Draws the Knowledge Graph pane.
 pub(crate) fn draw(frame: &mut Frame, app: &App, area: Rect) {
     let t = &app.looks.theme;
@@ -354,15 +394,15 @@ pub(crate) fn draw(frame: &mut Frame, app: &App, area: Rect) {
         return;
     }
     let node = app.panes.graph.cursor.node.min(g.nodes.len() - 1);
-    let name = &g.nodes[node];
     let incoming: Vec<(&str, usize)> = g
         .incoming(node)
         .map(|e| (e.label.as_str(), e.from))
         .collect();
     let outgoing: Vec<(&str, usize)> = g.outgoing(node).map(|e| (e.label.as_str(), e.to)).collect();
     let selected = app.panes.graph.cursor.neighbour;
-    let box_width = name.chars().count() + 4;
     let [header, left, right, footer] = neighbourhood_areas(inner);
+    let name = scroll::truncate(&g.nodes[node], usize::from(header.width).saturating_sub(4));
+    let box_width = scroll::text_width(&name) + 4;
     let pad = (header.width as usize).saturating_sub(box_width) / 2;
     let indent = " ".repeat(pad);
     let edge = "─".repeat(box_width.saturating_sub(2));
@@ -379,6 +419,10 @@ pub(crate) fn draw(frame: &mut Frame, app: &App, area: Rect) {
         ]),
         Line::from(Span::styled(format!("{indent}└{edge}┘"), t.accent)),
     ];
+    let header_lines: Vec<Line> = header_lines
+        .into_iter()
+        .map(|line| scroll::cut_line(line, usize::from(header.width)))
+        .collect();
     frame.render_widget(Paragraph::new(header_lines), header);
     let style_for = |i: usize| {
         if i == selected && app.focus == Pane::Graph {
@@ -387,21 +431,24 @@ pub(crate) fn draw(frame: &mut Frame, app: &App, area: Rect) {
             t.base
         }
     };
-    let mut in_lines = vec![Line::from(Span::styled("◀ into it", t.muted))];
+    let mut in_lines = Vec::new();
     for (i, (relation, from)) in incoming.iter().enumerate() {
         in_lines.push(Line::from(vec![
             Span::styled(g.nodes[*from].clone(), style_for(i)),
             Span::styled(format!(" ─{relation}─▶ ●"), t.muted),
         ]));
     }
-    let mut out_lines = vec![Line::from(Span::styled("out of it ▶", t.muted))];
+    let mut out_lines = Vec::new();
     for (k, (relation, to)) in outgoing.iter().enumerate() {
         out_lines.push(Line::from(vec![
             Span::styled(format!("● ─{relation}─▶ "), t.muted),
             Span::styled(g.nodes[*to].clone(), style_for(incoming.len() + k)),
         ]));
     }
+    let (into, out) = (Some(selected), selected.checked_sub(incoming.len()));
+    let in_lines = half_lines("◀ into it", in_lines, into, left, t.muted);
     frame.render_widget(Paragraph::new(in_lines), left);
+    let out_lines = half_lines("out of it ▶", out_lines, out, right, t.muted);
     frame.render_widget(Paragraph::new(out_lines), right);
     let others: Vec<Span> = g
         .nodes
@@ -415,5 +462,6 @@ pub(crate) fn draw(frame: &mut Frame, app: &App, area: Rect) {
             ]
         })
         .collect();
-    frame.render_widget(Paragraph::new(Line::from(others)), footer);
+    let others = scroll::cut_line(Line::from(others), usize::from(footer.width));
+    frame.render_widget(Paragraph::new(others), footer);
 }
