@@ -290,7 +290,12 @@ impl Scroll {
     /// Whether item `i` is in view: whole when it fits in `viewport` lines,
     /// else at least one of its lines.
     pub fn shows(self, wrapped: &Wrapped, i: usize, viewport: usize) -> bool {
-        let span = wrapped.span(i);
+        self.shows_span(wrapped.span(i), viewport)
+    }
+
+    /// Whether the lines `span` are in view: all of them when they fit in
+    /// `viewport` lines, else at least one.
+    fn shows_span(self, span: Range<usize>, viewport: usize) -> bool {
         if span.is_empty() || viewport == 0 {
             return false;
         }
@@ -307,11 +312,18 @@ impl Scroll {
     /// bottom; an item taller than the view that is partly in view stays
     /// where it is (it scrolls inside itself).
     pub fn follow(&mut self, wrapped: &Wrapped, selected: usize, viewport: usize) {
-        self.clamp(wrapped.total(), viewport);
-        if self.shows(wrapped, selected, viewport) {
+        self.reveal(wrapped.span(selected), wrapped.total(), viewport);
+    }
+
+    /// Brings the lines `span` of a text of `total` lines into view with
+    /// the least movement, as [`Scroll::follow`] does for an item: for
+    /// anything shown in a scrolled view, whether lines of a list or the
+    /// rows (or columns) of a box in a drawing.
+    pub fn reveal(&mut self, span: Range<usize>, total: usize, viewport: usize) {
+        self.clamp(total, viewport);
+        if self.shows_span(span.clone(), viewport) {
             return;
         }
-        let span = wrapped.span(selected);
         if span.start < self.offset || span.len() > viewport {
             self.offset = span.start;
         } else {

@@ -36,6 +36,7 @@ use crate::workbench::overlays::pickers::{GroundTruthChoice, GroundTruthPicker};
 use crate::workbench::overlays::prompt_sets::{SetName, SetOutcome, SetPicker};
 use crate::workbench::overlays::runs::{RunsOutcome, RunsOverlay};
 use crate::workbench::overlays::{Overlay, Picked};
+use crate::workbench::panes::graph;
 use crate::workbench::panes::steps::{self, demo_ground_truth, StepList, StepsBefore};
 use crate::workbench::panes::{self, Pane};
 use crate::workbench::runs::{AgentChange, FreshRun, KeptPlan, SAMPLE_STEPS};
@@ -240,7 +241,14 @@ impl App {
             | Action::GraphSelect(_)
             | Action::GraphStep(_)
             | Action::GraphZoom(_)
-            | Action::GraphMode => self.panes.graph.on_action(action),
+            | Action::GraphMode => {
+                let body = self.pane_rect(Pane::Graph).map(graph::body);
+                self.panes.graph.on_action(action, body.unwrap_or_default());
+            }
+            Action::GraphList => {
+                self.panes.graph.toggle_list(self.focus == Pane::Graph);
+                self.focus = Pane::Graph;
+            }
             Action::PromptStep(step) => self.step_prompt_agent(step),
             Action::EditPrompt => {
                 self.panes
@@ -449,7 +457,10 @@ impl App {
                     self.panes.ground_truth.items.len(),
                 )
             }
-            Pane::Graph => self.panes.graph.move_neighbour(delta),
+            Pane::Graph => {
+                let body = self.pane_rect(pane).map(graph::body);
+                self.panes.graph.on_move(delta, body.unwrap_or_default());
+            }
             Pane::Scene | Pane::Description | Pane::Scores | Pane::Prompt => {
                 // A text pane scrolls within its text where its length is
                 // known (drawn where it is now), so the way back is never
@@ -527,6 +538,13 @@ impl App {
         let Some((pane, rect)) = self.pane_at(mouse.column, mouse.row) else {
             return Vec::new();
         };
+        if pane == Pane::Graph {
+            if mouse.kind == MouseEventKind::Down(MouseButton::Left) {
+                self.focus = pane;
+            }
+            self.panes.graph.on_mouse(mouse, graph::body(rect));
+            return Vec::new();
+        }
         match mouse.kind {
             MouseEventKind::Down(MouseButton::Left) => {
                 self.focus = pane;

@@ -6,7 +6,7 @@ use std::time::{Duration, Instant};
 
 use crate::common;
 
-use crossterm::event::{KeyCode, KeyEvent, KeyModifiers};
+use crossterm::event::{KeyCode, KeyEvent, KeyModifiers, MouseButton, MouseEvent, MouseEventKind};
 use mapvlm::agents::pipeline::AgentEvent;
 use mapvlm::agents::replay::Pace;
 use mapvlm::agents::AgentRole;
@@ -172,7 +172,7 @@ fn demo_fills_every_pane_at_200x60() {
     }
     assert!(screen.contains("KAS 0.720"), "{screen}");
     assert!(screen.contains("PG2S is waiting for models"));
-    assert!(screen.contains("│ robot "), "{screen}");
+    assert!(screen.contains("[robot]"), "{screen}");
     insta::assert_snapshot!("demo_200x60", screen);
 }
 
@@ -222,7 +222,6 @@ fn collapsed(screen: &str, columns: std::ops::Range<usize>) -> String {
 
 #[test]
 fn long_steps_wrap_whole_in_their_pane_and_a_click_selects_the_step_drawn_there() {
-    use crossterm::event::{MouseButton, MouseEvent, MouseEventKind};
     use mapvlm::workbench::layout::{pane_rects, Screen};
     let mut h = Harness::new((120, 40), None, false, unavailable());
     let long = "Walk over to the kitchen counter beside the sink, pick up the blue mug \
@@ -829,7 +828,8 @@ fn state_for(context: Context, action: Action, warm: bool) -> Harness {
     open_overlay(&mut h, context, warm);
     if warm {
         match context {
-            Context::WholeGraph => h.keys("]]]"),
+            // Zoomed in, so that `-` has a level to go back to.
+            Context::WholeGraph => h.keys("]]+"),
             Context::Graph => {
                 h.key(KeyCode::Down);
                 h.key(KeyCode::Enter);
@@ -1076,13 +1076,304 @@ fn the_whole_graph_is_the_default_and_the_neighbourhood_a_mode() {
     let whole = h.screen();
     assert!(!whole.contains("node 1/13"), "{whole}");
     let first = h.app.panes.graph.view.selected();
+    let drawn = h.terminal().backend().buffer().clone();
     h.key(KeyCode::Char(']'));
     assert_ne!(h.app.panes.graph.view.selected(), first);
-    assert_ne!(h.screen(), whole);
+    assert_ne!(
+        h.terminal().backend().buffer(),
+        &drawn,
+        "the selection moved"
+    );
     h.key(KeyCode::Char('v'));
     assert!(h.screen().contains("node 1/13"));
     h.key(KeyCode::Char('v'));
     assert!(!h.screen().contains("node 1/13"));
+}
+
+/// Thirty triples of a kitchen (33 objects, no name inside another's
+/// brackets): more than a pane of a normal terminal shows at once.
+const KITCHEN: &str = "(robot, faces, kitchen table)
+(kitchen table, left of, fridge)
+(fridge, next to, pantry door)
+(stove, right of, sink)
+(sink, under, window)
+(tap, above, sink)
+(kettle, on, stove)
+(frying pan, on, stove)
+(blue mug, on, counter)
+(red mug, on, kitchen table)
+(counter, under, window)
+(coffee machine, on, counter)
+(spout, part of, coffee machine)
+(drip tray, part of, coffee machine)
+(toaster, next to, coffee machine)
+(bread box, left of, toaster)
+(cutting board, on, counter)
+(knife, on, cutting board)
+(fruit bowl, on, kitchen table)
+(apple, in, fruit bowl)
+(banana, in, fruit bowl)
+(chair, in front of, kitchen table)
+(second chair, behind, kitchen table)
+(dish rack, right of, sink)
+(plate, in, dish rack)
+(dish towel, hangs on, oven door)
+(oven door, part of, stove)
+(trash can, under, sink)
+(spice rack, above, stove)
+(plant, on, window sill)";
+
+/// The inside of the Knowledge Graph pane as drawn now: where it is on
+/// screen, and its rows of text.
+fn graph_pane(h: &mut Harness) -> (Rect, Vec<String>) {
+    use mapvlm::workbench::layout::{pane_rects, Screen};
+    let (w, height) = h.app.size;
+    let Screen::Panes { panes, .. } =
+        pane_rects(Rect::new(0, 0, w, height), h.app.focus, h.app.panes.zoom)
+    else {
+        panic!("no panes at {w}x{height}")
+    };
+    let area = panes.iter().find(|(p, _)| *p == Pane::Graph).unwrap().1;
+    let inner = Rect::new(area.x + 1, area.y + 1, area.width - 2, area.height - 2);
+    let buf = h.terminal().backend().buffer().clone();
+    let rows = (inner.y..inner.y + inner.height)
+        .map(|y| {
+            (inner.x..inner.x + inner.width)
+                .map(|x| buf[(x, y)].symbol().to_string())
+                .collect::<String>()
+        })
+        .collect();
+    (inner, rows)
+}
+
+/// Where `needle` is drawn in the Knowledge Graph pane: its column and
+/// row on screen.
+fn drawn_at(h: &mut Harness, needle: &str) -> Option<(u16, u16)> {
+    let (inner, rows) = graph_pane(h);
+    rows.iter().enumerate().find_map(|(y, row)| {
+        let at = row.find(needle)?;
+        let column = row[..at].chars().count() as u16;
+        Some((inner.x + column, inner.y + y as u16))
+    })
+}
+
+/// Whether the pane shows node `name` whole: `[name]` in the compact
+/// drawing, `│ name │` or `│ name ├` in a boxed one.
+fn shows_whole(rows: &[String], name: &str) -> bool {
+    let text = rows.join("\n");
+    [
+        format!("[{name}]"),
+        format!("│ {name} │"),
+        format!("│ {name} ├"),
+    ]
+    .iter()
+    .any(|n| text.contains(n))
+}
+
+#[test]
+fn the_demo_graph_at_200x60_draws_every_triple_whole() {
+    let mut h = Harness::new((200, 60), None, false, unavailable());
+    let (_, rows) = graph_pane(&mut h);
+    let text = rows.join("\n");
+    let g = h.app.panes.graph.kg.clone();
+    assert_eq!(g.edges.len(), 11, "the demo's SKM triples");
+    for name in &g.nodes {
+        assert!(shows_whole(&rows, name), "{name} whole in\n{text}");
+    }
+    assert!(text.contains("[blue mug]─on─"), "{text}");
+    for e in &g.edges {
+        let drawn = text.matches(&format!("─{}─", e.label)).count();
+        let wanted = g.edges.iter().filter(|o| o.label == e.label).count();
+        assert!(drawn >= wanted, "{} drawn {drawn} times\n{text}", e.label);
+    }
+    assert!(!text.contains("hidden"), "{text}");
+}
+
+#[test]
+fn a_30_triple_graph_shows_every_node_or_says_how_many_are_hidden() {
+    for size in [(200, 60), (120, 40), (80, 24)] {
+        let mut h = Harness::new(size, None, false, unavailable());
+        h.focus(Pane::Graph);
+        h.app.panes.graph.set_output(KITCHEN);
+        let g = h.app.panes.graph.kg.clone();
+        assert_eq!((g.nodes.len(), g.edges.len()), (33, 30));
+        // As drawn first, then panned with the wheel right and down.
+        for pan in 0..3 {
+            let (inner, rows) = graph_pane(&mut h);
+            let text = rows.join("\n");
+            let shown = g.nodes.iter().filter(|n| shows_whole(&rows, n)).count();
+            let note = rows.last().unwrap().trim_end();
+            if shown < g.nodes.len() {
+                let hidden = g.nodes.len() - shown;
+                assert!(
+                    note.starts_with(&format!("hidden: {hidden} of 33 nodes, ")),
+                    "{size:?}, pan {pan}: {hidden} hidden but the pane says\n{text}"
+                );
+                assert!(note.contains(" of 30 edges"), "{note}");
+            } else {
+                assert!(!text.contains("hidden"), "{size:?}: {text}");
+            }
+            for kind in [MouseEventKind::ScrollDown, MouseEventKind::ScrollRight] {
+                h.app.update(Msg::Mouse(MouseEvent {
+                    kind,
+                    column: inner.x + 2,
+                    row: inner.y + 2,
+                    modifiers: KeyModifiers::NONE,
+                }));
+            }
+        }
+    }
+}
+
+#[test]
+fn the_compact_view_keeps_relation_labels_and_whole_names() {
+    let mut h = Harness::new((200, 60), None, false, unavailable());
+    h.focus(Pane::Graph);
+    h.key(KeyCode::Char('z'));
+    let (_, rows) = graph_pane(&mut h);
+    assert!(shows_whole(&rows, "coffee machine"), "{}", rows.join("\n"));
+    assert!(!rows.join("").contains('['), "boxes when the pane has room");
+    h.keys("--");
+    let (_, rows) = graph_pane(&mut h);
+    let text = rows.join("\n");
+    assert!(text.contains("[coffee machine]"), "{text}");
+    for e in &h.app.panes.graph.kg.edges {
+        assert!(
+            text.contains(&format!("─{}─", e.label)),
+            "{}\n{text}",
+            e.label
+        );
+    }
+}
+
+#[test]
+fn the_list_of_triples_shows_each_one_and_scrolls_with_markers() {
+    let mut h = Harness::new((200, 60), None, false, unavailable());
+    h.focus(Pane::Plan);
+    h.key(KeyCode::Char('T'));
+    assert_eq!(h.app.focus, Pane::Graph, "T from any pane");
+    let (_, rows) = graph_pane(&mut h);
+    let text = rows.join("\n");
+    assert!(text.contains(" 1. robot —faces→ table"), "{text}");
+    assert!(text.contains("11. plant —on→ window sill"), "{text}");
+    h.key(KeyCode::Char('T'));
+    let (_, rows) = graph_pane(&mut h);
+    assert!(rows.join("").contains("[blue mug]"), "drawn again");
+
+    // Thirty triples in an 80×24 terminal: the list scrolls, the frame
+    // says how many lines are out of sight, and every triple is seen.
+    let mut h = Harness::new((80, 24), None, false, unavailable());
+    h.app.panes.graph.set_output(KITCHEN);
+    h.key(KeyCode::Char('T'));
+    let g = h.app.panes.graph.kg.clone();
+    let triple = |i: usize| {
+        let e = &g.edges[i];
+        format!(
+            "{}. {} —{}→ {}",
+            i + 1,
+            g.nodes[e.from],
+            e.label,
+            g.nodes[e.to]
+        )
+    };
+    // The pane's top and bottom edges, where the markers are.
+    let edges = |h: &mut Harness| {
+        let (inner, _) = graph_pane(h);
+        let screen = h.screen();
+        let lines: Vec<&str> = screen.lines().collect();
+        let top = usize::from(inner.y - 1);
+        let bottom = usize::from(inner.y + inner.height);
+        format!("{}\n{}", lines[top], lines[bottom])
+    };
+    let frame = edges(&mut h);
+    assert!(frame.contains("↓ ") && !frame.contains("↑ "), "{frame}");
+    let mut seen = String::new();
+    for _ in 0..30 {
+        let (_, rows) = graph_pane(&mut h);
+        seen.push_str(&rows.join("\n"));
+        h.key(KeyCode::PageDown);
+    }
+    for i in 0..g.edges.len() {
+        assert!(seen.contains(&triple(i)), "{} never shown", triple(i));
+    }
+    let frame = edges(&mut h);
+    assert!(frame.contains("↑ ") && !frame.contains("↓ "), "{frame}");
+    let (inner, _) = graph_pane(&mut h);
+    let before = h.screen();
+    h.app.update(Msg::Mouse(MouseEvent {
+        kind: MouseEventKind::ScrollUp,
+        column: inner.x + 3,
+        row: inner.y + 3,
+        modifiers: KeyModifiers::NONE,
+    }));
+    assert_ne!(h.screen(), before, "the wheel scrolls the list");
+}
+
+#[test]
+fn a_click_on_a_node_selects_it_and_on_a_neighbour_highlights_it() {
+    let mut h = Harness::new((200, 60), None, false, unavailable());
+    h.focus(Pane::Plan);
+    let g = h.app.panes.graph.kg.clone();
+    let click = |h: &mut Harness, (column, row): (u16, u16)| {
+        h.app.update(Msg::Mouse(MouseEvent {
+            kind: MouseEventKind::Down(MouseButton::Left),
+            column,
+            row,
+            modifiers: KeyModifiers::NONE,
+        }));
+    };
+    for name in ["counter", "window sill", "blue mug"] {
+        let at = drawn_at(&mut h, &format!("[{name}]")).unwrap();
+        click(&mut h, (at.0 + 2, at.1));
+        assert_eq!(h.app.focus, Pane::Graph);
+        assert_eq!(h.app.panes.graph.view.selected(), g.find(name), "{name}");
+    }
+    h.key(KeyCode::Char('v'));
+    // The robot's neighbourhood: counter, sink and coffee machine lead into
+    // it, table is out of it.
+    let at = drawn_at(&mut h, "coffee machine ─behind─▶").unwrap();
+    click(&mut h, at);
+    let neighbours = h.app.panes.graph.neighbours();
+    let chosen = neighbours[h.app.panes.graph.cursor.neighbour];
+    assert_eq!(g.nodes[chosen], "coffee machine");
+    h.key(KeyCode::Enter);
+    assert_eq!(g.nodes[h.app.panes.graph.cursor.node], "coffee machine");
+}
+
+#[test]
+fn a_neighbourhood_taller_than_its_pane_follows_the_highlight_and_says_what_is_out_of_sight() {
+    let mut h = Harness::new((120, 40), None, false, unavailable());
+    h.focus(Pane::Graph);
+    h.app.panes.graph.set_output(KITCHEN);
+    h.keys("v]");
+    let g = h.app.panes.graph.kg.clone();
+    let table = h.app.panes.graph.cursor.node;
+    assert_eq!(g.nodes[table], "kitchen table");
+    assert_eq!(g.incoming(table).count(), 5, "more than the pane's 4 rows");
+    let (_, rows) = graph_pane(&mut h);
+    let text = rows.join("\n");
+    assert!(text.contains("◀ into it · ↓ 1 more"), "{text}");
+    assert!(!text.contains("second chair ─behind"), "{text}");
+    for _ in 0..4 {
+        h.key(KeyCode::Down);
+    }
+    let (_, rows) = graph_pane(&mut h);
+    let text = rows.join("\n");
+    assert!(text.contains("◀ into it · ↑ 1 more"), "{text}");
+    // Wider than the half: cut with `…`, not at the edge.
+    assert!(text.contains("second chair ─behind─▶…"), "{text}");
+    let at = drawn_at(&mut h, "red mug ─on─▶").unwrap();
+    h.app.update(Msg::Mouse(MouseEvent {
+        kind: MouseEventKind::Down(MouseButton::Left),
+        column: at.0,
+        row: at.1,
+        modifiers: KeyModifiers::NONE,
+    }));
+    let neighbours = h.app.panes.graph.neighbours();
+    assert_eq!(
+        g.nodes[neighbours[h.app.panes.graph.cursor.neighbour]],
+        "red mug"
+    );
 }
 
 /// A run whose agents asked gpt-4o (the Planner's answer from the cache),

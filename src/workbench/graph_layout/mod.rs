@@ -27,7 +27,7 @@ pub const MAX_EDGES: usize = 800;
 /// an overview of a small pane, wide for reading long names and relations.
 #[derive(Debug, Clone, Copy, Default, PartialEq, Eq, Hash)]
 pub enum Zoom {
-    /// Borderless one-row nodes, short names, no relation labels.
+    /// Borderless one-row nodes, no blank rows, shorter relation labels.
     Compact,
     /// Boxed nodes, relation labels up to a dozen columns.
     #[default]
@@ -68,8 +68,8 @@ impl Zoom {
     fn spacing(self) -> Spacing {
         match self {
             Zoom::Compact => Spacing {
-                name_width: 12,
-                label_width: 0,
+                name_width: 20,
+                label_width: 10,
                 row_gap: 0,
                 gap_pad: 0,
                 bordered: false,
@@ -97,7 +97,7 @@ impl Zoom {
 struct Spacing {
     /// The widest node name, in columns, before it is cut with `…`.
     name_width: usize,
-    /// The widest relation label; 0 draws none.
+    /// The widest relation label, before it is cut with `…`.
     label_width: usize,
     /// Blank rows between vertices of one layer.
     row_gap: usize,
@@ -227,68 +227,109 @@ struct InputEdge {
 /// Connected components are laid out on their own and stacked top to
 /// bottom in order of their first node.
 pub fn layout(graph: &KnowledgeGraph, zoom: Zoom) -> GraphLayout {
-    let spacing = zoom.spacing();
-    let nodes = graph.nodes.len().min(MAX_NODES);
-    let mut edges = Vec::new();
-    let mut omitted_edges = 0;
-    for (index, e) in graph.edges.iter().enumerate() {
-        if e.from < nodes && e.to < nodes && edges.len() < MAX_EDGES {
-            edges.push(InputEdge {
-                index,
-                from: e.from,
-                to: e.to,
-            });
-        } else {
-            omitted_edges += 1;
+    Layering::of(graph).place(graph, zoom)
+}
+
+/// The layouts of `graph` at every level of [`Zoom::ALL`], in that order:
+/// the graph is layered once (the costly part, the same at every zoom) and
+/// placed three times, so that a view can pick the level that fits its
+/// pane when it is drawn.
+pub fn layouts(graph: &KnowledgeGraph) -> [GraphLayout; 3] {
+    let layering = Layering::of(graph);
+    Zoom::ALL.map(|zoom| layering.place(graph, zoom))
+}
+
+/// A graph's components layered and ordered, before any zoom's sizes.
+struct Layering {
+    /// Each component, in order of its first node.
+    components: Vec<layering::Layered>,
+    /// Nodes past [`MAX_NODES`].
+    omitted_nodes: usize,
+    /// Edges past [`MAX_EDGES`] or touching an omitted node.
+    omitted_edges: usize,
+}
+
+impl Layering {
+    fn of(graph: &KnowledgeGraph) -> Layering {
+        let nodes = graph.nodes.len().min(MAX_NODES);
+        let mut edges = Vec::new();
+        let mut omitted_edges = 0;
+        for (index, e) in graph.edges.iter().enumerate() {
+            if e.from < nodes && e.to < nodes && edges.len() < MAX_EDGES {
+                edges.push(InputEdge {
+                    index,
+                    from: e.from,
+                    to: e.to,
+                });
+            } else {
+                omitted_edges += 1;
+            }
         }
-    }
-    let names: Vec<String> = graph.nodes[..nodes]
-        .iter()
-        .map(|n| truncate(n, spacing.name_width))
-        .collect();
-    let labels: Vec<String> = graph
-        .edges
-        .iter()
-        .map(|e| truncate(&e.label, spacing.label_width))
-        .collect();
-    let mut out = GraphLayout {
-        zoom,
-        omitted_nodes: graph.nodes.len() - nodes,
-        omitted_edges,
-        ..GraphLayout::default()
-    };
-    let mut top = 0;
-    for component in components(nodes, &edges) {
-        let component_edges: Vec<InputEdge> = edges
-            .iter()
-            .filter(|e| component.binary_search(&e.from).is_ok())
-            .copied()
+        let components = components(nodes, &edges)
+            .into_iter()
+            .map(|component| {
+                let component_edges: Vec<InputEdge> = edges
+                    .iter()
+                    .filter(|e| component.binary_search(&e.from).is_ok())
+                    .copied()
+                    .collect();
+                layering::layer(&component, &component_edges)
+            })
             .collect();
-        let layered = layering::layer(&component, &component_edges);
-        let drawn = place::place(&layered, &names, &labels, spacing);
-        if top > 0 {
-            top += 1;
+        Layering {
+            components,
+            omitted_nodes: graph.nodes.len() - nodes,
+            omitted_edges,
         }
-        for mut b in drawn.nodes {
-            b.y += top;
-            out.nodes.push(b);
-        }
-        for mut r in drawn.edges {
-            for p in &mut r.points {
-                p.y += top;
-            }
-            if let Some(label) = &mut r.label {
-                label.at.y += top;
-            }
-            out.edges.push(r);
-        }
-        out.width = out.width.max(drawn.width);
-        top += drawn.height;
     }
-    out.height = top;
-    out.nodes.sort_by_key(|b| b.node);
-    out.edges.sort_by_key(|r| r.edge);
-    out
+
+    /// The components placed with `zoom`'s sizes and stacked, one blank row
+    /// between two.
+    fn place(&self, graph: &KnowledgeGraph, zoom: Zoom) -> GraphLayout {
+        let spacing = zoom.spacing();
+        let laid = graph.nodes.len() - self.omitted_nodes;
+        let names: Vec<String> = graph.nodes[..laid]
+            .iter()
+            .map(|n| truncate(n, spacing.name_width))
+            .collect();
+        let labels: Vec<String> = graph
+            .edges
+            .iter()
+            .map(|e| truncate(&e.label, spacing.label_width))
+            .collect();
+        let mut out = GraphLayout {
+            zoom,
+            omitted_nodes: self.omitted_nodes,
+            omitted_edges: self.omitted_edges,
+            ..GraphLayout::default()
+        };
+        let mut top = 0;
+        for layered in &self.components {
+            let drawn = place::place(layered, &names, &labels, spacing);
+            if top > 0 {
+                top += 1;
+            }
+            for mut b in drawn.nodes {
+                b.y += top;
+                out.nodes.push(b);
+            }
+            for mut r in drawn.edges {
+                for p in &mut r.points {
+                    p.y += top;
+                }
+                if let Some(label) = &mut r.label {
+                    label.at.y += top;
+                }
+                out.edges.push(r);
+            }
+            out.width = out.width.max(drawn.width);
+            top += drawn.height;
+        }
+        out.height = top;
+        out.nodes.sort_by_key(|b| b.node);
+        out.edges.sort_by_key(|r| r.edge);
+        out
+    }
 }
 
 /// The connected components of `nodes` nodes joined by `edges`, each a

@@ -8,8 +8,9 @@ use ratatui::style::Style;
 use ratatui::widgets::Widget;
 use unicode_width::UnicodeWidthChar;
 
-use super::GraphView;
+use super::{GraphView, Sight};
 use crate::workbench::graph_layout::{NodeBox, Point};
+use crate::workbench::scroll::truncate;
 use crate::workbench::theme::Theme;
 
 const UP: u8 = 1;
@@ -65,21 +66,47 @@ impl Viewport {
         }
     }
 
-    /// Writes `text` from `at`, each character only if it fits whole.
+    /// Writes `text` from `at`, each character only if it fits whole; where
+    /// the pane's edge cuts the text, its first or last cell shown is an
+    /// ellipsis, so that a name is never cut without saying so.
     fn text(&self, buf: &mut Buffer, at: Point, text: &str, style: Style) {
         let mut x = at.x;
+        let mut shown: Vec<((u16, u16), char, usize)> = Vec::new();
+        let (mut cut_before, mut cut_after) = (false, false);
         for c in text.chars() {
             let w = c.width().unwrap_or(0);
+            if w == 0 {
+                continue;
+            }
             let last = Point {
-                x: x + w.saturating_sub(1),
+                x: x + w - 1,
                 y: at.y,
             };
-            if w > 0 && self.screen(last).is_some() {
-                if let Some((sx, sy)) = self.screen(Point { x, y: at.y }) {
-                    buf.set_stringn(sx, sy, c.to_string(), w, style);
-                }
+            match (self.screen(Point { x, y: at.y }), self.screen(last)) {
+                (Some(cell), Some(_)) => shown.push((cell, c, w)),
+                _ if shown.is_empty() => cut_before = true,
+                _ => cut_after = true,
             }
             x += w;
+        }
+        // `coffee…`, not `coffee …`: a cut at the end leaves the blanks
+        // before it to the ellipsis.
+        let mut end = shown.len();
+        if cut_after {
+            end = end.saturating_sub(1);
+            while end > 0 && shown[end - 1].1 == ' ' {
+                end -= 1;
+            }
+        }
+        for (i, &((sx, sy), c, w)) in shown.iter().enumerate() {
+            let symbol = if (i == 0 && cut_before) || i == end {
+                format!("{:<w$}", '…')
+            } else if i > end {
+                " ".repeat(w)
+            } else {
+                c.to_string()
+            };
+            buf.set_stringn(sx, sy, symbol, w, style);
         }
     }
 }
@@ -88,21 +115,15 @@ impl Widget for GraphWidget<'_> {
     fn render(self, area: Rect, buf: &mut Buffer) {
         let t = self.theme;
         buf.set_style(area, t.base);
-        let layout = self.view.layout();
-        let omitted = layout.omitted_nodes + layout.omitted_edges;
-        let note = (omitted > 0 && area.height > 1).then(|| {
-            format!(
-                "+{} nodes, +{} edges not drawn",
-                layout.omitted_nodes, layout.omitted_edges
-            )
-        });
+        let sight = self.view.sight(area.width, area.height);
+        let layout = self.view.layout(sight.zoom);
         let graph_area = Rect {
-            height: area.height - u16::from(note.is_some()),
+            height: sight.rows,
             ..area
         };
         let view = Viewport {
             area: graph_area,
-            origin: self.view.offset(graph_area.width, graph_area.height),
+            origin: (sight.origin.x, sight.origin.y),
         };
         let selected = self.view.selected();
         let neighbours = self.view.neighbours();
@@ -163,11 +184,34 @@ impl Widget for GraphWidget<'_> {
         for (at, symbol, style) in heads {
             view.put(buf, at, symbol, style);
         }
-        if let Some(note) = note {
+        if sight.hides() && sight.rows < area.height {
+            let note = truncate(&hidden_note(&sight, self.view), usize::from(area.width));
             let y = area.y + area.height - 1;
             buf.set_stringn(area.x, y, note, usize::from(area.width), t.muted);
         }
     }
+}
+
+/// What the pane says when part of the graph is hidden: how many nodes and
+/// edges of all, whether the drawing goes on left or right (the frame says
+/// up and down), and where the whole list is.
+fn hidden_note(sight: &Sight, view: &GraphView) -> String {
+    let g = view.graph();
+    let mut note = format!(
+        "hidden: {} of {} nodes, {} of {} edges",
+        sight.hidden_nodes,
+        g.nodes.len(),
+        sight.hidden_edges,
+        g.edges.len()
+    );
+    match sight.more_across() {
+        (true, true) => note.push_str(" · more ← →"),
+        (true, false) => note.push_str(" · more ←"),
+        (false, true) => note.push_str(" · more →"),
+        (false, false) => {}
+    }
+    note.push_str(" · T lists all");
+    note
 }
 
 /// The border cell of a bordered box where a line leaving it starts, and

@@ -1,19 +1,24 @@
 //! The whole knowledge graph as a pane's content: [`GraphView`] holds the
-//! graph, its cached [`GraphLayout`], the selected node, the zoom and how far
-//! the user has panned; [`GraphWidget`] draws it with the theme, the
-//! selected node and its neighbours highlighted. The view follows the
-//! selection (it is centred unless panned away), so drawing stays a pure
-//! function of the state and the pane's size.
+//! graph, its cached layouts (one per [`Zoom`]), the selected node, the
+//! zoom chosen (or none: the widest that fits the pane) and the part of
+//! the drawing in sight; [`GraphWidget`] draws it with the theme, the
+//! selected node and its neighbours highlighted, and says what is hidden.
+//! The pane's size is known only when drawing, so [`GraphView::sight`]
+//! works out what a pane of a given size shows, a pure function of the
+//! state that drawing, clicks and keys share; drawing brings the selection
+//! into view on a copy, as [`Scroll::following`] does for a list.
 //!
 //! It knows nothing of the workbench: a pane calls its methods from its key
-//! handler and [`GraphView::set_graph`] when SKM's graph changes.
+//! and mouse handlers with its size, and [`GraphView::set_graph`] when
+//! SKM's graph changes.
 
 mod draw;
 
 pub use draw::GraphWidget;
 
 use crate::agents::graph::KnowledgeGraph;
-use crate::workbench::graph_layout::{layout, GraphLayout, NodeBox, Zoom};
+use crate::workbench::graph_layout::{layouts, GraphLayout, NodeBox, Point, Zoom};
+use crate::workbench::scroll::{text_width, Motion, Scroll};
 
 /// A direction to move the selection in, to the nearest box that way.
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
@@ -29,28 +34,102 @@ pub enum Direction {
 }
 
 /// The whole-graph view's state: what is drawn, which node is selected, the
-/// zoom and the pan away from the selection.
-#[derive(Debug, Clone, Default, PartialEq)]
+/// zoom and the part of the drawing in sight.
+#[derive(Debug, Clone, PartialEq)]
 pub struct GraphView {
     graph: KnowledgeGraph,
-    layout: GraphLayout,
+    /// The layout at each level of [`Zoom::ALL`], in that order.
+    layouts: [GraphLayout; 3],
+    /// The zoom the user chose; `None` fits the pane.
+    zoom: Option<Zoom>,
     selected: usize,
-    pan: (isize, isize),
+    /// Whether the user picked the selected node (else it is the node drawn
+    /// first, whatever the graph becomes while the SKM writes).
+    picked: bool,
+    /// The drawing's column and row at the top-left of the pane.
+    origin: (Scroll, Scroll),
+    /// Whether drawing brings the selected box into view (until the user
+    /// pans away from it).
+    follow: bool,
+}
+
+impl Default for GraphView {
+    fn default() -> Self {
+        Self::fitting(&KnowledgeGraph::default())
+    }
+}
+
+/// What a pane of a given size shows of a [`GraphView`]: the zoom drawn,
+/// the part of the drawing in sight and what is hidden.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub struct Sight {
+    /// The zoom drawn.
+    pub zoom: Zoom,
+    /// The drawing's cell at the top-left of the pane.
+    pub origin: Point,
+    /// Columns of the drawing shown (the pane's width).
+    pub width: u16,
+    /// Rows of the drawing shown: the pane's height, less the row that says
+    /// what is hidden when something is.
+    pub rows: u16,
+    /// Nodes not wholly in sight, or past the layout's bound.
+    pub hidden_nodes: usize,
+    /// Edges not wholly in sight (line and label), or not laid out.
+    pub hidden_edges: usize,
+    /// The whole drawing's width and height.
+    pub extent: (usize, usize),
+}
+
+impl Sight {
+    /// Whether the drawing's cell `p` is in sight.
+    pub fn shows(&self, p: Point) -> bool {
+        (self.origin.x..self.origin.x + usize::from(self.width)).contains(&p.x)
+            && (self.origin.y..self.origin.y + usize::from(self.rows)).contains(&p.y)
+    }
+
+    /// Whether anything is hidden, so that the pane says so.
+    pub fn hides(&self) -> bool {
+        self.hidden_nodes + self.hidden_edges > 0
+    }
+
+    /// Whether the drawing goes on past the pane's left and right edges.
+    pub fn more_across(&self) -> (bool, bool) {
+        (
+            self.origin.x > 0,
+            self.origin.x + usize::from(self.width) < self.extent.0,
+        )
+    }
 }
 
 impl GraphView {
-    /// A view of `graph` at `zoom`, with its first node selected.
+    /// A view of `graph` at `zoom` whatever the pane's size, with its
+    /// first node selected.
     pub fn new(graph: &KnowledgeGraph, zoom: Zoom) -> Self {
         Self {
-            graph: graph.clone(),
-            layout: layout(graph, zoom),
-            selected: 0,
-            pan: (0, 0),
+            zoom: Some(zoom),
+            ..Self::fitting(graph)
         }
     }
 
-    /// Shows `graph` instead, laid out again only if it changed; the
-    /// selected node stays selected if the new graph has a node of that name.
+    /// A view of `graph` at the widest zoom that fits the pane, with the
+    /// node drawn first (top left) selected: how the workbench shows it
+    /// first, from the drawing's start.
+    pub fn fitting(graph: &KnowledgeGraph) -> Self {
+        let layouts = layouts(graph);
+        Self {
+            graph: graph.clone(),
+            selected: first_drawn(&layouts),
+            layouts,
+            picked: false,
+            zoom: None,
+            origin: (Scroll::default(), Scroll::default()),
+            follow: true,
+        }
+    }
+
+    /// Shows `graph` instead, laid out again only if it changed; the node
+    /// the user selected stays selected if the new graph has a node of that
+    /// name (else the node drawn first is), and is brought into view.
     pub fn set_graph(&mut self, graph: &KnowledgeGraph) {
         if *graph == self.graph {
             return;
@@ -59,11 +138,13 @@ impl GraphView {
             .graph
             .nodes
             .get(self.selected)
+            .filter(|_| self.picked)
             .and_then(|name| graph.find(name));
+        self.picked = keep.is_some();
         self.graph = graph.clone();
-        self.layout = layout(graph, self.layout.zoom);
-        self.selected = keep.unwrap_or(0);
-        self.pan = (0, 0);
+        self.layouts = layouts(graph);
+        self.selected = keep.unwrap_or_else(|| first_drawn(&self.layouts));
+        self.follow = true;
     }
 
     /// The graph shown.
@@ -71,14 +152,120 @@ impl GraphView {
         &self.graph
     }
 
-    /// Its layout at the current zoom.
-    pub fn layout(&self) -> &GraphLayout {
-        &self.layout
+    /// The layout at `zoom`.
+    pub fn layout(&self, zoom: Zoom) -> &GraphLayout {
+        &self.layouts[match zoom {
+            Zoom::Compact => 0,
+            Zoom::Normal => 1,
+            Zoom::Wide => 2,
+        }]
     }
 
-    /// The zoom level.
-    pub fn zoom(&self) -> Zoom {
-        self.layout.zoom
+    /// The zoom the user chose, or `None` when the view fits the pane.
+    pub fn zoom(&self) -> Option<Zoom> {
+        self.zoom
+    }
+
+    /// The zoom a `width` × `height` pane draws: the one chosen, else the
+    /// widest whose drawing fits whole (with a row for the note on nodes
+    /// past the layout's bound), else the most compact.
+    pub fn zoom_for(&self, width: u16, height: u16) -> Zoom {
+        self.zoom.unwrap_or_else(|| self.fitted(width, height))
+    }
+
+    fn fitted(&self, width: u16, height: u16) -> Zoom {
+        Zoom::ALL
+            .into_iter()
+            .rev()
+            .find(|&z| {
+                let l = self.layout(z);
+                let note = usize::from(l.omitted_nodes + l.omitted_edges > 0);
+                l.width <= usize::from(width) && l.height + note <= usize::from(height)
+            })
+            .unwrap_or(Zoom::Compact)
+    }
+
+    /// What a `width` × `height` pane shows: the zoom drawn, the part of
+    /// the drawing in sight (the selected box brought into view unless the
+    /// user panned away) and what is hidden.
+    pub fn sight(&self, width: u16, height: u16) -> Sight {
+        let zoom = self.zoom_for(width, height);
+        let layout = self.layout(zoom);
+        let whole = layout.width <= usize::from(width)
+            && layout.height <= usize::from(height)
+            && layout.omitted_nodes + layout.omitted_edges == 0;
+        let rows = if whole || height < 2 {
+            height
+        } else {
+            height - 1
+        };
+        let (mut x, mut y) = self.origin;
+        let selected = self.selected_box(zoom);
+        for (scroll, total, room, span) in [
+            (
+                &mut x,
+                layout.width,
+                width,
+                selected.map(|b| b.x..b.x + b.width),
+            ),
+            (
+                &mut y,
+                layout.height,
+                rows,
+                selected.map(|b| b.y..b.y + b.height),
+            ),
+        ] {
+            match span.filter(|_| self.follow) {
+                Some(span) => scroll.reveal(span, total, usize::from(room)),
+                None => scroll.scroll(total, usize::from(room), Motion::Line(0)),
+            }
+        }
+        let mut sight = Sight {
+            zoom,
+            origin: Point {
+                x: x.offset(),
+                y: y.offset(),
+            },
+            width,
+            rows,
+            hidden_nodes: layout.omitted_nodes,
+            hidden_edges: layout.omitted_edges,
+            extent: (layout.width, layout.height),
+        };
+        // A node is in sight when its name is: the box's columns and the
+        // name's row (a tall box's ports may go on below the pane).
+        let named = |b: &NodeBox| {
+            sight.shows(Point {
+                x: b.x,
+                y: b.text_row(),
+            }) && sight.shows(Point {
+                x: b.x + b.width - 1,
+                y: b.text_row(),
+            })
+        };
+        sight.hidden_nodes += layout.nodes.iter().filter(|b| !named(b)).count();
+        sight.hidden_edges += layout
+            .edges
+            .iter()
+            .filter(|r| {
+                let label = r.label.iter().flat_map(|l| {
+                    let end = l.at.x + text_width(&l.text);
+                    [
+                        l.at,
+                        Point {
+                            x: end.saturating_sub(1),
+                            y: l.at.y,
+                        },
+                    ]
+                });
+                !r.points
+                    .iter()
+                    .copied()
+                    .chain(label)
+                    .all(|p| sight.shows(p))
+            })
+            .count();
+        sight
     }
 
     /// The selected node, if the graph has any.
@@ -86,11 +273,13 @@ impl GraphView {
         (self.selected < self.graph.nodes.len()).then_some(self.selected)
     }
 
-    /// Selects `node` (ignored if there is no such node) and centres it.
+    /// Selects `node` (ignored if there is no such node) and brings it
+    /// into view.
     pub fn select(&mut self, node: usize) {
         if node < self.graph.nodes.len() {
             self.selected = node;
-            self.pan = (0, 0);
+            self.picked = true;
+            self.follow = true;
         }
     }
 
@@ -107,10 +296,11 @@ impl GraphView {
     }
 
     /// Selects the nearest box lying wholly in `direction` (distance
-    /// across the direction counting double); returns whether the
-    /// selection moved.
-    pub fn step(&mut self, direction: Direction) -> bool {
-        let Some(here) = self.selected_box().cloned() else {
+    /// across the direction counting double) in the drawing a `width` ×
+    /// `height` pane shows; returns whether the selection moved.
+    pub fn step(&mut self, direction: Direction, width: u16, height: u16) -> bool {
+        let zoom = self.zoom_for(width, height);
+        let Some(here) = self.selected_box(zoom).cloned() else {
             return false;
         };
         let centre = here.centre();
@@ -126,7 +316,7 @@ impl GraphView {
             along.map(|along| along + 2 * across)
         };
         let best = self
-            .layout
+            .layout(zoom)
             .nodes
             .iter()
             .filter_map(|b| Some((distance(b)?, b.node)))
@@ -140,56 +330,60 @@ impl GraphView {
         }
     }
 
-    /// Pans the view by `dx` columns and `dy` rows (positive: right, down),
-    /// within the drawing's size.
-    pub fn scroll(&mut self, dx: isize, dy: isize) {
-        let (w, h) = (self.layout.width as isize, self.layout.height as isize);
-        self.pan = (
-            (self.pan.0 + dx).clamp(-w, w),
-            (self.pan.1 + dy).clamp(-h, h),
-        );
+    /// Pans the drawing a `width` × `height` pane shows by `dx` columns and
+    /// `dy` rows (positive: right, down), within the drawing; the selection
+    /// is no longer followed until it moves.
+    pub fn scroll(&mut self, dx: isize, dy: isize, width: u16, height: u16) {
+        let sight = self.sight(width, height);
+        let layout = self.layout(sight.zoom);
+        let (mut x, mut y) = (Scroll::at(sight.origin.x), Scroll::at(sight.origin.y));
+        x.scroll(layout.width, usize::from(width), Motion::Line(dx));
+        y.scroll(layout.height, usize::from(sight.rows), Motion::Line(dy));
+        self.origin = (x, y);
+        self.follow = false;
     }
 
-    /// Centres the selected node again, undoing any pan.
-    pub fn recentre(&mut self) {
-        self.pan = (0, 0);
-    }
-
-    /// Shows more: longer names and labels, more room.
-    pub fn zoom_in(&mut self) {
-        self.set_zoom(self.zoom().zoom_in());
-    }
-
-    /// Shows less: shorter names, no labels, less room.
-    pub fn zoom_out(&mut self) {
-        self.set_zoom(self.zoom().zoom_out());
-    }
-
-    /// Lays the graph out again at `zoom`, if it is a different level.
-    pub fn set_zoom(&mut self, zoom: Zoom) {
-        if zoom != self.zoom() {
-            self.layout = layout(&self.graph, zoom);
-            self.pan = (0, 0);
+    /// The node drawn at `column`, `row` of a `width` × `height` pane (its
+    /// top-left is 0, 0), if any.
+    pub fn node_at(&self, column: u16, row: u16, width: u16, height: u16) -> Option<usize> {
+        let sight = self.sight(width, height);
+        if column >= width || row >= sight.rows {
+            return None;
         }
+        let p = Point {
+            x: sight.origin.x + usize::from(column),
+            y: sight.origin.y + usize::from(row),
+        };
+        self.layout(sight.zoom)
+            .nodes
+            .iter()
+            .find(|b| b.contains(p))
+            .map(|b| b.node)
     }
 
-    /// Picks the widest zoom whose drawing fits `width` × `height` cells,
-    /// else the most compact.
-    pub fn fit(&mut self, width: u16, height: u16) {
-        let fits =
-            |l: &GraphLayout| l.width <= usize::from(width) && l.height <= usize::from(height);
-        let chosen = Zoom::ALL
-            .into_iter()
-            .rev()
-            .find(|&z| {
-                if z == self.zoom() {
-                    fits(&self.layout)
-                } else {
-                    fits(&layout(&self.graph, z))
-                }
-            })
-            .unwrap_or(Zoom::Compact);
-        self.set_zoom(chosen);
+    /// Shows more (longer names and labels, more room) than a `width` ×
+    /// `height` pane shows now.
+    pub fn zoom_in(&mut self, width: u16, height: u16) {
+        let shown = self.zoom_for(width, height);
+        self.set_zoom(shown.zoom_in(), width, height);
+    }
+
+    /// Shows less (borderless nodes, shorter labels, less room) than a
+    /// `width` × `height` pane shows now.
+    pub fn zoom_out(&mut self, width: u16, height: u16) {
+        let shown = self.zoom_for(width, height);
+        self.set_zoom(shown.zoom_out(), width, height);
+    }
+
+    /// Draws at `zoom` from now on, or fits the pane again when `zoom` is
+    /// the level a `width` × `height` pane fits; the selection is brought
+    /// into view.
+    pub fn set_zoom(&mut self, zoom: Zoom, width: u16, height: u16) {
+        if zoom != self.zoom_for(width, height) {
+            self.origin = (Scroll::default(), Scroll::default());
+        }
+        self.zoom = (zoom != self.fitted(width, height)).then_some(zoom);
+        self.follow = true;
     }
 
     /// The nodes joined to the selected one, which are highlighted.
@@ -199,25 +393,20 @@ impl GraphView {
             .unwrap_or_default()
     }
 
-    /// The drawing's cell shown at the top-left of a `width` × `height`
-    /// pane: the selected box centred, moved by the pan, kept within the
-    /// drawing.
-    pub fn offset(&self, width: u16, height: u16) -> (usize, usize) {
-        let centre = self.selected_box().map(NodeBox::centre);
-        let axis = |centre: Option<usize>, pan: isize, size: usize, room: u16| {
-            let room = usize::from(room);
-            let start = centre.map_or(0, |c| c as isize - (room / 2) as isize) + pan;
-            start.clamp(0, size.saturating_sub(room) as isize) as usize
-        };
-        (
-            axis(centre.map(|c| c.x), self.pan.0, self.layout.width, width),
-            axis(centre.map(|c| c.y), self.pan.1, self.layout.height, height),
-        )
+    fn selected_box(&self, zoom: Zoom) -> Option<&NodeBox> {
+        self.selected().and_then(|n| self.layout(zoom).node_box(n))
     }
+}
 
-    fn selected_box(&self) -> Option<&NodeBox> {
-        self.selected().and_then(|n| self.layout.node_box(n))
-    }
+/// The node drawn first, reading from the top left (the same at every
+/// zoom: the first component's topmost node of its first layer); 0 when
+/// there is none.
+fn first_drawn(layouts: &[GraphLayout; 3]) -> usize {
+    layouts[0]
+        .nodes
+        .iter()
+        .min_by_key(|b| (b.y, b.x))
+        .map_or(0, |b| b.node)
 }
 
 #[cfg(test)]

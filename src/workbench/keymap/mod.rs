@@ -234,6 +234,9 @@ pub enum Action {
     GraphZoom(isize),
     /// Switch between the whole graph and one node's neighbourhood.
     GraphMode,
+    /// Show the knowledge graph's triples as a list (focusing its pane),
+    /// or the drawing again.
+    GraphList,
     /// Edit the shown prompt.
     EditPrompt,
     /// Show the prompt of the next (+1) or previous (-1) agent.

@@ -37,6 +37,7 @@ pub(super) const WORKBENCH: &[Binding] = &[
     row(C::Panes, "x", A::CancelRun, "cancel the run in flight"),
     row(C::Panes, "m", A::ModelForm, "provider, model, temperature and token limit of an agent"),
     row(C::Panes, "f", A::Actions, "framed actions and their matches (S_goal)"),
+    row(C::Panes, "T", A::GraphList, "the knowledge graph's triples as a list, or drawn again"),
     row(C::Panes, "H", A::History, "run history: mark runs, diff two, load a run's plan"),
     row(C::Panes, "M", A::Messages, "message log: every status message so far, whole, with its time"),
     row(C::Panes, "i", A::ToggleImage, "scene image on or off (for slow links)"),
