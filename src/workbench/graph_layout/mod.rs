@@ -27,7 +27,8 @@ pub const MAX_EDGES: usize = 800;
 /// an overview of a small pane, wide for reading long names and relations.
 #[derive(Debug, Clone, Copy, Default, PartialEq, Eq, Hash)]
 pub enum Zoom {
-    /// Borderless one-row nodes, no blank rows, shorter relation labels.
+    /// Borderless one-row nodes and no blank rows; names and labels as at
+    /// normal zoom.
     Compact,
     /// Boxed nodes, relation labels up to a dozen columns.
     #[default]
@@ -69,7 +70,7 @@ impl Zoom {
         match self {
             Zoom::Compact => Spacing {
                 name_width: 20,
-                label_width: 10,
+                label_width: 12,
                 row_gap: 0,
                 gap_pad: 0,
                 bordered: false,

@@ -368,7 +368,7 @@ impl GraphView {
         self.set_zoom(shown.zoom_in(), width, height);
     }
 
-    /// Shows less (borderless nodes, shorter labels, less room) than a
+    /// Shows less (borderless nodes, no blank rows, less room) than a
     /// `width` × `height` pane shows now.
     pub fn zoom_out(&mut self, width: u16, height: u16) {
         let shown = self.zoom_for(width, height);
