@@ -114,10 +114,8 @@ fn a_prompt_edit_between_two_runs_shows_in_their_diff_with_the_score_change() {
     assert!(end.contains("[-"), "{end}");
     // One key at a time: two escapes sent at once read as Alt-Esc.
     workbench.keys(&["Escape"]);
-    workbench.wait_for("back in the run history", |s| {
-        s.contains("Runs (space marks")
-    });
+    workbench.wait_for("back in the run history", |s| s.contains("Runs (↑↓ move"));
     workbench.keys(&["Escape"]);
-    workbench.wait_for("the history closed", |s| !s.contains("Runs (space marks"));
+    workbench.wait_for("the history closed", |s| !s.contains("Runs (↑↓ move"));
     assert_eq!(workbench.quit(), "0");
 }

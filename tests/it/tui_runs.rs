@@ -99,7 +99,7 @@ fn a_500_and_a_dropped_stream_are_failed_runs_unscored_and_the_good_plan_stays()
         "{history}"
     );
     workbench.keys(&["Escape"]);
-    workbench.wait_for("the history closed", |s| !s.contains("Runs (space marks"));
+    workbench.wait_for("the history closed", |s| !s.contains("Runs (↑↓ move"));
     assert_eq!(workbench.quit(), "0");
 
     let session: serde_json::Value =
@@ -168,7 +168,7 @@ fn an_unreachable_miner_is_a_failed_run_unscored_and_the_published_plan_stays() 
         s.contains("0/1 failed") && s.contains("run #1 failed: SKM:")
     });
     workbench.keys(&["Escape"]);
-    workbench.wait_for("the history closed", |s| !s.contains("Runs (space marks"));
+    workbench.wait_for("the history closed", |s| !s.contains("Runs (↑↓ move"));
     assert_eq!(workbench.quit(), "0");
     assert_eq!(
         server::roles(&server.requests())
@@ -247,7 +247,7 @@ fn a_sampled_runs_tokens_cost_and_time_in_the_history_are_sums_over_every_reques
         assert!(line.contains("· 3 calls"), "{line}");
     }
     workbench.keys(&["Escape"]);
-    workbench.wait_for("the history closed", |s| !s.contains("Runs (space marks"));
+    workbench.wait_for("the history closed", |s| !s.contains("Runs (↑↓ move"));
     assert_eq!(workbench.quit(), "0");
 
     let session: serde_json::Value =
