@@ -4,11 +4,12 @@
 //! draws itself. New screens and overlays implement [`Component`] and
 //! declare their keys in [`crate::workbench::keymap::BINDINGS`].
 
-use crossterm::event::{KeyEvent, MouseEvent, MouseEventKind};
+use crossterm::event::{KeyEvent, MouseEvent};
 use ratatui::layout::Rect;
 use ratatui::Frame;
 
 use super::keymap::{self, Action, Context};
+use super::scroll::wheel_step;
 use super::theme::Theme;
 
 /// A pane, overlay or screen that owns its state, its keys and its drawing.
@@ -55,16 +56,6 @@ pub fn deliver<C: Component>(component: &mut C, input: &Input) -> C::Outcome {
     match input {
         Input::Key(key) => dispatch(component, key),
         Input::Mouse(mouse, area) => component.on_mouse(*mouse, *area),
-    }
-}
-
-/// The lines a wheel notch of `mouse` moves: 1 down, -1 up, 0 for any
-/// other mouse event.
-pub fn wheel_step(mouse: &MouseEvent) -> isize {
-    match mouse.kind {
-        MouseEventKind::ScrollDown => 1,
-        MouseEventKind::ScrollUp => -1,
-        _ => 0,
     }
 }
 

@@ -15,7 +15,7 @@
 
 use std::ops::Range;
 
-use crossterm::event::MouseEvent;
+use crossterm::event::{MouseEvent, MouseEventKind};
 
 use ratatui::layout::Rect;
 use ratatui::style::Style;
@@ -23,8 +23,6 @@ use ratatui::text::{Line, Span};
 use ratatui::widgets::{Block, Paragraph};
 use ratatui::Frame;
 use unicode_width::{UnicodeWidthChar, UnicodeWidthStr};
-
-use crate::workbench::component::wheel_step;
 
 /// How a key moves a view.
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
@@ -55,6 +53,16 @@ impl Motion {
             -1..=1 => Motion::Line(delta),
             d => Motion::Page(d.signum()),
         }
+    }
+}
+
+/// The lines (or items) a wheel notch of `mouse` moves: 1 down, -1 up, 0 for any
+/// other mouse event.
+pub fn wheel_step(mouse: &MouseEvent) -> isize {
+    match mouse.kind {
+        MouseEventKind::ScrollDown => 1,
+        MouseEventKind::ScrollUp => -1,
+        _ => 0,
     }
 }
 

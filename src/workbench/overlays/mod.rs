@@ -18,7 +18,7 @@ use ratatui::text::Span;
 use ratatui::widgets::{Block, Borders, Clear};
 use ratatui::Frame;
 
-use crate::workbench::component::{wheel_step, Component};
+use crate::workbench::component::Component;
 use crate::workbench::keymap::{Action, Context};
 use crate::workbench::overlays::actions::ActionsView;
 use crate::workbench::overlays::corrupt::CorruptPicker;
@@ -27,6 +27,7 @@ use crate::workbench::overlays::model_form::ModelForm;
 use crate::workbench::overlays::pickers::{GroundTruthPicker, PathPrompt};
 use crate::workbench::overlays::prompt_sets::{SetName, SetPicker};
 use crate::workbench::panes::list_window;
+use crate::workbench::scroll::wheel_step;
 use crate::workbench::scroll::ScrolledBox;
 use crate::workbench::theme::Theme;
 
