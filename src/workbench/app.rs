@@ -20,7 +20,7 @@ use crate::demo;
 use crate::workbench::agents::{self, RunError};
 use crate::workbench::editing::Editing;
 use crate::workbench::keymap::{self, Action, Context};
-use crate::workbench::layout::{pane_rects, Screen};
+use crate::workbench::layout::{pane_rects_with, Screen};
 use crate::workbench::message::Cmd;
 use crate::workbench::overlays::pickers::{ground_truth_choices, GroundTruthChoice};
 use crate::workbench::overlays::Overlay;
@@ -33,6 +33,7 @@ use crate::workbench::persist::Persist;
 use crate::workbench::runs::{fresh_agents, AgentStatus, AgentView, RunContext, Runs};
 use crate::workbench::scene_image::ImageRequest;
 use crate::workbench::scoring::{ModelSlot, ScoreRequest};
+use crate::workbench::scroll::text_width;
 use crate::workbench::session::{
     Draft, GroundTruthSource, PlanSource, RunState, Session, SourceState, SESSION_VERSION,
 };
@@ -537,8 +538,7 @@ impl App {
         if !self.panes.scene.enabled || self.panes.scene.image.is_none() || self.shows_table() {
             return None;
         }
-        let screen = Rect::new(0, 0, self.size.0, self.size.1);
-        let Screen::Panes { panes, .. } = pane_rects(screen, self.focus, self.panes.zoom) else {
+        let Screen::Panes { panes, .. } = self.screen_layout() else {
             return None;
         };
         let (_, rect) = panes.into_iter().find(|(p, _)| *p == Pane::Scene)?;
@@ -583,6 +583,59 @@ impl App {
             image,
             background: self.looks.theme.picture_background(),
         })
+    }
+
+    /// Where everything is drawn at the terminal's size now.
+    pub fn screen_layout(&self) -> Screen {
+        self.layout_in(Rect::new(0, 0, self.size.0, self.size.1))
+    }
+
+    /// Where everything is drawn in `area`: the status line takes two rows
+    /// while its messages do not fit on one.
+    pub fn layout_in(&self, area: Rect) -> Screen {
+        let rows = self.status_rows(area.width);
+        pane_rects_with(area, self.focus, self.panes.zoom, rows)
+    }
+
+    /// The status line's messages as shown: the start notice (saying how to
+    /// dismiss it), then the latest status message.
+    pub fn status_messages(&self) -> Vec<(String, Severity)> {
+        let dismiss = keymap::key_of(Context::Panes, Action::Escape);
+        self.messages
+            .notice
+            .as_ref()
+            .map(|(text, severity)| (format!("{text} ({dismiss} dismisses)"), *severity))
+            .into_iter()
+            .chain(self.messages.status.clone())
+            .collect()
+    }
+
+    /// The shortest hints the status line starts with when a message needs
+    /// the room: the mode, if any, and where the keys are listed.
+    pub fn short_hints(&self) -> String {
+        self.key_context()
+            .mode()
+            .map_or("? keys".to_string(), |m| format!("{m}: ? keys"))
+    }
+
+    /// How many rows the status line takes `width` columns wide: two while
+    /// its messages do not fit on one beside the shortest hints, else one.
+    pub fn status_rows(&self, width: u16) -> u16 {
+        let messages: usize = self
+            .status_messages()
+            .iter()
+            .map(|(text, _)| text_width(text) + 2)
+            .sum();
+        let search = match &self.editing {
+            Editing::Search(_) => text_width(&self.panes.search) + 1,
+            _ => 0,
+        };
+        let one_line = text_width(&self.short_hints()) + 2 + search + messages;
+        if messages > 0 && one_line > usize::from(width) {
+            2
+        } else {
+            1
+        }
     }
 
     /// Whether an editor (step, prompt or search) has the keyboard.

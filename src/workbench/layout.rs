@@ -130,16 +130,22 @@ pub enum Screen {
     },
 }
 
-/// Lays out the screen: a grid of all panes when wide enough, else (or when
-/// zoomed) the focused pane alone.
+/// Lays out the screen with a one-row status line: a grid of all panes
+/// when wide enough, else (or when zoomed) the focused pane alone.
 pub fn pane_rects(area: Rect, focus: Pane, zoom: bool) -> Screen {
+    pane_rects_with(area, focus, zoom, 1)
+}
+
+/// [`pane_rects`] with a status line `status_rows` rows tall (two while a
+/// message does not fit on one).
+pub fn pane_rects_with(area: Rect, focus: Pane, zoom: bool, status_rows: u16) -> Screen {
     if area.width < MIN_WIDTH || area.height < MIN_HEIGHT {
         return Screen::TooSmall;
     }
     let [header, body, status] = Layout::vertical([
         Constraint::Length(1),
         Constraint::Min(1),
-        Constraint::Length(1),
+        Constraint::Length(status_rows),
     ])
     .areas(area);
     if zoom || area.width < GRID_WIDTH {

@@ -10,8 +10,8 @@ use crate::agents::ProviderKind;
 use crate::workbench::app::App;
 use crate::workbench::editing::Editing;
 use crate::workbench::header::Header;
-use crate::workbench::keymap::{self, Action, Context};
-use crate::workbench::layout::{pane_rects, Screen, MIN_HEIGHT, MIN_WIDTH};
+use crate::workbench::keymap;
+use crate::workbench::layout::{Screen, MIN_HEIGHT, MIN_WIDTH};
 use crate::workbench::panes::{self, Pane};
 use crate::workbench::scoring::ModelSlot;
 use crate::workbench::scroll;
@@ -27,7 +27,7 @@ pub fn render(frame: &mut Frame, app: &App) {
         status,
         tabs,
         panes,
-    } = pane_rects(area, app.focus, app.panes.zoom)
+    } = app.layout_in(area)
     else {
         frame.render_widget(
             Paragraph::new(too_small_text(area))
@@ -160,52 +160,42 @@ fn render_status(frame: &mut Frame, app: &App, area: Rect) {
         Editing::Search(_) => Some(Span::styled(format!("/{}", app.panes.search), t.highlight)),
         _ => None,
     };
-    let shown: Vec<(String, Severity)> = app
-        .messages
-        .notice
-        .as_ref()
-        .map(|(text, severity)| {
-            let dismiss = keymap::key_of(Context::Panes, Action::Escape);
-            (format!("{text} ({dismiss} dismisses)"), *severity)
-        })
-        .into_iter()
-        .chain(app.messages.status.clone())
-        .collect();
+    let shown = app.status_messages();
     let width = usize::from(area.width);
     let messages_width: usize = shown.iter().map(|(text, _)| text.width() + 2).sum();
     let search_width = search.as_ref().map_or(0, Span::width);
     // A message the hints would push past the edge wins over them: the
     // hints are in the help (?), the message is said once.
     let hints = if mode.width() + 2 + search_width + messages_width > width && !shown.is_empty() {
-        context
-            .mode()
-            .map_or("? keys".to_string(), |m| format!("{m}: ? keys"))
+        app.short_hints()
     } else {
         mode
     };
-    let mut spans = vec![Span::styled(format!(" {hints} "), t.accent)];
-    spans.extend(search);
-    let mut room = width.saturating_sub(spans.iter().map(Span::width).sum());
+    let mut prefix = vec![Span::styled(format!(" {hints} "), t.accent)];
+    prefix.extend(search);
+    let mut body = Vec::new();
     for (text, severity) in shown {
         let style = match severity {
             Severity::Info => t.muted,
             Severity::Warn => t.warn,
             Severity::Error => t.bad,
         };
-        spans.push(Span::styled("│ ", t.border));
-        // Still too long: cut where it shows, with a mark that it was and
-        // where it is whole.
-        let fits = room.saturating_sub(2);
-        let text = if text.width() > fits && fits > LOG_POINTER.width() + 8 {
-            format!(
-                "{}{LOG_POINTER}",
-                truncate(&text, fits - LOG_POINTER.width())
-            )
-        } else {
-            truncate(&text, fits)
-        };
-        room = room.saturating_sub(text.width() + 2);
-        spans.push(Span::styled(text, style));
+        body.push(Span::styled("│ ", t.border));
+        body.push(Span::styled(text, style));
     }
-    frame.render_widget(Paragraph::new(Line::from(spans)).style(t.base), area);
+    // Wrapped under the hints over the status line's rows (two while a
+    // message needs them); what is still longer is cut on the last row,
+    // with a mark that it was and where it is whole.
+    let rows = usize::from(area.height.max(1));
+    let mut lines = scroll::wrap_hanging(&prefix, &body, width);
+    if lines.len() > rows {
+        lines.truncate(rows);
+        if let Some(last) = lines.last_mut() {
+            let style = last.spans.last().map(|s| s.style).unwrap_or(t.muted);
+            let text: String = last.spans.iter().map(|s| s.content.as_ref()).collect();
+            let cut = truncate(text.trim_end(), width.saturating_sub(LOG_POINTER.width()));
+            *last = Line::from(Span::styled(format!("{cut}{LOG_POINTER}"), style));
+        }
+    }
+    frame.render_widget(Paragraph::new(lines).style(t.base), area);
 }

@@ -23,7 +23,7 @@ use crate::workbench::component::{self, Component, Input};
 use crate::workbench::corrupting::{CorruptError, Corrupted};
 use crate::workbench::editing::Editing;
 use crate::workbench::keymap::{self, Action, Context};
-use crate::workbench::layout::{pane_rects, Screen};
+use crate::workbench::layout::Screen;
 use crate::workbench::message::{Cmd, Msg};
 use crate::workbench::overlays::actions::ActionsView;
 use crate::workbench::overlays::corrupt::{
@@ -480,12 +480,6 @@ impl App {
                 *s = u16::try_from(to).unwrap_or(u16::MAX);
             }
         }
-    }
-
-    /// Where everything is drawn at the terminal's size now.
-    fn screen_layout(&self) -> Screen {
-        let screen = Rect::new(0, 0, self.size.0, self.size.1);
-        pane_rects(screen, self.focus, self.panes.zoom)
     }
 
     /// Where `pane` is drawn at the terminal's size now, if it is shown.
