@@ -84,7 +84,7 @@ impl Overlay {
     }
 
     /// The overlay as a scrolled text box, when it is one: what the
-    /// screen's resizing and the mouse wheel reach.
+    /// screen's resizing reaches (the wheel reaches it as its component).
     pub fn scrolled_box(&mut self) -> Option<&mut dyn ScrolledBox> {
         match self {
             Overlay::Help(help) => Some(help),
